@@ -1,0 +1,77 @@
+//! `navfuse`: the command-line tool. Thin: parses arguments, wires readers,
+//! estimators and writers together. Each subcommand lives in its own module
+//! with an `Args` struct and a `run(args) -> Result<(), String>`.
+
+use clap::{Parser, Subcommand};
+use std::process::ExitCode;
+
+mod allan;
+mod attitude;
+mod baseline;
+mod bench;
+mod convert;
+mod demo;
+mod eval;
+mod experiment;
+mod kf_gins;
+mod run;
+mod sim;
+
+/// GNSS/INS navigation toolkit: fuse IMU and GNSS recordings into a trajectory
+/// with attitude, and tell how good it is.
+#[derive(Parser, Debug)]
+#[command(name = "navfuse", version, about, long_about = None)]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Subcommand, Debug)]
+enum Command {
+    /// Convert between trajectory/sensor file formats (format from extension or given).
+    Convert(convert::Args),
+    /// Run an estimator on IMU/GNSS recordings with a TOML config.
+    Run(run::Args),
+    /// Run a KF-GINS YAML configuration (drop-in replacement for KF-GINS).
+    KfGins(kf_gins::Args),
+    /// Evaluate a solution against a reference trajectory.
+    Eval(eval::Args),
+    /// Measure estimator throughput (IMU samples per second).
+    Bench(bench::Args),
+    /// Simulate a trajectory and its sensors from a scenario file.
+    Sim(sim::Args),
+    /// Overlapping Allan deviation of an IMU log with fitted noise terms.
+    Allan(allan::Args),
+    /// Simulate a drive, run every estimator on it, write outputs and a report.
+    Demo(demo::Args),
+    /// Carrier-phase multi-antenna attitude on a simulated scene (seed 003).
+    Attitude(attitude::Args),
+    /// Carrier-phase baseline between two RINEX observation files.
+    Baseline(baseline::Args),
+    /// Reproduce a seed paper's experiment and print its table beside ours.
+    Experiment(experiment::Args),
+}
+
+fn main() -> ExitCode {
+    let cli = Cli::parse();
+    let result = match cli.command {
+        Command::Convert(a) => convert::run(a),
+        Command::Run(a) => run::run(a),
+        Command::KfGins(a) => kf_gins::run(a),
+        Command::Eval(a) => eval::run(a),
+        Command::Bench(a) => bench::run(a),
+        Command::Sim(a) => sim::run(a),
+        Command::Allan(a) => allan::run(a),
+        Command::Demo(a) => demo::run(a),
+        Command::Attitude(a) => attitude::run(a),
+        Command::Baseline(a) => baseline::run(a),
+        Command::Experiment(a) => experiment::run(a),
+    };
+    match result {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("navfuse: {e}");
+            ExitCode::FAILURE
+        }
+    }
+}

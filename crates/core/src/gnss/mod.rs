@@ -1,0 +1,1 @@
+//! GNSS geometry: orbits from almanac/ephemeris, line of sight, double differences (`SEEDS.md §3`).

@@ -1,0 +1,1 @@
+//! Strapdown INS: mechanization, alignment, IMU error model (`SEEDS.md §1`).

@@ -1,0 +1,38 @@
+//! navfuse-core: the navigation math and the four estimators of navfuse.
+//!
+//! Builds `#![no_std]` when the default `std` feature is off
+//! (`cargo build -p navfuse-core --no-default-features`).
+//!
+//! Conventions used by every public item (see `ARCHITECTURE.md`):
+//! - SI units and radians inside; degrees only at the I/O edges.
+//! - Navigation frame NED (north-east-down) unless a name says `enu`;
+//!   body frame FRD (forward-right-down).
+//! - Attitude as `c_bn` (body → navigation DCM, `v_n = c_bn · v_b`) or the
+//!   equivalent quaternion `q_bn`; Euler angles are roll/pitch/yaw, ZYX.
+//! - Time: GPS time as `f64` seconds.
+#![cfg_attr(not(feature = "std"), no_std)]
+#![forbid(unsafe_code)]
+
+#[cfg(feature = "alloc")]
+extern crate alloc;
+
+pub mod attitude;
+pub mod earth;
+pub mod estimators;
+pub mod geodesy;
+pub mod gnss;
+pub mod ins;
+pub mod kalman;
+pub mod lambda;
+pub mod types;
+
+/// Float math methods (`sin`, `sqrt`, …) for `f64` in `no_std` builds.
+///
+/// Start a module with `#[allow(unused_imports)] use crate::prelude::*;`:
+/// with `std` the inherent methods win and the import is unused; without
+/// `std` the `num_traits::Float` methods (backed by `libm`) are used.
+pub mod prelude {
+    pub use num_traits::Float;
+}
+
+pub use types::*;

@@ -1,0 +1,1 @@
+//! navfuse-sim: trajectories, ideal and erroneous sensors, deterministic from a seed.
