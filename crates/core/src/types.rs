@@ -1,4 +1,10 @@
 //! Plain data that flows between readers, estimators and writers.
+//!
+//! Time: every `t` is GPS time in seconds, counted from the GPS epoch
+//! (1980-01-06 00:00 GPST), i.e. `week · 604800 + tow`. Readers of formats
+//! that carry only the time of week (KF-GINS text files) take the GPS week as
+//! a parameter; with week 0 (unknown) `t` is simply the time of week, which is
+//! consistent as long as every input of a run uses the same convention.
 
 use nalgebra::{Matrix3, Vector3};
 
