@@ -1,1 +1,2 @@
 //! navfuse-sim: trajectories, ideal and erroneous sensors, deterministic from a seed.
+pub mod carrier_phase;
