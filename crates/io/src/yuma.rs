@@ -79,15 +79,24 @@ pub fn parse_yuma(
             continue;
         }
         let Some((key, val)) = line.split_once(':') else {
-            return Err(GnssParseError::new(name, ln, "line", format!("expected `Name: value`, got `{line}`")));
+            return Err(GnssParseError::new(
+                name,
+                ln,
+                "line",
+                format!("expected `Name: value`, got `{line}`"),
+            ));
         };
         let Some(c) = cur.as_mut() else {
-            return Err(GnssParseError::new(name, ln, key.trim(), "field before the first `****` banner"));
+            return Err(GnssParseError::new(
+                name,
+                ln,
+                key.trim(),
+                "field before the first `****` banner",
+            ));
         };
         let key = key.trim();
-        let idx = field_index(key).ok_or_else(|| {
-            GnssParseError::new(name, ln, key, "unknown YUMA field")
-        })?;
+        let idx = field_index(key)
+            .ok_or_else(|| GnssParseError::new(name, ln, key, "unknown YUMA field"))?;
         let v: f64 = val.trim().parse().map_err(|_| {
             GnssParseError::new(name, ln, key, format!("not a number: `{}`", val.trim()))
         })?;
@@ -98,14 +107,24 @@ pub fn parse_yuma(
         match idx {
             0 => {
                 if !(1.0..=63.0).contains(&v) || v.fract() != 0.0 {
-                    return Err(GnssParseError::new(name, ln, key, format!("PRN {v} out of 1..63")));
+                    return Err(GnssParseError::new(
+                        name,
+                        ln,
+                        key,
+                        format!("PRN {v} out of 1..63"),
+                    ));
                 }
                 o.prn = v as u8
             }
             1 => o.health = v as u32,
             2 => {
                 if !(0.0..1.0).contains(&v) {
-                    return Err(GnssParseError::new(name, ln, key, format!("eccentricity {v} not in [0, 1)")));
+                    return Err(GnssParseError::new(
+                        name,
+                        ln,
+                        key,
+                        format!("eccentricity {v} not in [0, 1)"),
+                    ));
                 }
                 o.e = v
             }
@@ -114,7 +133,12 @@ pub fn parse_yuma(
             5 => o.omega_dot = v,
             6 => {
                 if !(4000.0..6000.0).contains(&v) {
-                    return Err(GnssParseError::new(name, ln, key, format!("√a {v} is not a GPS orbit")));
+                    return Err(GnssParseError::new(
+                        name,
+                        ln,
+                        key,
+                        format!("√a {v} is not a GPS orbit"),
+                    ));
                 }
                 o.sqrt_a = v
             }
@@ -221,7 +245,10 @@ week:                        1011
     fn errors_name_line_and_field() {
         let bad = REC.replace("0.9741820631", "0.97x");
         let e = parse_yuma(&bad, "t.alm", 1).unwrap_err().to_string();
-        assert!(e.starts_with("t.alm:6: Orbital Inclination(rad): not a number"), "{e}");
+        assert!(
+            e.starts_with("t.alm:6: Orbital Inclination(rad): not a number"),
+            "{e}"
+        );
         let missing = REC.replace("Af1(s/s):                  -0.7275957614E-011\n", "");
         let e = parse_yuma(&missing, "t.alm", 1).unwrap_err().to_string();
         assert!(e.contains("t.alm:1: Af1(s/s): missing"), "{e}");

@@ -11,6 +11,8 @@
 //! Attitude convention: the paper's `C_nb` (`cp_attitude::paper_dcm_nb`),
 //! navigation frame ENU at the master.
 
+#![allow(clippy::needless_range_loop)] // per-antenna/satellite index loops
+
 use navfuse_core::estimators::cp_attitude::{paper_dcm_nb, CpEpoch, MAX_BASELINES};
 use navfuse_core::gnss::dd::MAX_SATS;
 use navfuse_core::gnss::{
@@ -234,7 +236,9 @@ pub fn simulate(cfg: &SceneConfig, orbits: &[KeplerOrbit]) -> Vec<SceneEpoch> {
                 }
                 if cfg.multipath_sigma > 0.0 {
                     mp[a][prn] = phi_mp * mp[a][prn]
-                        + (1.0 - phi_mp * phi_mp).sqrt() * cfg.multipath_sigma * std.sample(&mut rng);
+                        + (1.0 - phi_mp * phi_mp).sqrt()
+                            * cfg.multipath_sigma
+                            * std.sample(&mut rng);
                 }
                 let pos_e = if a == 0 {
                     master_e

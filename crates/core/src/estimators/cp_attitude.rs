@@ -19,9 +19,11 @@
 //! Measurement sign: the single difference is `Δφ = φ_master − φ_slave` [m],
 //! so `Δφ − λΔN = sᵀ b` with `s` the ENU unit vector master → satellite.
 
+#![allow(clippy::needless_range_loop)] // index loops mirror the matrix equations
+
+use crate::gnss::dd::{dd_covariance, DdNoise, MAX_DD, MAX_SATS};
 #[allow(unused_imports)]
 use crate::prelude::*;
-use crate::gnss::dd::{dd_covariance, DdNoise, MAX_DD, MAX_SATS};
 use crate::{Mat3, Vec3};
 use nalgebra::{SMatrix, SVector};
 
@@ -536,7 +538,11 @@ mod tests {
             f.update(&ep, 0, &cfg);
             let (a, _, m) = f.ambiguities();
             if e > 150 {
-                assert!((f.baseline() - b_true).norm() < 2e-3, "{e}: {}", f.baseline());
+                assert!(
+                    (f.baseline() - b_true).norm() < 2e-3,
+                    "{e}: {}",
+                    f.baseline()
+                );
                 for i in 0..m {
                     let si = (f.prn[i] - 1) as usize;
                     let sj = (f.prn[i + 1] - 1) as usize;

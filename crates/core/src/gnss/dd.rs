@@ -8,6 +8,8 @@
 //! ([`DdNoise::Exact`]): with SD variances `v_i = σ²_A,i + σ²_B,i`,
 //! `C_ii = v_i + v_{i+1}`, `C_{i,i+1} = −v_{i+1}`.
 
+#![allow(clippy::needless_range_loop)] // index loops mirror the matrix equations
+
 #[allow(unused_imports)]
 use crate::prelude::*;
 use crate::Vec3;

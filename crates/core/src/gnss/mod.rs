@@ -14,6 +14,8 @@
 //!
 //! Time: GPS seconds since the GPS epoch (`week · 604800 + tow`).
 
+#![allow(clippy::needless_range_loop)] // index loops mirror the matrix equations
+
 #[allow(unused_imports)]
 use crate::prelude::*;
 use crate::{Mat3, Vec3};
@@ -208,17 +210,7 @@ pub fn ecef_to_llh(r_e: &Vec3) -> (f64, f64, f64) {
 pub fn c_e_enu(lat: f64, lon: f64) -> Mat3 {
     let (sl, cl) = (lat.sin(), lat.cos());
     let (so, co) = (lon.sin(), lon.cos());
-    Mat3::new(
-        -so,
-        co,
-        0.0,
-        -sl * co,
-        -sl * so,
-        cl,
-        cl * co,
-        cl * so,
-        sl,
-    )
+    Mat3::new(-so, co, 0.0, -sl * co, -sl * so, cl, cl * co, cl * so, sl)
 }
 
 /// How a satellite looks from a receiver.
