@@ -1,1 +1,433 @@
-//! navfuse-eval: a sink that aligns solutions with a reference by time and produces error series and summary statistics.
+//! navfuse-eval: a sink that aligns solutions with a reference by time and
+//! produces error series and summary statistics (`ARCHITECTURE.md`, "The
+//! evaluator is a sink too").
+//!
+//! Alignment: for each solution epoch the reference is interpolated linearly
+//! in time between its bracketing epochs. Epochs before/after the reference
+//! span, inside a reference gap longer than [`EvalConfig::max_gap`], or with
+//! non-finite solution values are excluded and counted ([`Counts`]).
+//!
+//! Errors are *solution − reference*, position in local NED metres at the
+//! reference point, velocity NED [m/s], attitude roll/pitch/yaw [rad] wrapped
+//! to (−π, π]. With a lever arm `l_b` (body FRD, from the solution's reference
+//! point to the reference's point, e.g. IMU → antenna) the solution position
+//! is moved first: `p_ant = p_imu + c_bn · l_b` (Groves 2nd ed. eq. 14.103,
+//! `c_bn` from the solution attitude).
+
+pub mod outage;
+pub mod stats;
+
+pub use outage::{outage_metric, Outage, OutageReport, OutageResult, OutageSchedule};
+pub use stats::Stats;
+
+use navfuse_core::{earth, Mat3, NavSolution, Vec3};
+use serde::{Deserialize, Serialize};
+use std::f64::consts::PI;
+
+/// Evaluator settings.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct EvalConfig {
+    /// Largest reference epoch spacing [s] across which the reference is
+    /// interpolated; solution epochs inside a longer gap are excluded.
+    pub max_gap: f64,
+    /// Lever arm [m], body FRD, from the solution's point to the reference's
+    /// point (e.g. IMU → GNSS antenna). `None`: compare the points as they are.
+    pub lever_arm_b: Option<[f64; 3]>,
+}
+
+impl Default for EvalConfig {
+    /// `max_gap` 1.0 s (four missed epochs of a 4 Hz reference), no lever arm.
+    fn default() -> Self {
+        EvalConfig {
+            max_gap: 1.0,
+            lever_arm_b: None,
+        }
+    }
+}
+
+/// Errors of one solution epoch (solution − reference).
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct ErrorEpoch {
+    /// GPS time [s].
+    pub t: f64,
+    /// Position error north, east, down [m] in the NED frame at the reference point.
+    pub pos_ned: [f64; 3],
+    /// √(north² + east²) [m].
+    pub horizontal: f64,
+    /// |down| [m].
+    pub vertical: f64,
+    /// Velocity error NED [m/s]; `None` when the reference velocity is unknown (NaN).
+    pub vel_ned: Option<[f64; 3]>,
+    /// Roll, pitch, yaw error [rad], each wrapped to (−π, π]; `None` when
+    /// either attitude is unknown (NaN).
+    pub att_rpy: Option<[f64; 3]>,
+}
+
+/// How the solution epochs were used.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+pub struct Counts {
+    /// Solution epochs seen.
+    pub solution: usize,
+    /// Epochs with errors computed.
+    pub evaluated: usize,
+    /// Excluded: before the first reference epoch.
+    pub before_reference: usize,
+    /// Excluded: after the last reference epoch.
+    pub after_reference: usize,
+    /// Excluded: inside a reference gap longer than `max_gap`.
+    pub in_reference_gap: usize,
+    /// Excluded: non-finite time or position in the solution, or (with a
+    /// lever arm) non-finite solution attitude.
+    pub invalid_solution: usize,
+}
+
+/// Statistics per error quantity; `None` where there were no values.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct Summary {
+    pub north: Option<Stats>,
+    pub east: Option<Stats>,
+    pub down: Option<Stats>,
+    pub horizontal: Option<Stats>,
+    pub vertical: Option<Stats>,
+    pub vel_north: Option<Stats>,
+    pub vel_east: Option<Stats>,
+    pub vel_down: Option<Stats>,
+    /// √(vn² + ve²) of the velocity error [m/s].
+    pub vel_horizontal: Option<Stats>,
+    pub roll: Option<Stats>,
+    pub pitch: Option<Stats>,
+    pub yaw: Option<Stats>,
+}
+
+impl Summary {
+    /// Statistics of an error series.
+    pub fn of(errors: &[ErrorEpoch]) -> Summary {
+        let col = |f: &dyn Fn(&ErrorEpoch) -> Option<f64>| -> Option<Stats> {
+            let v: Vec<f64> = errors.iter().filter_map(f).collect();
+            Stats::of(&v)
+        };
+        Summary {
+            north: col(&|e| Some(e.pos_ned[0])),
+            east: col(&|e| Some(e.pos_ned[1])),
+            down: col(&|e| Some(e.pos_ned[2])),
+            horizontal: col(&|e| Some(e.horizontal)),
+            vertical: col(&|e| Some(e.vertical)),
+            vel_north: col(&|e| e.vel_ned.map(|v| v[0])),
+            vel_east: col(&|e| e.vel_ned.map(|v| v[1])),
+            vel_down: col(&|e| e.vel_ned.map(|v| v[2])),
+            vel_horizontal: col(&|e| e.vel_ned.map(|v| v[0].hypot(v[1]))),
+            roll: col(&|e| e.att_rpy.map(|a| a[0])),
+            pitch: col(&|e| e.att_rpy.map(|a| a[1])),
+            yaw: col(&|e| e.att_rpy.map(|a| a[2])),
+        }
+    }
+}
+
+/// The result of an evaluation (serialisable to JSON).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Evaluation {
+    pub config: EvalConfig,
+    pub counts: Counts,
+    pub summary: Summary,
+    /// Outage metric, when outages were given.
+    pub outages: Option<OutageReport>,
+    pub errors: Vec<ErrorEpoch>,
+}
+
+/// Bad input to the evaluator.
+#[derive(Clone, Debug, PartialEq)]
+pub enum EvalError {
+    EmptyReference,
+    /// Reference epoch `index` (0-based) has a non-finite time or position.
+    NonFiniteReference {
+        index: usize,
+    },
+    /// Reference epoch `index` is not later than the one before it.
+    ReferenceNotIncreasing {
+        index: usize,
+        t_prev: f64,
+        t: f64,
+    },
+    /// `max_gap` not > 0, or a non-finite lever arm.
+    BadConfig(String),
+}
+
+impl std::fmt::Display for EvalError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            EvalError::EmptyReference => write!(f, "reference series is empty"),
+            EvalError::NonFiniteReference { index } => write!(
+                f,
+                "reference epoch {index} (0-based): time or position is not finite"
+            ),
+            EvalError::ReferenceNotIncreasing { index, t_prev, t } => write!(
+                f,
+                "reference epoch {index} (0-based): time {t} s is not after the previous epoch's {t_prev} s"
+            ),
+            EvalError::BadConfig(s) => write!(f, "evaluator configuration: {s}"),
+        }
+    }
+}
+
+impl std::error::Error for EvalError {}
+
+/// Streaming evaluator: holds the reference, takes solutions one by one.
+pub struct Evaluator<'r> {
+    reference: &'r [NavSolution],
+    cfg: EvalConfig,
+    lever_b: Option<Vec3>,
+    counts: Counts,
+    errors: Vec<ErrorEpoch>,
+}
+
+impl<'r> Evaluator<'r> {
+    /// Checks the reference (non-empty, finite, strictly increasing time) and the config.
+    pub fn new(reference: &'r [NavSolution], cfg: EvalConfig) -> Result<Self, EvalError> {
+        if cfg.max_gap.is_nan() || cfg.max_gap <= 0.0 {
+            return Err(EvalError::BadConfig(format!(
+                "max_gap {} s must be > 0",
+                cfg.max_gap
+            )));
+        }
+        if let Some(l) = cfg.lever_arm_b {
+            if !l.iter().all(|x| x.is_finite()) {
+                return Err(EvalError::BadConfig(format!(
+                    "lever arm {l:?} is not finite"
+                )));
+            }
+        }
+        if reference.is_empty() {
+            return Err(EvalError::EmptyReference);
+        }
+        for (i, r) in reference.iter().enumerate() {
+            if !(r.t.is_finite() && r.lat.is_finite() && r.lon.is_finite() && r.h.is_finite()) {
+                return Err(EvalError::NonFiniteReference { index: i });
+            }
+            if i > 0 && r.t <= reference[i - 1].t {
+                return Err(EvalError::ReferenceNotIncreasing {
+                    index: i,
+                    t_prev: reference[i - 1].t,
+                    t: r.t,
+                });
+            }
+        }
+        Ok(Evaluator {
+            reference,
+            cfg,
+            lever_b: cfg.lever_arm_b.map(Vec3::from),
+            counts: Counts::default(),
+            errors: Vec::new(),
+        })
+    }
+
+    /// Evaluate one solution epoch; returns its errors when it was evaluated.
+    pub fn push(&mut self, sol: &NavSolution) -> Option<ErrorEpoch> {
+        self.counts.solution += 1;
+        if !(sol.t.is_finite() && sol.lat.is_finite() && sol.lon.is_finite() && sol.h.is_finite())
+            || (self.lever_b.is_some() && !sol.rpy.iter().all(|a| a.is_finite()))
+        {
+            self.counts.invalid_solution += 1;
+            return None;
+        }
+        let r = match interpolate(self.reference, sol.t, self.cfg.max_gap) {
+            Ok(r) => r,
+            Err(Excluded::Before) => {
+                self.counts.before_reference += 1;
+                return None;
+            }
+            Err(Excluded::After) => {
+                self.counts.after_reference += 1;
+                return None;
+            }
+            Err(Excluded::Gap) => {
+                self.counts.in_reference_gap += 1;
+                return None;
+            }
+        };
+        let mut d_n = ned_offset(&r, sol);
+        if let Some(l_b) = self.lever_b {
+            d_n += dcm_from_euler(&sol.rpy) * l_b;
+        }
+        let vel_ned =
+            if r.v_n.iter().all(|v| v.is_finite()) && sol.v_n.iter().all(|v| v.is_finite()) {
+                let dv = sol.v_n - r.v_n;
+                Some([dv.x, dv.y, dv.z])
+            } else {
+                None
+            };
+        let att_rpy =
+            if r.rpy.iter().all(|a| a.is_finite()) && sol.rpy.iter().all(|a| a.is_finite()) {
+                Some([
+                    wrap_pi(sol.rpy.x - r.rpy.x),
+                    wrap_pi(sol.rpy.y - r.rpy.y),
+                    wrap_pi(sol.rpy.z - r.rpy.z),
+                ])
+            } else {
+                None
+            };
+        let e = ErrorEpoch {
+            t: sol.t,
+            pos_ned: [d_n.x, d_n.y, d_n.z],
+            horizontal: d_n.x.hypot(d_n.y),
+            vertical: d_n.z.abs(),
+            vel_ned,
+            att_rpy,
+        };
+        self.counts.evaluated += 1;
+        self.errors.push(e);
+        Some(e)
+    }
+
+    /// Counts so far.
+    pub fn counts(&self) -> Counts {
+        self.counts
+    }
+
+    /// Errors so far.
+    pub fn errors(&self) -> &[ErrorEpoch] {
+        &self.errors
+    }
+
+    /// Summary statistics and (with `outages`) the outage metric; see
+    /// [`outage_metric`] for `fix_times`.
+    pub fn finish(self, outages: Option<&[Outage]>, fix_times: Option<&[f64]>) -> Evaluation {
+        let summary = Summary::of(&self.errors);
+        let outages = outages.map(|o| outage_metric(&self.errors, o, fix_times));
+        Evaluation {
+            config: self.cfg,
+            counts: self.counts,
+            summary,
+            outages,
+            errors: self.errors,
+        }
+    }
+}
+
+/// Evaluate a solution series against a reference series (see the crate doc).
+///
+/// `outages`: when given, the schedule's outages lying completely inside the
+/// solution's time span are scored with [`outage_metric`].
+pub fn evaluate(
+    solution: &[NavSolution],
+    reference: &[NavSolution],
+    cfg: &EvalConfig,
+    outages: Option<&OutageSchedule>,
+    fix_times: Option<&[f64]>,
+) -> Result<Evaluation, EvalError> {
+    let mut ev = Evaluator::new(reference, *cfg)?;
+    for s in solution {
+        ev.push(s);
+    }
+    let list = outages.map(|sched| {
+        let (lo, hi) = solution
+            .iter()
+            .map(|s| s.t)
+            .filter(|t| t.is_finite())
+            .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), t| {
+                (lo.min(t), hi.max(t))
+            });
+        sched.intervals(lo, hi)
+    });
+    Ok(ev.finish(list.as_deref(), fix_times))
+}
+
+enum Excluded {
+    Before,
+    After,
+    Gap,
+}
+
+/// The reference at time `t`: linear in time between the bracketing epochs
+/// (latitude, longitude, height, velocity; attitude angles along the shorter
+/// arc). An exact epoch match is used as is, even beside a long gap.
+fn interpolate(r: &[NavSolution], t: f64, max_gap: f64) -> Result<NavSolution, Excluded> {
+    let idx = r.partition_point(|x| x.t <= t); // epochs with r.t ≤ t
+    if idx == 0 {
+        return Err(Excluded::Before);
+    }
+    let a = &r[idx - 1];
+    if a.t == t {
+        return Ok(*a);
+    }
+    if idx == r.len() {
+        return Err(Excluded::After);
+    }
+    let b = &r[idx];
+    if b.t - a.t > max_gap {
+        return Err(Excluded::Gap);
+    }
+    let w = (t - a.t) / (b.t - a.t);
+    let lin = |x: f64, y: f64| x + w * (y - x);
+    let ang = |x: f64, y: f64| wrap_pi(x + w * wrap_pi(y - x));
+    Ok(NavSolution {
+        t,
+        lat: lin(a.lat, b.lat),
+        lon: ang(a.lon, b.lon),
+        h: lin(a.h, b.h),
+        v_n: a.v_n + (b.v_n - a.v_n) * w,
+        rpy: Vec3::new(
+            ang(a.rpy.x, b.rpy.x),
+            ang(a.rpy.y, b.rpy.y),
+            ang(a.rpy.z, b.rpy.z),
+        ),
+        std_pos_ned: a.std_pos_ned + (b.std_pos_ned - a.std_pos_ned) * w,
+        std_v_n: a.std_v_n + (b.std_v_n - a.std_v_n) * w,
+        std_rpy: a.std_rpy + (b.std_rpy - a.std_rpy) * w,
+    })
+}
+
+/// NED offset [m] of `p` from `origin`, small-offset form with the radii at
+/// the mid latitude and mid height: dN = (R_M + h) dL, dE = (R_N + h) cos L dλ,
+/// dD = −dh (Groves 2nd ed. eq. 2.119, 2.120). For offsets up to ~100 m the
+/// difference to the exact ECEF route is below 1 mm.
+///
+/// TODO(geodesy): switch to `navfuse_core::geodesy::ned_from_geodetic` once
+/// it lands on main (contract stub at the time of writing).
+fn ned_offset(origin: &NavSolution, p: &NavSolution) -> Vec3 {
+    let lat_m = 0.5 * (origin.lat + p.lat);
+    let h_m = 0.5 * (origin.h + p.h);
+    let (rm, rn) = earth::radii(lat_m);
+    Vec3::new(
+        (rm + h_m) * (p.lat - origin.lat),
+        (rn + h_m) * lat_m.cos() * wrap_pi(p.lon - origin.lon),
+        -(p.h - origin.h),
+    )
+}
+
+/// `c_bn` from roll, pitch, yaw (ZYX) [rad] (Groves 2nd ed. eq. 2.22;
+/// `SEEDS.md §1` eq. 3).
+///
+/// TODO(attitude): private copy until `navfuse_core::attitude::dcm_from_euler`
+/// (contract stub) lands on main.
+fn dcm_from_euler(rpy: &Vec3) -> Mat3 {
+    let (sr, cr) = rpy.x.sin_cos();
+    let (sp, cp) = rpy.y.sin_cos();
+    let (sy, cy) = rpy.z.sin_cos();
+    Mat3::new(
+        cp * cy,
+        -cr * sy + sr * sp * cy,
+        sr * sy + cr * sp * cy,
+        cp * sy,
+        cr * cy + sr * sp * sy,
+        -sr * cy + cr * sp * sy,
+        -sp,
+        sr * cp,
+        cr * cp,
+    )
+}
+
+/// Wrap an angle to (−π, π].
+///
+/// TODO(attitude): use `navfuse_core::attitude::wrap_pi` once it lands.
+fn wrap_pi(a: f64) -> f64 {
+    let mut x = a % (2.0 * PI); // (−2π, 2π)
+    if x > PI {
+        x -= 2.0 * PI;
+    } else if x <= -PI {
+        x += 2.0 * PI;
+    }
+    x
+}
+
+#[cfg(test)]
+mod tests;
