@@ -2,10 +2,12 @@
 //! produces error series and summary statistics (`ARCHITECTURE.md`, "The
 //! evaluator is a sink too").
 //!
-//! Alignment: for each solution epoch the reference is interpolated linearly
-//! in time between its bracketing epochs. Epochs before/after the reference
-//! span, inside a reference gap longer than [`EvalConfig::max_gap`], or with
-//! non-finite solution values are excluded and counted ([`Counts`]).
+//! Alignment ([`Align`]): by default at each solution epoch, the reference
+//! interpolated linearly in time between its bracketing epochs; or at each
+//! reference epoch, the solution interpolated. Epochs outside the span of the
+//! interpolated series, inside one of its gaps longer than
+//! [`EvalConfig::max_gap`], or with non-finite solution values are excluded
+//! and counted ([`Counts`]).
 //!
 //! Errors are *solution − reference*, position in local NED metres at the
 //! reference point, velocity NED [m/s], attitude roll/pitch/yaw [rad] wrapped
@@ -24,28 +26,47 @@ use navfuse_core::{earth, Mat3, NavSolution, Vec3};
 use serde::{Deserialize, Serialize};
 use std::f64::consts::PI;
 
+/// Where the two series are compared.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Align {
+    /// At each solution epoch, the reference interpolated (default).
+    #[default]
+    AtSolution,
+    /// At each reference epoch, the solution interpolated (position,
+    /// velocity, attitude). Useful when the solution is much denser than the
+    /// reference (e.g. a 100 Hz INS vs 4 Hz RTK truth) or when results are
+    /// to be compared with figures computed at the truth epochs.
+    AtReference,
+}
+
 /// Evaluator settings.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub struct EvalConfig {
-    /// Largest reference epoch spacing [s] across which the reference is
-    /// interpolated; solution epochs inside a longer gap are excluded.
+    /// Largest spacing [s] of the interpolated series (the reference, or the
+    /// solution with [`Align::AtReference`]) across which it is
+    /// interpolated; epochs inside a longer gap are excluded.
     pub max_gap: f64,
     /// Lever arm [m], body FRD, from the solution's point to the reference's
     /// point (e.g. IMU → GNSS antenna). `None`: compare the points as they are.
     pub lever_arm_b: Option<[f64; 3]>,
+    /// Where the series are compared.
+    pub align: Align,
 }
 
 impl Default for EvalConfig {
-    /// `max_gap` 1.0 s (four missed epochs of a 4 Hz reference), no lever arm.
+    /// `max_gap` 1.0 s (four missed epochs of a 4 Hz reference), no lever
+    /// arm, errors at the solution epochs.
     fn default() -> Self {
         EvalConfig {
             max_gap: 1.0,
             lever_arm_b: None,
+            align: Align::AtSolution,
         }
     }
 }
 
-/// Errors of one solution epoch (solution − reference).
+/// Errors at one epoch (solution − reference).
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub struct ErrorEpoch {
     /// GPS time [s].
@@ -56,29 +77,32 @@ pub struct ErrorEpoch {
     pub horizontal: f64,
     /// |down| [m].
     pub vertical: f64,
-    /// Velocity error NED [m/s]; `None` when the reference velocity is unknown (NaN).
+    /// Velocity error NED [m/s]; `None` when either velocity is unknown (NaN).
+    /// At the solution's point (no lever-arm velocity term ω × l).
     pub vel_ned: Option<[f64; 3]>,
     /// Roll, pitch, yaw error [rad], each wrapped to (−π, π]; `None` when
     /// either attitude is unknown (NaN).
     pub att_rpy: Option<[f64; 3]>,
 }
 
-/// How the solution epochs were used.
+/// How the epochs were used. The epochs are the solution's
+/// ([`Align::AtSolution`]) or the reference's ([`Align::AtReference`]); the
+/// span and gaps are those of the other, interpolated, series.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
 pub struct Counts {
-    /// Solution epochs seen.
-    pub solution: usize,
+    /// Epochs seen.
+    pub epochs: usize,
     /// Epochs with errors computed.
     pub evaluated: usize,
-    /// Excluded: before the first reference epoch.
-    pub before_reference: usize,
-    /// Excluded: after the last reference epoch.
-    pub after_reference: usize,
-    /// Excluded: inside a reference gap longer than `max_gap`.
-    pub in_reference_gap: usize,
-    /// Excluded: non-finite time or position in the solution, or (with a
-    /// lever arm) non-finite solution attitude.
-    pub invalid_solution: usize,
+    /// Excluded: before the first epoch of the interpolated series.
+    pub before_span: usize,
+    /// Excluded: after its last epoch.
+    pub after_span: usize,
+    /// Excluded: inside one of its gaps longer than `max_gap`.
+    pub in_gap: usize,
+    /// Excluded: non-finite solution time or position, or (with a lever arm)
+    /// non-finite solution attitude.
+    pub invalid: usize,
 }
 
 /// Statistics per error quantity; `None` where there were no values.
@@ -134,35 +158,59 @@ pub struct Evaluation {
     pub errors: Vec<ErrorEpoch>,
 }
 
+/// Which input series an error refers to.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Series {
+    Solution,
+    Reference,
+}
+
+impl std::fmt::Display for Series {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(match self {
+            Series::Solution => "solution",
+            Series::Reference => "reference",
+        })
+    }
+}
+
 /// Bad input to the evaluator.
 #[derive(Clone, Debug, PartialEq)]
 pub enum EvalError {
-    EmptyReference,
-    /// Reference epoch `index` (0-based) has a non-finite time or position.
-    NonFiniteReference {
-        index: usize,
-    },
-    /// Reference epoch `index` is not later than the one before it.
-    ReferenceNotIncreasing {
+    /// The series is empty.
+    Empty(Series),
+    /// Epoch `index` (0-based) has a non-finite time (or, for the
+    /// reference, position).
+    NonFinite { series: Series, index: usize },
+    /// Epoch `index` is not later than the one before it (the interpolated
+    /// series must be strictly increasing in time).
+    NotIncreasing {
+        series: Series,
         index: usize,
         t_prev: f64,
         t: f64,
     },
-    /// `max_gap` not > 0, or a non-finite lever arm.
+    /// `max_gap` not > 0, a non-finite lever arm, or an alignment the
+    /// streaming [`Evaluator`] does not do.
     BadConfig(String),
 }
 
 impl std::fmt::Display for EvalError {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         match self {
-            EvalError::EmptyReference => write!(f, "reference series is empty"),
-            EvalError::NonFiniteReference { index } => write!(
+            EvalError::Empty(s) => write!(f, "{s} series is empty"),
+            EvalError::NonFinite { series, index } => write!(
                 f,
-                "reference epoch {index} (0-based): time or position is not finite"
+                "{series} epoch {index} (0-based): time or position is not finite"
             ),
-            EvalError::ReferenceNotIncreasing { index, t_prev, t } => write!(
+            EvalError::NotIncreasing {
+                series,
+                index,
+                t_prev,
+                t,
+            } => write!(
                 f,
-                "reference epoch {index} (0-based): time {t} s is not after the previous epoch's {t_prev} s"
+                "{series} epoch {index} (0-based): time {t} s is not after the previous epoch's {t_prev} s"
             ),
             EvalError::BadConfig(s) => write!(f, "evaluator configuration: {s}"),
         }
@@ -171,7 +219,91 @@ impl std::fmt::Display for EvalError {
 
 impl std::error::Error for EvalError {}
 
-/// Streaming evaluator: holds the reference, takes solutions one by one.
+fn check_config(cfg: &EvalConfig) -> Result<(), EvalError> {
+    if cfg.max_gap.is_nan() || cfg.max_gap <= 0.0 {
+        return Err(EvalError::BadConfig(format!(
+            "max_gap {} s must be > 0",
+            cfg.max_gap
+        )));
+    }
+    if let Some(l) = cfg.lever_arm_b {
+        if !l.iter().all(|x| x.is_finite()) {
+            return Err(EvalError::BadConfig(format!(
+                "lever arm {l:?} is not finite"
+            )));
+        }
+    }
+    Ok(())
+}
+
+/// A series to interpolate in: non-empty, finite strictly increasing times;
+/// with `positions` also finite positions.
+fn check_series(s: &[NavSolution], series: Series, positions: bool) -> Result<(), EvalError> {
+    if s.is_empty() {
+        return Err(EvalError::Empty(series));
+    }
+    for (i, x) in s.iter().enumerate() {
+        let pos_ok = x.lat.is_finite() && x.lon.is_finite() && x.h.is_finite();
+        if !x.t.is_finite() || (positions && !pos_ok) {
+            return Err(EvalError::NonFinite { series, index: i });
+        }
+        if i > 0 && x.t <= s[i - 1].t {
+            return Err(EvalError::NotIncreasing {
+                series,
+                index: i,
+                t_prev: s[i - 1].t,
+                t: x.t,
+            });
+        }
+    }
+    Ok(())
+}
+
+/// Errors of `sol` against `r` at the same epoch (`None`: invalid solution).
+fn compare(sol: &NavSolution, r: &NavSolution, lever_b: Option<Vec3>) -> Option<ErrorEpoch> {
+    let finite3 = |v: &Vec3| v.iter().all(|x| x.is_finite());
+    if !(sol.t.is_finite() && sol.lat.is_finite() && sol.lon.is_finite() && sol.h.is_finite())
+        || (lever_b.is_some() && !finite3(&sol.rpy))
+    {
+        return None;
+    }
+    let mut d_n = ned_offset(r, sol);
+    if let Some(l_b) = lever_b {
+        d_n += dcm_from_euler(&sol.rpy) * l_b;
+    }
+    let vel_ned = (finite3(&r.v_n) && finite3(&sol.v_n)).then(|| {
+        let dv = sol.v_n - r.v_n;
+        [dv.x, dv.y, dv.z]
+    });
+    let att_rpy = (finite3(&r.rpy) && finite3(&sol.rpy)).then(|| {
+        [
+            wrap_pi(sol.rpy.x - r.rpy.x),
+            wrap_pi(sol.rpy.y - r.rpy.y),
+            wrap_pi(sol.rpy.z - r.rpy.z),
+        ]
+    });
+    Some(ErrorEpoch {
+        t: r.t,
+        pos_ned: [d_n.x, d_n.y, d_n.z],
+        horizontal: d_n.x.hypot(d_n.y),
+        vertical: d_n.z.abs(),
+        vel_ned,
+        att_rpy,
+    })
+}
+
+impl Counts {
+    fn exclude(&mut self, why: Excluded) {
+        match why {
+            Excluded::Before => self.before_span += 1,
+            Excluded::After => self.after_span += 1,
+            Excluded::Gap => self.in_gap += 1,
+        }
+    }
+}
+
+/// Streaming evaluator at the solution epochs ([`Align::AtSolution`]):
+/// holds the reference, takes solutions one by one.
 pub struct Evaluator<'r> {
     reference: &'r [NavSolution],
     cfg: EvalConfig,
@@ -181,36 +313,16 @@ pub struct Evaluator<'r> {
 }
 
 impl<'r> Evaluator<'r> {
-    /// Checks the reference (non-empty, finite, strictly increasing time) and the config.
+    /// Checks the reference (non-empty, finite, strictly increasing time) and
+    /// the config (`align` must be [`Align::AtSolution`]).
     pub fn new(reference: &'r [NavSolution], cfg: EvalConfig) -> Result<Self, EvalError> {
-        if cfg.max_gap.is_nan() || cfg.max_gap <= 0.0 {
-            return Err(EvalError::BadConfig(format!(
-                "max_gap {} s must be > 0",
-                cfg.max_gap
-            )));
+        check_config(&cfg)?;
+        if cfg.align != Align::AtSolution {
+            return Err(EvalError::BadConfig(
+                "the streaming evaluator compares at the solution epochs; use `evaluate` for AtReference".into(),
+            ));
         }
-        if let Some(l) = cfg.lever_arm_b {
-            if !l.iter().all(|x| x.is_finite()) {
-                return Err(EvalError::BadConfig(format!(
-                    "lever arm {l:?} is not finite"
-                )));
-            }
-        }
-        if reference.is_empty() {
-            return Err(EvalError::EmptyReference);
-        }
-        for (i, r) in reference.iter().enumerate() {
-            if !(r.t.is_finite() && r.lat.is_finite() && r.lon.is_finite() && r.h.is_finite()) {
-                return Err(EvalError::NonFiniteReference { index: i });
-            }
-            if i > 0 && r.t <= reference[i - 1].t {
-                return Err(EvalError::ReferenceNotIncreasing {
-                    index: i,
-                    t_prev: reference[i - 1].t,
-                    t: r.t,
-                });
-            }
-        }
+        check_series(reference, Series::Reference, true)?;
         Ok(Evaluator {
             reference,
             cfg,
@@ -222,56 +334,21 @@ impl<'r> Evaluator<'r> {
 
     /// Evaluate one solution epoch; returns its errors when it was evaluated.
     pub fn push(&mut self, sol: &NavSolution) -> Option<ErrorEpoch> {
-        self.counts.solution += 1;
-        if !(sol.t.is_finite() && sol.lat.is_finite() && sol.lon.is_finite() && sol.h.is_finite())
-            || (self.lever_b.is_some() && !sol.rpy.iter().all(|a| a.is_finite()))
-        {
-            self.counts.invalid_solution += 1;
+        self.counts.epochs += 1;
+        if !sol.t.is_finite() {
+            self.counts.invalid += 1;
             return None;
         }
         let r = match interpolate(self.reference, sol.t, self.cfg.max_gap) {
             Ok(r) => r,
-            Err(Excluded::Before) => {
-                self.counts.before_reference += 1;
-                return None;
-            }
-            Err(Excluded::After) => {
-                self.counts.after_reference += 1;
-                return None;
-            }
-            Err(Excluded::Gap) => {
-                self.counts.in_reference_gap += 1;
+            Err(why) => {
+                self.counts.exclude(why);
                 return None;
             }
         };
-        let mut d_n = ned_offset(&r, sol);
-        if let Some(l_b) = self.lever_b {
-            d_n += dcm_from_euler(&sol.rpy) * l_b;
-        }
-        let vel_ned =
-            if r.v_n.iter().all(|v| v.is_finite()) && sol.v_n.iter().all(|v| v.is_finite()) {
-                let dv = sol.v_n - r.v_n;
-                Some([dv.x, dv.y, dv.z])
-            } else {
-                None
-            };
-        let att_rpy =
-            if r.rpy.iter().all(|a| a.is_finite()) && sol.rpy.iter().all(|a| a.is_finite()) {
-                Some([
-                    wrap_pi(sol.rpy.x - r.rpy.x),
-                    wrap_pi(sol.rpy.y - r.rpy.y),
-                    wrap_pi(sol.rpy.z - r.rpy.z),
-                ])
-            } else {
-                None
-            };
-        let e = ErrorEpoch {
-            t: sol.t,
-            pos_ned: [d_n.x, d_n.y, d_n.z],
-            horizontal: d_n.x.hypot(d_n.y),
-            vertical: d_n.z.abs(),
-            vel_ned,
-            att_rpy,
+        let Some(e) = compare(sol, &r, self.lever_b) else {
+            self.counts.invalid += 1;
+            return None;
         };
         self.counts.evaluated += 1;
         self.errors.push(e);
@@ -291,19 +368,28 @@ impl<'r> Evaluator<'r> {
     /// Summary statistics and (with `outages`) the outage metric; see
     /// [`outage_metric`] for `fix_times`.
     pub fn finish(self, outages: Option<&[Outage]>, fix_times: Option<&[f64]>) -> Evaluation {
-        let summary = Summary::of(&self.errors);
-        let outages = outages.map(|o| outage_metric(&self.errors, o, fix_times));
-        Evaluation {
-            config: self.cfg,
-            counts: self.counts,
-            summary,
-            outages,
-            errors: self.errors,
-        }
+        finish(self.cfg, self.counts, self.errors, outages, fix_times)
     }
 }
 
-/// Evaluate a solution series against a reference series (see the crate doc).
+fn finish(
+    config: EvalConfig,
+    counts: Counts,
+    errors: Vec<ErrorEpoch>,
+    outages: Option<&[Outage]>,
+    fix_times: Option<&[f64]>,
+) -> Evaluation {
+    Evaluation {
+        config,
+        counts,
+        summary: Summary::of(&errors),
+        outages: outages.map(|o| outage_metric(&errors, o, fix_times)),
+        errors,
+    }
+}
+
+/// Evaluate a solution series against a reference series (see the crate doc
+/// and [`Align`]).
 ///
 /// `outages`: when given, the schedule's outages lying completely inside the
 /// solution's time span are scored with [`outage_metric`].
@@ -314,10 +400,6 @@ pub fn evaluate(
     outages: Option<&OutageSchedule>,
     fix_times: Option<&[f64]>,
 ) -> Result<Evaluation, EvalError> {
-    let mut ev = Evaluator::new(reference, *cfg)?;
-    for s in solution {
-        ev.push(s);
-    }
     let list = outages.map(|sched| {
         let (lo, hi) = solution
             .iter()
@@ -328,7 +410,37 @@ pub fn evaluate(
             });
         sched.intervals(lo, hi)
     });
-    Ok(ev.finish(list.as_deref(), fix_times))
+    match cfg.align {
+        Align::AtSolution => {
+            let mut ev = Evaluator::new(reference, *cfg)?;
+            for s in solution {
+                ev.push(s);
+            }
+            Ok(ev.finish(list.as_deref(), fix_times))
+        }
+        Align::AtReference => {
+            check_config(cfg)?;
+            check_series(reference, Series::Reference, true)?;
+            check_series(solution, Series::Solution, false)?;
+            let lever_b = cfg.lever_arm_b.map(Vec3::from);
+            let mut counts = Counts::default();
+            let mut errors = Vec::with_capacity(reference.len());
+            for r in reference {
+                counts.epochs += 1;
+                match interpolate(solution, r.t, cfg.max_gap) {
+                    Err(why) => counts.exclude(why),
+                    Ok(s) => match compare(&s, r, lever_b) {
+                        Some(e) => {
+                            counts.evaluated += 1;
+                            errors.push(e);
+                        }
+                        None => counts.invalid += 1,
+                    },
+                }
+            }
+            Ok(finish(*cfg, counts, errors, list.as_deref(), fix_times))
+        }
+    }
 }
 
 enum Excluded {
@@ -337,7 +449,7 @@ enum Excluded {
     Gap,
 }
 
-/// The reference at time `t`: linear in time between the bracketing epochs
+/// The series `r` at time `t`: linear in time between the bracketing epochs
 /// (latitude, longitude, height, velocity; attitude angles along the shorter
 /// arc). An exact epoch match is used as is, even beside a long gap.
 fn interpolate(r: &[NavSolution], t: f64, max_gap: f64) -> Result<NavSolution, Excluded> {

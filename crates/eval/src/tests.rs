@@ -164,11 +164,11 @@ fn excluded_epochs_are_counted() {
     s[22].lat = f64::NAN; // t = 16.0
     let ev = evaluate(&s, &r, &EvalConfig::default(), None, None).unwrap();
     let c = ev.counts;
-    assert_eq!(c.solution, 41);
-    assert_eq!(c.before_reference, 10); // 5.0 … 9.5
-    assert_eq!(c.after_reference, 10); // 20.5 … 25.0
-    assert_eq!(c.in_reference_gap, 3); // 14.5, 15.0, 15.5 (14.0 and 16.0 are exact epochs)
-    assert_eq!(c.invalid_solution, 1); // 16.0
+    assert_eq!(c.epochs, 41);
+    assert_eq!(c.before_span, 10); // 5.0 … 9.5
+    assert_eq!(c.after_span, 10); // 20.5 … 25.0
+    assert_eq!(c.in_gap, 3); // 14.5, 15.0, 15.5 (14.0 and 16.0 are exact epochs)
+    assert_eq!(c.invalid, 1); // 16.0
     assert_eq!(c.evaluated, 41 - 10 - 10 - 3 - 1);
     assert_eq!(ev.errors.len(), c.evaluated);
     // With a larger max_gap the gap is bridged.
@@ -177,7 +177,7 @@ fn excluded_epochs_are_counted() {
         ..EvalConfig::default()
     };
     let ev = evaluate(&s, &r, &cfg, None, None).unwrap();
-    assert_eq!(ev.counts.in_reference_gap, 0);
+    assert_eq!(ev.counts.in_gap, 0);
     assert_eq!(ev.counts.evaluated, 41 - 10 - 10 - 1);
 }
 
@@ -247,7 +247,7 @@ fn lever_arm_moves_the_solution_point() {
     let mut s_nan = s;
     s_nan.rpy.x = f64::NAN;
     let ev = evaluate(&[s_nan], &r, &cfg, None, None).unwrap();
-    assert_eq!(ev.counts.invalid_solution, 1);
+    assert_eq!(ev.counts.invalid, 1);
 }
 
 #[test]
@@ -268,17 +268,24 @@ fn bad_reference_is_rejected() {
     let cfg = EvalConfig::default();
     assert_eq!(
         evaluate(&[], &[], &cfg, None, None),
-        Err(EvalError::EmptyReference)
+        Err(EvalError::Empty(Series::Reference))
     );
     let r = vec![sol(1.0, 0.7, 0.1, 0.0), sol(1.0, 0.7, 0.1, 0.0)];
     assert!(matches!(
         evaluate(&[], &r, &cfg, None, None),
-        Err(EvalError::ReferenceNotIncreasing { index: 1, .. })
+        Err(EvalError::NotIncreasing {
+            series: Series::Reference,
+            index: 1,
+            ..
+        })
     ));
     let r = vec![sol(1.0, 0.7, 0.1, 0.0), sol(2.0, f64::NAN, 0.1, 0.0)];
     assert_eq!(
         evaluate(&[], &r, &cfg, None, None),
-        Err(EvalError::NonFiniteReference { index: 1 })
+        Err(EvalError::NonFinite {
+            series: Series::Reference,
+            index: 1
+        })
     );
     let bad = EvalConfig {
         max_gap: 0.0,
@@ -374,4 +381,84 @@ proptest! {
         prop_assert!((e[0] - dn).abs() < 1e-3 && (e[1] - de).abs() < 1e-3 && (e[2] - dd).abs() < 1e-3,
             "{:?} vs {:?}", e, (dn, de, dd));
     }
+}
+
+fn at_reference() -> EvalConfig {
+    EvalConfig {
+        align: Align::AtReference,
+        ..EvalConfig::default()
+    }
+}
+
+#[test]
+fn at_reference_interpolates_the_solution() {
+    // 4 Hz reference on a line; 10 Hz solution on the same line shifted by a
+    // constant 2 m north, with the lever arm undone through the attitude.
+    let r = reference(1000.0, 100);
+    let l_b = Vec3::new(0.3, -0.05, -0.6);
+    let s: Vec<NavSolution> = (0..260)
+        .map(|i| {
+            let t = 999.0 + 0.013 + i as f64 * 0.1;
+            let dt = t - 1000.0;
+            let rpy = Vec3::new(0.01, -0.02, 0.7 + 0.01 * dt);
+            let d = Vec3::new(2.0, 0.0, 0.0) - dcm_from_euler(&rpy) * l_b;
+            let (lat, lon, h) = offset_exact(
+                r[0].lat + 1e-6 * dt,
+                r[0].lon + 1.2e-6 * dt,
+                1600.0 + 0.1 * dt,
+                d,
+            );
+            let mut y = sol(t, lat, lon, h);
+            y.v_n = r[0].v_n;
+            y.rpy = rpy;
+            y
+        })
+        .collect();
+    let cfg = EvalConfig {
+        lever_arm_b: Some([l_b.x, l_b.y, l_b.z]),
+        ..at_reference()
+    };
+    let ev = evaluate(&s, &r, &cfg, None, None).unwrap();
+    // Reference epochs 1000 … 1024.75; the solution spans 999.013 … 1024.913.
+    assert_eq!(ev.counts.epochs, 100);
+    assert_eq!(ev.counts.evaluated, 100);
+    assert_eq!(ev.errors[1].t, 1000.25);
+    let h = ev.summary.horizontal.unwrap();
+    // The solution's offset is exact at its own epochs; between them the
+    // yaw-dependent lever-arm term is interpolated linearly: error ≪ 1 mm.
+    assert!(
+        (h.rms - 2.0).abs() < 1e-4 && (h.max_abs - 2.0).abs() < 1e-4,
+        "{h:?}"
+    );
+    assert!(ev.summary.vertical.unwrap().max_abs < 1e-4);
+}
+
+#[test]
+fn at_reference_counts_solution_gaps_and_span() {
+    let r = reference(10.0, 41); // 10 … 20 s
+    let s: Vec<NavSolution> = (0..=100)
+        .map(|i| 12.0 + 0.1 * i as f64) // 12 … 22 s
+        .filter(|&t| !(t > 15.05 && t < 16.95)) // gap 15.0 → 17.0
+        .map(|t| sol(t, r[0].lat, r[0].lon, r[0].h))
+        .collect();
+    let ev = evaluate(&s, &r, &at_reference(), None, None).unwrap();
+    let c = ev.counts;
+    assert_eq!(c.epochs, 41);
+    assert_eq!(c.before_span, 8); // 10.0 … 11.75
+    assert_eq!(c.after_span, 0);
+    assert_eq!(c.in_gap, 7); // 15.25 … 16.75
+    assert_eq!(c.evaluated, 41 - 8 - 7);
+    // A solution out of time order cannot be interpolated.
+    let mut bad = s.clone();
+    bad.swap(3, 4);
+    assert!(matches!(
+        evaluate(&bad, &r, &at_reference(), None, None),
+        Err(EvalError::NotIncreasing {
+            series: Series::Solution,
+            index: 4,
+            ..
+        })
+    ));
+    // The streaming evaluator only aligns at solution epochs.
+    assert!(Evaluator::new(&r, at_reference()).is_err());
 }
