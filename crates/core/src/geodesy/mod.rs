@@ -18,11 +18,20 @@ use crate::prelude::*;
 
 mod ecef;
 mod local;
+mod tm;
+#[cfg(test)]
+mod tm_fixture_tests;
+mod utm;
 
 pub use ecef::{ecef_to_geodetic, geodetic_to_ecef};
 pub use local::{
     c_e_enu, c_en, ecef_from_enu, ecef_from_ned, enu_from_ecef, enu_from_geodetic,
     geodetic_from_enu, geodetic_from_ned, ned_from_ecef, ned_from_geodetic, LocalFrame,
+};
+pub use tm::{TmPoint, TransverseMercator};
+pub use utm::{
+    utm_central_meridian, utm_projection, utm_zone, utm_zone_from_lon, Utm, UTM_FALSE_EASTING,
+    UTM_FALSE_NORTHING_SOUTH, UTM_K0,
 };
 
 /// A geodetic position on WGS84: latitude, longitude [rad], ellipsoidal height [m].
