@@ -18,6 +18,7 @@ use crate::prelude::*;
 
 mod ecef;
 mod local;
+mod plane;
 mod tm;
 #[cfg(test)]
 mod tm_fixture_tests;
@@ -28,6 +29,7 @@ pub use local::{
     c_e_enu, c_en, ecef_from_enu, ecef_from_ned, enu_from_ecef, enu_from_geodetic,
     geodetic_from_enu, geodetic_from_ned, ned_from_ecef, ned_from_geodetic, LocalFrame,
 };
+pub use plane::{PlanePoint, SmallAreaPlane};
 pub use tm::{TmPoint, TransverseMercator};
 pub use utm::{
     utm_central_meridian, utm_projection, utm_zone, utm_zone_from_lon, Utm, UTM_FALSE_EASTING,
