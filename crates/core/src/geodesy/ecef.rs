@@ -1,7 +1,7 @@
 //! Geodetic ↔ ECEF on the WGS84 ellipsoid.
 //!
-//! Forward: Groves 2nd ed. eq. 2.112. Inverse: the closed-form solution of
-//! H. Vermeille, "An analytical method to transform geocentric into geodetic
+//! Forward: Groves 2nd ed. §2.4 (curvilinear → Cartesian ECEF). Inverse: the
+//! closed-form solution of H. Vermeille, "An analytical method to transform geocentric into geodetic
 //! coordinates", J. Geodesy 85 (2011) 105–117, in the numerically careful
 //! arrangement described by Karney (GeographicLib `Geocentric`, 2011): the
 //! resolvent cubic is solved without dividing by r³, the trigonometric root is
@@ -20,7 +20,7 @@ use super::Geodetic;
 use crate::earth::{WGS84_A, WGS84_E2};
 use crate::Vec3;
 
-/// Geodetic → ECEF [m] (Groves 2nd ed. eq. 2.112):
+/// Geodetic → ECEF [m] (Groves 2nd ed. §2.4):
 /// x = (R_N + h) cos φ cos λ, y = (R_N + h) cos φ sin λ, z = ((1 − e²) R_N + h) sin φ.
 pub fn geodetic_to_ecef(p: &Geodetic) -> Vec3 {
     let (sl, cl) = p.lat.sin_cos();

@@ -1,7 +1,7 @@
 //! ECEF ↔ local-level frames (NED, ENU) and exact local tangent-plane
 //! coordinates (offsets from an origin, through ECEF).
 //!
-//! Rotations: Groves 2nd ed. eq. 2.150 (`C_e^n`, NED) and its row permutation
+//! Rotations: Groves 2nd ed. §2.4 (`C_e^n`, NED) and its row permutation
 //! for ENU. Naming as everywhere in navfuse: `c_xy` maps frame x to frame y,
 //! `v_y = c_xy · v_x`.
 
@@ -11,7 +11,7 @@ use crate::prelude::*;
 use super::{ecef_to_geodetic, geodetic_to_ecef, Geodetic};
 use crate::{Mat3, Vec3};
 
-/// DCM from ECEF to NED at (lat, lon): `v_n = c_en · v_e` (Groves eq. 2.150).
+/// DCM from ECEF to NED at (lat, lon): `v_n = c_en · v_e` (Groves 2nd ed. §2.4).
 ///
 /// Rows are the north, east and down unit vectors resolved in ECEF.
 pub fn c_en(lat: f64, lon: f64) -> Mat3 {

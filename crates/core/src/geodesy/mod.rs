@@ -7,8 +7,8 @@
 //!
 //! | item | file | reference |
 //! |---|---|---|
-//! | [`geodetic_to_ecef`], [`ecef_to_geodetic`] | `ecef.rs` | Groves 2nd ed. eq. 2.112; Vermeille (2011) |
-//! | [`c_en`], [`c_e_enu`], NED/ENU offsets, [`LocalFrame`] | `local.rs` | Groves 2nd ed. eq. 2.150, §2.5.3 |
+//! | [`geodetic_to_ecef`], [`ecef_to_geodetic`] | `ecef.rs` | Groves 2nd ed. §2.4; Vermeille (2011), J. Geodesy 85:105–117 |
+//! | [`c_en`], [`c_e_enu`], NED/ENU offsets, [`LocalFrame`] | `local.rs` | Groves 2nd ed. §2.4 (C_e^n) |
 //! | [`TransverseMercator`] | `tm.rs` | Karney (2011), J. Geodesy 85:475–485 |
 //! | [`Utm`], [`utm_zone`] | `utm.rs` | NGA.SIG.0012 (UTM/UPS), DMA TM 8358.2 |
 //! | [`SmallAreaPlane`] | `plane.rs` | `SEEDS.md §2` eq. 14–15 |

@@ -2,11 +2,12 @@
 //! flattening n, after C. F. F. Karney, "Transverse Mercator with an accuracy
 //! of a few nanometers", J. Geodesy 85 (2011) 475–485 (arXiv:1002.1417).
 //!
-//! The projection goes through the conformal latitude (eq. 7–9) onto a
-//! sphere-based TM (ξ′, η′) and the series (eq. 11, coefficients α_j eq. 35;
-//! inverse eq. 12 with β_j eq. 36) maps it to the ellipsoid's (ξ, η); the
-//! rectifying radius A is eq. 14. Scale and convergence are eq. 23–28. The
-//! conformal latitude is inverted by Newton's method (eq. 19–21).
+//! The projection goes through the conformal latitude onto the Transverse
+//! Mercator of a sphere (ξ′, η′), and the Krüger series maps that to the
+//! ellipsoid's (ξ, η): forward Karney eq. 7–14 with the coefficients α_j of
+//! eq. 35, inverse eq. 15–22 with β_j of eq. 36 (the conformal latitude is
+//! inverted by Newton's method, eq. 19–21); point scale and meridian
+//! convergence eq. 23–28.
 //!
 //! Error of the 6th-order series: a few nm within 3900 km of the central
 //! meridian (Karney 2011 §4); in practice use |Δλ| ≲ 30°.
@@ -172,11 +173,11 @@ impl TransverseMercator {
     /// (Karney eq. 23–28). `dl` = λ − λ0, `tau` = tan φ, `taup` = τ′.
     fn factors(&self, xip: f64, etap: f64, tau: f64, taup: f64, dl: f64) -> (f64, f64) {
         let (sdl, cdl) = dl.sin_cos();
-        // Sphere part γ′, k′ (eq. 23–24, written with τ to stay finite at the pole).
+        // Sphere part γ′, k′ (written with τ to stay finite at the pole).
         let gam1 = (taup * sdl).atan2((1.0 + taup * taup).sqrt() * cdl);
         let k1 = (1.0 - WGS84_E2 / (1.0 + 1.0 / (tau * tau))).sqrt() * (1.0 + tau * tau).sqrt()
             / (taup * taup + cdl * cdl).sqrt();
-        // Series part γ″, k″ (eq. 25–28).
+        // Series part γ″, k″ from the derivative of the series.
         let (_, _, p, q) = Self::series(&self.alp, xip, etap);
         let pp = 1.0 + p;
         let gam2 = q.atan2(pp);
@@ -190,10 +191,10 @@ impl TransverseMercator {
         let tau = lat.tan();
         let taup = self.conformal_tan(tau);
         let (sdl, cdl) = dl.sin_cos();
-        // Sphere TM of the conformal sphere (eq. 10).
+        // TM of the conformal sphere.
         let xip = taup.atan2(cdl);
         let etap = (sdl / taup.hypot(cdl)).asinh();
-        // Krüger series (eq. 11).
+        // Krüger series, coefficients α_j.
         let (a, b, _, _) = Self::series(&self.alp, xip, etap);
         let xi = xip + a;
         let eta = etap + b;
@@ -211,11 +212,11 @@ impl TransverseMercator {
     pub fn inverse(&self, easting: f64, northing: f64) -> (f64, f64, f64, f64) {
         let xi = (northing - self.false_northing) / self.k0_a;
         let eta = (easting - self.false_easting) / self.k0_a;
-        // Inverse Krüger series (eq. 12).
+        // Inverse Krüger series, coefficients β_j.
         let (a, b, _, _) = Self::series(&self.bet, xi, eta);
         let xip = xi - a;
         let etap = eta - b;
-        // Sphere TM inverse (eq. 18).
+        // Inverse TM of the conformal sphere.
         let (sxi, cxi) = xip.sin_cos();
         let sheta = etap.sinh();
         let r = sheta.hypot(cxi);
