@@ -10,7 +10,8 @@
 //! convergence eq. 23–28.
 //!
 //! Error of the 6th-order series: a few nm within 3900 km of the central
-//! meridian (Karney 2011 §4); in practice use |Δλ| ≲ 30°.
+//! meridian (Karney 2011); it grows quickly beyond. The tests here cover
+//! |Δλ| ≤ 9°, |φ| ≤ 84° (max 6e-9 m against PROJ).
 //!
 //! Convergence γ is the bearing of grid north measured clockwise from true
 //! north (γ ≈ Δλ sin φ, positive east of the central meridian in the north);
@@ -207,8 +208,8 @@ impl TransverseMercator {
         }
     }
 
-    /// Inverse: easting, northing [m] → (lat, lon) [rad] with convergence and
-    /// scale at that point. Longitude is wrapped to (−π, π].
+    /// Inverse: easting, northing [m] → `(lat, lon, convergence, scale)`
+    /// ([rad], [rad], [rad], [-]) at that point. Longitude wrapped to (−π, π].
     pub fn inverse(&self, easting: f64, northing: f64) -> (f64, f64, f64, f64) {
         let xi = (northing - self.false_northing) / self.k0_a;
         let eta = (easting - self.false_easting) / self.k0_a;
