@@ -424,3 +424,229 @@ impl<R: BufRead> Iterator for KfGinsNavReader<R> {
         }
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::testutil::{assert_err, collect, token_lines};
+    use proptest::prelude::*;
+
+    const IMU: &str = "243261.66 1e-5 2e-5 3e-5 1e-4 2e-3 -9.8e-2\n\
+                       243261.67 1e-5 2e-5 3e-5 1e-4 2e-3 -9.8e-2\n\
+                       243261.68 1e-5 2e-5 3e-5 1e-4 2e-3 -9.8e-2\n";
+
+    fn imu(data: &[u8]) -> Result<Vec<ImuSample>, ReadError> {
+        let opt = KfGinsImuOptions {
+            week: 2374,
+            ..Default::default()
+        };
+        collect(KfGinsImuReader::new(data, "imu.txt", opt))
+    }
+    fn gnss(data: &[u8]) -> Result<Vec<GnssFix>, ReadError> {
+        collect(KfGinsGnssReader::new(data, "gnss.txt", 2374))
+    }
+    fn nav(data: &[u8]) -> Result<Vec<NavSolution>, ReadError> {
+        collect(KfGinsNavReader::new(data, "x.nav", 2374))
+    }
+    /// Replace field `k` (0-based) of line `l` (0-based) of `text`.
+    fn with_field(text: &str, l: usize, k: usize, v: &[u8]) -> Vec<u8> {
+        let mut out = Vec::new();
+        for (i, line) in text.lines().enumerate() {
+            if i == l {
+                let f: Vec<&str> = line.split_whitespace().collect();
+                for (j, x) in f.iter().enumerate() {
+                    if j > 0 {
+                        out.push(b' ');
+                    }
+                    out.extend_from_slice(if j == k { v } else { x.as_bytes() });
+                }
+            } else {
+                out.extend_from_slice(line.as_bytes());
+            }
+            out.push(b'\n');
+        }
+        out
+    }
+
+    #[test]
+    fn imu_reads_increments_and_first_dt() {
+        let v = imu(IMU.as_bytes()).unwrap();
+        assert_eq!(v.len(), 3);
+        assert_eq!(v[0].t, 2374.0 * 604800.0 + 243261.66);
+        assert!((v[0].dt - 0.01).abs() < 1e-6 && (v[1].dt - 0.01).abs() < 1e-6);
+        assert_eq!(v[2].dvel_b.z, -9.8e-2);
+        assert_eq!(v[1].dtheta_b.y, 2e-5);
+        let opt = KfGinsImuOptions {
+            nominal_rate_hz: Some(200.0),
+            ..Default::default()
+        };
+        let v = collect(KfGinsImuReader::new(IMU.as_bytes(), "imu.txt", opt)).unwrap();
+        assert_eq!((v[0].t, v[0].dt), (243261.66, 0.005));
+    }
+
+    #[test]
+    fn imu_counts_duplicates_and_cut_last_line() {
+        let data = format!("{IMU}{}\n243261.69 1e-5 2e-5", IMU.lines().nth(1).unwrap());
+        let mut r = KfGinsImuReader::new(data.as_bytes(), "imu.txt", KfGinsImuOptions::default());
+        assert_eq!(r.by_ref().count(), 3);
+        let st = r.stats();
+        assert_eq!(st.rejected_for(crate::imu::REASON_BACKWARDS), 1);
+        assert_eq!(st.rejected_for(REASON_TRUNCATED_LAST), 1);
+        assert!(st.is_balanced(), "{st}");
+    }
+
+    #[test]
+    fn imu_corruptions_name_file_line_field() {
+        assert_err(
+            imu(b"243261.66 1e-5 2e-5 3e-5 1e-4 2e-3 -9.8e-2\n243261.67 1e-5 2e-5\n"),
+            "imu.txt",
+            2,
+            "dtheta_z",
+        );
+        assert_err(
+            imu(&with_field(IMU, 1, 2, b"1.2.3")),
+            "imu.txt",
+            2,
+            "dtheta_y",
+        );
+        let e = assert_err(
+            imu(&with_field(IMU, 2, 6, b"-9.8e-2 7")),
+            "imu.txt",
+            3,
+            "<column 8>",
+        );
+        assert!(e.msg.contains("8 columns"));
+        let e = assert_err(imu(&with_field(IMU, 0, 4, b"nan")), "imu.txt", 1, "dvel_x");
+        assert!(e.msg.contains("finite"));
+        assert_err(
+            imu(&with_field(IMU, 2, 6, b"-9.\xff8")),
+            "imu.txt",
+            3,
+            "dvel_z",
+        );
+        assert_err(imu(&with_field(IMU, 1, 0, b"-5")), "imu.txt", 2, "tow");
+        // imudatalen 8: the 8th column is accepted and ignored, 7 is then short.
+        let opt = KfGinsImuOptions {
+            columns: 8,
+            ..Default::default()
+        };
+        let eight = with_field(IMU, 0, 6, b"-9.8e-2 1");
+        let r = collect(KfGinsImuReader::new(&eight[..], "imu.txt", opt));
+        assert_err(r, "imu.txt", 2, "<extra>");
+    }
+
+    const GNSS: &str = "243262.999 40.0966268 -105.1474484 1601.468 0.02 0.02 0.03\n\
+                        243263.999 40.0966268 -105.1474483 1601.473 0.02 0.02 0.03\n";
+
+    #[test]
+    fn gnss_reads_7_and_13_columns() {
+        let v = gnss(GNSS.as_bytes()).unwrap();
+        assert_eq!(v.len(), 2);
+        assert!((v[0].lat.to_degrees() - 40.0966268).abs() < 1e-12);
+        assert!((v[0].lon.to_degrees() + 105.1474484).abs() < 1e-12);
+        assert_eq!((v[1].h, v[1].std_ned.z, v[1].v_n), (1601.473, 0.03, None));
+        let v = gnss(b"10 1 2 3 0.1 0.2 0.3 1.5 -2.5 0.5 0.05 0.05 0.1\n").unwrap();
+        assert_eq!(v[0].v_n, Some(Vec3::new(1.5, -2.5, 0.5)));
+        assert_eq!(v[0].std_v_n, Some(Vec3::new(0.05, 0.05, 0.1)));
+        // Column count is fixed by the first line.
+        let mixed = format!("10 1 2 3 0.1 0.2 0.3 1.5 -2.5 0.5 0.05 0.05 0.1\n{GNSS}");
+        assert_err(gnss(mixed.as_bytes()), "gnss.txt", 2, "v_n");
+    }
+
+    #[test]
+    fn gnss_corruptions_name_file_line_field() {
+        assert_err(
+            gnss(b"243262.999 40.0966268 -105.1474484 1601.468 0.02\n"),
+            "gnss.txt",
+            1,
+            "std_e",
+        );
+        assert_err(gnss(&with_field(GNSS, 1, 1, b"4O.1")), "gnss.txt", 2, "lat");
+        assert_err(
+            gnss(&with_field(GNSS, 1, 6, b"0.03 9")),
+            "gnss.txt",
+            2,
+            "<column 8>",
+        );
+        assert_err(gnss(&with_field(GNSS, 0, 3, b"NaN")), "gnss.txt", 1, "h");
+        assert_err(
+            gnss(&with_field(GNSS, 1, 2, b"\xc3\x28")),
+            "gnss.txt",
+            2,
+            "lon",
+        );
+        assert_err(gnss(&with_field(GNSS, 0, 1, b"91")), "gnss.txt", 1, "lat");
+        assert_err(
+            gnss(&with_field(GNSS, 0, 4, b"-0.1")),
+            "gnss.txt",
+            1,
+            "std_n",
+        );
+    }
+
+    const NAV: &str = "2374 243258.499 40.0966268 -105.1474483 1601.474 0.0 0.0 -0.008 nan nan nan\n\
+                       0.000000000 243262.014636 40.096626788 -105.147447742 1601.461 0.0004 -0.0001 -0.0023 -1.1778 -0.0584 357.1121\n";
+
+    #[test]
+    fn nav_reads_nan_attitude_and_week_zero() {
+        let v = nav(NAV.as_bytes()).unwrap();
+        assert_eq!(v.len(), 2);
+        assert!(v[0].rpy.iter().all(|a| a.is_nan()));
+        assert_eq!(v[1].t, 2374.0 * 604800.0 + 243262.014636);
+        assert!(
+            (v[1].rpy.z.to_degrees() - (357.1121 - 360.0)).abs() < 1e-9,
+            "yaw wrapped"
+        );
+        assert!((v[1].rpy.x.to_degrees() + 1.1778).abs() < 1e-12);
+        assert_eq!(v[0].v_n.z, -0.008);
+        assert!(v[0].std_pos_ned.x.is_nan());
+    }
+
+    #[test]
+    fn nav_corruptions_name_file_line_field() {
+        assert_err(
+            nav(b"2374 243258.499 40.0966268 -105.1474483 1601.474 0.0 0.0\n"),
+            "x.nav",
+            1,
+            "v_d",
+        );
+        assert_err(nav(&with_field(NAV, 1, 5, b"0.0004e")), "x.nav", 2, "v_n");
+        assert_err(
+            nav(&with_field(NAV, 0, 10, b"nan nan")),
+            "x.nav",
+            1,
+            "<column 12>",
+        );
+        assert_err(nav(&with_field(NAV, 0, 4, b"nan")), "x.nav", 1, "h");
+        assert_err(nav(&with_field(NAV, 1, 9, b"\x80")), "x.nav", 2, "pitch");
+        assert_err(nav(&with_field(NAV, 0, 0, b"2374.5")), "x.nav", 1, "week");
+        assert_err(nav(&with_field(NAV, 0, 8, b"inf")), "x.nav", 1, "roll");
+    }
+
+    proptest! {
+        #[test]
+        fn never_panics_on_bytes(data in proptest::collection::vec(any::<u8>(), 0..400)) {
+            let _ = imu(&data);
+            let _ = gnss(&data);
+            let _ = nav(&data);
+        }
+
+        #[test]
+        fn never_panics_on_token_lines(data in token_lines()) {
+            for opt in [KfGinsImuOptions::default(), KfGinsImuOptions { columns: 9, nominal_rate_hz: Some(100.0), week: 1 }] {
+                let mut r = KfGinsImuReader::new(&data[..], "imu.txt", opt);
+                if r.by_ref().all(|x| x.is_ok()) {
+                    prop_assert!(r.stats().is_balanced());
+                }
+            }
+            let mut g = KfGinsGnssReader::new(&data[..], "g", 0);
+            if g.by_ref().all(|x| x.is_ok()) {
+                prop_assert!(g.stats().is_balanced());
+            }
+            let mut n = KfGinsNavReader::new(&data[..], "n", 0);
+            if n.by_ref().all(|x| x.is_ok()) {
+                prop_assert!(n.stats().is_balanced());
+            }
+        }
+    }
+}

@@ -12,7 +12,11 @@ pub mod navcsv;
 pub mod pos;
 pub mod text;
 pub mod time;
+pub mod trajectory;
 pub mod writers;
+
+#[cfg(test)]
+mod testutil;
 
 pub use error::{ReadError, RecordStats};
 
