@@ -341,10 +341,12 @@ impl<R: BufRead> CsvImuReader<R> {
                         format!("time of week {tow} outside [0, 1e6]"),
                     ));
                 }
-                crate::time::gps_seconds(w as u32, tow)
+                (w as u32, tow)
             } else {
-                crate::time::gps_seconds(self.cfg.week, s.f64_named(r.idx[0], &r.names[0])?)
+                (self.cfg.week, s.f64_named(r.idx[0], &r.names[0])?)
             };
+            let (week, tow) = t;
+            let t = crate::time::gps_seconds(week, tow);
             let mut v = [0.0; 6];
             for (k, x) in v.iter_mut().enumerate() {
                 *x = s.f64_named(r.idx[2 + k], &r.names[2 + k])?;
@@ -368,7 +370,13 @@ impl<R: BufRead> CsvImuReader<R> {
                 gyro = c * gyro;
                 acc = c * acc;
             }
-            return Ok(Some(RawImu { t, gyro, acc }));
+            return Ok(Some(RawImu {
+                t,
+                week,
+                tow,
+                gyro,
+                acc,
+            }));
         }
     }
 }
@@ -392,5 +400,212 @@ impl<R: BufRead> Iterator for CsvImuReader<R> {
     type Item = Result<ImuSample, ReadError>;
     fn next(&mut self) -> Option<Self::Item> {
         imu_next(self)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::testutil::{assert_err, collect, token_lines};
+    use proptest::prelude::*;
+
+    fn drive_unmounted() -> CsvImuConfig {
+        CsvImuConfig {
+            mount_rpy_deg: None,
+            ..CsvImuConfig::drive_0708()
+        }
+    }
+    const DRIVE: &str =
+        "# gps_week,gps_tow_s,acc_x_g,acc_y_g,acc_z_g,gyro_x_dps,gyro_y_dps,gyro_z_dps\n\
+2374,243261.9850,0.115,0.036,0.985,0.099,-0.679,0.237\n\
+2374,243261.9950,0.131,0.029,1.013,-0.809,2.922,0.015\n\
+2374,243262.0040,0.131,0.029,1.013,-0.809,2.922,0.015\n\
+2374,243262.0150,0.125,0.028,0.990,-0.786,2.953,0.137\n";
+
+    fn read(data: &[u8], cfg: CsvImuConfig) -> Result<Vec<ImuSample>, ReadError> {
+        collect(CsvImuReader::new(data, "imu.csv", cfg))
+    }
+
+    /// Replace field `k` of data line `l` (0-based, counting every line).
+    fn with_field(text: &str, l: usize, k: usize, v: &[u8]) -> Vec<u8> {
+        let mut out = Vec::new();
+        for (i, line) in text.lines().enumerate() {
+            if i == l {
+                for (j, x) in line.split(',').enumerate() {
+                    if j > 0 {
+                        out.push(b',');
+                    }
+                    out.extend_from_slice(if j == k { v } else { x.as_bytes() });
+                }
+            } else {
+                out.extend_from_slice(line.as_bytes());
+            }
+            out.push(b'\n');
+        }
+        out
+    }
+
+    #[test]
+    fn drive_layout_units_trapezoid_and_repeated_rows() {
+        let mut r = CsvImuReader::new(DRIVE.as_bytes(), "imu.csv", drive_unmounted());
+        let v: Vec<ImuSample> = r.by_ref().map(Result::unwrap).collect();
+        assert_eq!(v.len(), 3, "the repeated row is dropped");
+        let st = r.stats();
+        assert_eq!(
+            (st.skipped, st.used, st.rejected_for(REASON_REPEATED)),
+            (1, 3, 1)
+        );
+        assert!(st.is_balanced());
+        assert_eq!(v[0].t, 2374.0 * 604800.0 + 243261.985);
+        // Interval after the dropped row spans 0.995 → 0.015 = 0.02 s.
+        assert!((v[2].dt - 0.02).abs() < 1e-9);
+        let dt = v[2].dt;
+        let want_ax = 0.5 * (0.131 + 0.125) * G0 * dt;
+        assert!((v[2].dvel_b.x - want_ax).abs() < 1e-12);
+        let want_gz = 0.5 * (0.015 + 0.137f64).to_radians() * dt;
+        assert!((v[2].dtheta_b.z - want_gz).abs() < 1e-15);
+        // First sample: rectangle over the first interval.
+        assert!((v[0].dvel_b.z - 0.985 * G0 * v[0].dt).abs() < 1e-12);
+    }
+
+    #[test]
+    fn duplicate_and_backward_times_are_counted() {
+        let data = "0.00,1,2,3,4,5,6\n0.01,1,2,3,4,5,6.5\n0.01,1,2,3,4,5,7\n0.005,1,2,3,4,5,8\n0.02,1,2,3,4,5,9\n";
+        let cfg = CsvImuConfig {
+            header: false,
+            columns: None,
+            time: CsvTime::Seconds(Col::Index(0)),
+            week: 0,
+            gyro: [1.into(), 2.into(), 3.into()],
+            accel: [4.into(), 5.into(), 6.into()],
+            gyro_unit: GyroUnit::Rad,
+            accel_unit: AccelUnit::Si,
+            form: ImuForm::RateRectangle,
+            reject_repeated_values: false,
+            nominal_rate_hz: Some(100.0),
+            ..CsvImuConfig::drive_0708()
+        };
+        let mut r = CsvImuReader::new(
+            data.as_bytes(),
+            "imu.csv",
+            CsvImuConfig {
+                mount_rpy_deg: None,
+                ..cfg
+            },
+        );
+        let v: Vec<ImuSample> = r.by_ref().map(Result::unwrap).collect();
+        assert_eq!(v.len(), 3);
+        assert_eq!(v[0].dt, 0.01, "nominal rate");
+        assert!(
+            (v[2].dvel_b.z - 9.0 * 0.01).abs() < 1e-12,
+            "rectangle: end-of-interval value"
+        );
+        assert_eq!(r.stats().rejected_for(crate::imu::REASON_DUP_TIME), 1);
+        assert_eq!(r.stats().rejected_for(crate::imu::REASON_BACKWARDS), 1);
+        assert!(r.stats().is_balanced());
+    }
+
+    const VN_HDR: &str = "Time [s],GpsCycle,GpsWeek,GpsTow [s],IMU::UncompAccel::X [m/s^2],IMU::UncompAccel::Y [m/s^2],\
+IMU::UncompAccel::Z [m/s^2],IMU::UncompGyro::X [rad/s],IMU::UncompGyro::Y [rad/s],IMU::UncompGyro::Z [rad/s],Time::GpsWeek\n";
+    const VN: &str = "0,2,255,403575.847627,0.098480731,0.30079985,-9.7986994,0.000011909131,0.0018414459,-0.00043417249,2303\n\
+0.02,2,255,403575.867627,0.095162369,0.29370984,-9.8008289,0.00006294495,0.0018579793,0.0003588438,2303\n";
+
+    #[test]
+    fn vn310_preset_by_header_names() {
+        let data = format!("{VN_HDR}{VN}");
+        let v = read(data.as_bytes(), CsvImuConfig::vn310()).unwrap();
+        assert_eq!(v.len(), 2);
+        assert_eq!(
+            v[0].t,
+            2303.0 * 604800.0 + 403575.847627,
+            "full week from Time::GpsWeek"
+        );
+        let dt = v[1].dt;
+        assert!((dt - 0.02).abs() < 1e-9);
+        assert!((v[1].dvel_b.z - 0.5 * (-9.7986994 - 9.8008289) * dt).abs() < 1e-12);
+        assert!((v[1].dtheta_b.y - 0.5 * (0.0018414459 + 0.0018579793) * dt).abs() < 1e-15);
+        // A missing named column is an error naming it.
+        let bad = VN_HDR.replace("Time::GpsWeek", "Week");
+        assert_err(
+            read(format!("{bad}{VN}").as_bytes(), CsvImuConfig::vn310()),
+            "imu.csv",
+            1,
+            "Time::GpsWeek",
+        );
+    }
+
+    #[test]
+    fn corruptions_name_file_line_field() {
+        let cfg = drive_unmounted;
+        assert_err(
+            read(b"2374,243261.9850,0.115,0.036\n", cfg()),
+            "imu.csv",
+            1,
+            "acc_z",
+        );
+        assert_err(
+            read(&with_field(DRIVE, 2, 5, b"-0.8.09"), cfg()),
+            "imu.csv",
+            3,
+            "gyro_x",
+        );
+        assert_err(
+            read(&with_field(DRIVE, 1, 7, b"0.237,1"), cfg()),
+            "imu.csv",
+            2,
+            "<column 9>",
+        );
+        assert_err(
+            read(&with_field(DRIVE, 4, 3, b"NaN"), cfg()),
+            "imu.csv",
+            5,
+            "acc_y",
+        );
+        assert_err(
+            read(&with_field(DRIVE, 2, 6, b"\xff2.922"), cfg()),
+            "imu.csv",
+            3,
+            "gyro_y",
+        );
+        assert_err(
+            read(&with_field(DRIVE, 1, 0, b"2374.5"), cfg()),
+            "imu.csv",
+            2,
+            "week",
+        );
+        // With a header the field is named by the header.
+        let vn = format!("{VN_HDR}{VN}");
+        assert_err(
+            read(&with_field(&vn, 2, 6, b"nan"), CsvImuConfig::vn310()),
+            "imu.csv",
+            3,
+            "IMU::UncompAccel::Z [m/s^2]",
+        );
+        assert_err(
+            read(&with_field(&vn, 1, 8, b"\x80"), CsvImuConfig::vn310()),
+            "imu.csv",
+            2,
+            "IMU::UncompGyro::Y [rad/s]",
+        );
+        let short = format!("{VN_HDR}0,2,255,403575.847627,0.098\n");
+        assert_err(
+            read(short.as_bytes(), CsvImuConfig::vn310()),
+            "imu.csv",
+            2,
+            "IMU::UncompAccel::Y [m/s^2]",
+        );
+    }
+
+    proptest! {
+        #[test]
+        fn never_panics(data in proptest::collection::vec(any::<u8>(), 0..400), lines in token_lines()) {
+            let with_hdr = [VN_HDR.as_bytes(), &lines].concat();
+            for (d, cfg) in [(&data, drive_unmounted()), (&lines, drive_unmounted()), (&with_hdr, CsvImuConfig::vn310()), (&lines, CsvImuConfig::vn310())] {
+                let mut r = CsvImuReader::new(&d[..], "imu.csv", cfg);
+                if r.by_ref().all(|x| x.is_ok()) {
+                    prop_assert!(r.stats().is_balanced());
+                }
+            }
+        }
     }
 }

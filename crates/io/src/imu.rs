@@ -32,7 +32,12 @@ pub enum ImuForm {
 /// One IMU record in SI units, body frame (mounting already applied).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub(crate) struct RawImu {
+    /// GPS seconds (`week·604800 + tow`).
     pub t: f64,
+    /// GPS week and time of week of the stamp: `dt` is formed from these, as
+    /// an f64 `t` near 1.4e9 s resolves only ~0.24 µs.
+    pub week: u32,
+    pub tow: f64,
     pub gyro: Vec3,
     pub acc: Vec3,
 }
@@ -95,13 +100,14 @@ impl Assembler {
                 }
             });
         };
-        if r.t == p.t {
+        let dt = (f64::from(r.week) - f64::from(p.week)) * crate::time::SECONDS_PER_WEEK
+            + (r.tow - p.tow);
+        if dt == 0.0 {
             return Err(REASON_DUP_TIME);
         }
-        if r.t < p.t {
+        if dt < 0.0 {
             return Err(REASON_BACKWARDS);
         }
-        let dt = r.t - p.t;
         self.prev = Some(r);
         if let Some(f) = self.first_pending.take() {
             let s0 = self.make(&f, dt, None);
@@ -129,6 +135,8 @@ mod tests {
     fn raw(t: f64, w: f64) -> RawImu {
         RawImu {
             t,
+            week: 0,
+            tow: t,
             gyro: Vec3::new(w, 0.0, 0.0),
             acc: Vec3::new(0.0, 0.0, -9.8),
         }

@@ -172,6 +172,8 @@ impl<R: BufRead> KfGinsImuReader<R> {
         }
         Ok(Some(RawImu {
             t: crate::time::gps_seconds(self.opt.week, tow),
+            week: self.opt.week,
+            tow,
             gyro: Vec3::new(v[0], v[1], v[2]),
             acc: Vec3::new(v[3], v[4], v[5]),
         }))

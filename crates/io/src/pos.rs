@@ -317,3 +317,133 @@ impl<R: BufRead> Iterator for PosReader<R> {
         }
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::testutil::{assert_err, collect, token_lines};
+    use proptest::prelude::*;
+
+    const HDR: &str = "% program   : RTKPOST\n\
+%  GPST            latitude(deg) longitude(deg) height(m) Q ns sdn(m) sde(m) sdu(m) sdne(m) sdeu(m) sdun(m) age(s) ratio vn(m/s) ve(m/s) vu(m/s) sdvn sdve sdvu sdvne sdveu sdvun\n";
+    const L1: &str = "2025/07/08 19:34:18.500 40.0966268 -105.1474483 1601.4740 1 21 0.0099 0.0098 0.0100 0.0 0.0 0.0 0.0 0.0 0.0100 -0.0020 0.0090 0.0586 0.0587 0.0588 0.0 0.0 0.0\n";
+    const L2: &str = "2025/07/08 19:34:18.750 40.0966268 -105.1474483 1601.4760 2 20 0.0099 0.0098 0.0100 0.0 0.0 0.0 0.0 0.0 0.0010 0.0020 -0.0060 0.0558 0.0558 0.0558 0.0 0.0 0.0\n";
+
+    fn pos(data: &[u8]) -> Result<Vec<GnssFix>, ReadError> {
+        collect(PosReader::new(data, "sol.pos"))
+    }
+    fn file(l2: &str) -> Vec<u8> {
+        format!("{HDR}{L1}{l2}").into_bytes()
+    }
+    fn l2_with(k: usize, v: &str) -> String {
+        let mut f: Vec<&str> = L2.split_whitespace().collect();
+        f[k] = v;
+        f.join(" ") + "\n"
+    }
+
+    #[test]
+    fn reads_gpst_with_velocity_up_to_down() {
+        let v = pos(&file(L2)).unwrap();
+        assert_eq!(v.len(), 2);
+        let t0 = gps_seconds(2374, 243_258.5);
+        assert_eq!(v[0].t, t0);
+        assert!((v[1].t - t0 - 0.25).abs() < 1e-9);
+        assert_eq!((v[0].quality, v[0].num_sats, v[1].quality), (1, 21, 2));
+        assert!((v[0].lat.to_degrees() - 40.0966268).abs() < 1e-12);
+        assert_eq!(v[0].std_ned, Vec3::new(0.0099, 0.0098, 0.0100));
+        assert_eq!(
+            v[0].v_n,
+            Some(Vec3::new(0.01, -0.002, -0.009)),
+            "vu up → v_d = −vu"
+        );
+        assert_eq!(v[0].std_v_n, Some(Vec3::new(0.0586, 0.0587, 0.0588)));
+    }
+
+    #[test]
+    fn utc_header_and_week_tow_time() {
+        let utc = HDR.replace("GPST", "UTC ") + &L1.replace("19:34:18.500", "19:34:00.500");
+        let v = pos(utc.as_bytes()).unwrap();
+        assert_eq!(v[0].t, gps_seconds(2374, 243_258.5), "UTC + 18 s");
+        let wt = HDR.to_string() + &L1.replace("2025/07/08 19:34:18.500", "2374 243258.500");
+        assert_eq!(
+            pos(wt.as_bytes()).unwrap()[0].t,
+            gps_seconds(2374, 243_258.5)
+        );
+        // No header at all: default column order (13 columns, no velocity).
+        let short: Vec<&str> = L1.split_whitespace().take(15).collect();
+        let v = pos((short.join(" ") + "\n").as_bytes()).unwrap();
+        assert_eq!((v[0].v_n, v[0].quality), (None, 1));
+    }
+
+    #[test]
+    fn ecef_header_is_an_error() {
+        let h = "%  GPST  x-ecef(m) y-ecef(m) z-ecef(m) Q ns\n";
+        assert_err(pos(h.as_bytes()), "sol.pos", 1, "<header>");
+    }
+
+    #[test]
+    fn corruptions_name_file_line_field() {
+        let trunc: Vec<&str> = L2.split_whitespace().take(9).collect();
+        assert_err(
+            pos(&file(&(trunc.join(" ") + "\n"))),
+            "sol.pos",
+            4,
+            "sdu(m)",
+        );
+        assert_err(
+            pos(&file(&l2_with(4, "1601.47.6"))),
+            "sol.pos",
+            4,
+            "height(m)",
+        );
+        assert_err(
+            pos(&file(&L2.replace('\n', " 7\n"))),
+            "sol.pos",
+            4,
+            "<column 25>",
+        );
+        assert_err(
+            pos(&file(&l2_with(2, "nan"))),
+            "sol.pos",
+            4,
+            "latitude(deg)",
+        );
+        assert_err(
+            pos(&file(&l2_with(16, "0.0\u{fffd}"))),
+            "sol.pos",
+            4,
+            "ve(m/s)",
+        );
+        let mut raw = file(L2);
+        let at = raw.len() - 10;
+        raw[at] = 0xfe;
+        assert_err(pos(&raw), "sol.pos", 4, "sdvne");
+        assert_err(pos(&file(&l2_with(5, "1.5"))), "sol.pos", 4, "Q");
+        assert_err(pos(&file(&l2_with(1, "19:61:00"))), "sol.pos", 4, "time");
+        assert_err(pos(&file(&l2_with(7, "-0.01"))), "sol.pos", 4, "sdn(m)");
+    }
+
+    #[test]
+    fn truncated_last_line_is_counted() {
+        let data = format!("{HDR}{L1}2025/07/08 19:34:18.750 40.09");
+        let mut r = PosReader::new(data.as_bytes(), "sol.pos");
+        assert_eq!(r.by_ref().filter(|x| x.is_ok()).count(), 1);
+        assert_eq!(r.stats().rejected_total(), 1);
+        assert!(r.stats().is_balanced());
+    }
+
+    proptest! {
+        #[test]
+        fn never_panics(data in proptest::collection::vec(any::<u8>(), 0..400), lines in token_lines()) {
+            let _ = pos(&data);
+            let mut with_hdr = HDR.as_bytes().to_vec();
+            with_hdr.extend_from_slice(&lines);
+            for d in [&lines, &with_hdr] {
+                let mut r = PosReader::new(&d[..], "p");
+                if r.by_ref().all(|x| x.is_ok()) {
+                    prop_assert!(r.stats().is_balanced());
+                }
+            }
+        }
+    }
+}
