@@ -1,8 +1,8 @@
 //! `navfuse eval`: evaluate a solution against a reference trajectory.
 //!
-//! Reads both series (KF-GINS `.nav` text for now; see [`read_nav`]), aligns
-//! them with `navfuse-eval`, prints a table and optionally writes JSON and a
-//! per-epoch error CSV.
+//! Reads both series with navfuse-io ([`read_trajectory`]), aligns them with
+//! `navfuse-eval`, prints a table and optionally writes JSON and a per-epoch
+//! error CSV.
 //!
 //! Time of week vs GPS time: a file with GPS week 0 (KF-GINS writes 0 when
 //! it does not know the week) has times of week only. When one series is
@@ -11,8 +11,10 @@
 //! same applies to `T0` of `--outages` and to `--fixes` times.
 
 use clap::Args as ClapArgs;
-use navfuse_core::{NavSolution, Vec3};
+use navfuse_core::NavSolution;
 use navfuse_eval::{evaluate, Align, EvalConfig, Evaluation, OutageSchedule, Stats};
+use navfuse_io::trajectory::{open_nav_source, InFormat};
+use navfuse_io::RecordStats;
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
@@ -21,9 +23,10 @@ const WEEK_S: f64 = 604_800.0;
 /// Evaluate a solution against a reference trajectory.
 #[derive(ClapArgs, Debug)]
 pub struct Args {
-    /// Solution file (KF-GINS .nav: week, TOW, lat, lon, h, vN, vE, vD, roll, pitch, yaw).
+    /// Solution trajectory: KF-GINS .nav, RTKLIB .pos or navfuse .csv (by extension).
     pub solution: PathBuf,
-    /// Reference (truth) file, same format; NaN velocity/attitude = unknown.
+    /// Reference (truth) trajectory: .nav, .pos, .csv, or a KF-GINS GNSS .txt;
+    /// NaN velocity/attitude = unknown.
     #[arg(long, value_name = "REF")]
     pub truth: PathBuf,
     /// Lever arm x,y,z [m], body FRD, from the solution's point to the
@@ -38,8 +41,8 @@ pub struct Args {
     /// Maximum number of outages of the schedule (default: all in the span).
     #[arg(long, value_name = "N")]
     pub outage_count: Option<usize>,
-    /// GNSS fix times (first column of a text file, e.g. a KF-GINS GNSS file):
-    /// each outage is scored up to the first fix after it instead of its end.
+    /// GNSS fixes used by the run (KF-GINS GNSS .txt, .pos, …): each outage is
+    /// scored up to the first fix after it instead of up to its end.
     #[arg(long, value_name = "FILE")]
     pub fixes: Option<PathBuf>,
     /// Largest gap [s] of the interpolated series bridged by interpolation.
@@ -80,8 +83,9 @@ impl From<At> for Align {
 }
 
 pub fn run(args: Args) -> Result<(), String> {
-    let mut solution = read_nav(&args.solution)?;
-    let mut reference = read_nav(&args.truth)?;
+    let week_arg = args.week.unwrap_or(0);
+    let (mut solution, sol_stats) = read_trajectory(&args.solution, week_arg, false)?;
+    let (mut reference, ref_stats) = read_trajectory(&args.truth, week_arg, true)?;
     if solution.is_empty() {
         return Err(format!("{}: no solution epochs", args.solution.display()));
     }
@@ -111,7 +115,10 @@ pub fn run(args: Args) -> Result<(), String> {
     };
     let fixes = match &args.fixes {
         None => None,
-        Some(p) => Some(read_fix_times(p, week)?),
+        Some(p) => {
+            let (f, _) = read_trajectory(p, week.map_or(0, |w| w as u32), true)?;
+            Some(f.iter().map(|x| x.t).collect::<Vec<f64>>())
+        }
     };
 
     let ev = evaluate(
@@ -129,7 +136,9 @@ pub fn run(args: Args) -> Result<(), String> {
         )
     })?;
 
-    print!("{}", render_table(&ev, &args, schedule.as_ref()));
+    let table = render_table(&ev, &args, schedule.as_ref());
+    let (title, rest) = table.split_once('\n').unwrap_or((&table, ""));
+    print!("{title}\n  read: solution {sol_stats}\n        reference {ref_stats}\n{rest}");
 
     if let Some(p) = &args.json {
         let js = if args.json_errors {
@@ -159,79 +168,31 @@ pub fn run(args: Args) -> Result<(), String> {
     Ok(())
 }
 
-/// Read a KF-GINS `.nav` file: per line `week TOW lat lon h vN vE vD roll
-/// pitch yaw` (degrees, metres, m/s), whitespace-separated; blank lines and
-/// `#` comments skipped; `nan` = unknown. Returns GPS time
-/// `week·604800 + TOW` (TOW only with week 0), radians, yaw wrapped to (−π, π].
-///
-/// TODO(io): replace with navfuse-io's KF-GINS reader once branch `io` lands on main.
-pub fn read_nav(path: &Path) -> Result<Vec<NavSolution>, String> {
-    let text = std::fs::read_to_string(path).map_err(|e| format!("{}: {e}", path.display()))?;
-    parse_nav(&text, &path.display().to_string())
-}
-
-const NAV_FIELDS: [&str; 11] = [
-    "week", "tow", "lat", "lon", "h", "vN", "vE", "vD", "roll", "pitch", "yaw",
-];
-
-fn parse_nav(text: &str, name: &str) -> Result<Vec<NavSolution>, String> {
+/// Read a trajectory with navfuse-io: format from the extension (`.nav`
+/// KF-GINS, `.pos` RTKLIB, `.csv` navfuse trajectory CSV; with `txt_is_gnss`
+/// a `.txt` is a KF-GINS GNSS file). `week` is used for time-of-week-only
+/// lines (KF-GINS writes week 0); 0 = unknown.
+pub fn read_trajectory(
+    path: &Path,
+    week: u32,
+    txt_is_gnss: bool,
+) -> Result<(Vec<NavSolution>, RecordStats), String> {
+    let fmt = match InFormat::from_path(path) {
+        Some(f) => f,
+        None if txt_is_gnss => InFormat::KfGinsGnss,
+        None => {
+            return Err(format!(
+                "{}: unknown trajectory format (expected .nav, .pos or .csv)",
+                path.display()
+            ))
+        }
+    };
+    let mut src = open_nav_source(path, fmt, week).map_err(|e| e.to_string())?;
     let mut out = Vec::new();
-    for (i, line) in text.lines().enumerate() {
-        let ln = i + 1;
-        let line = line.trim();
-        if line.is_empty() || line.starts_with('#') {
-            continue;
-        }
-        let cols: Vec<&str> = line.split_whitespace().collect();
-        if cols.len() != NAV_FIELDS.len() {
-            return Err(format!(
-                "{name}:{ln}: expected {} whitespace-separated fields (week TOW lat lon h vN vE vD roll pitch yaw), found {}",
-                NAV_FIELDS.len(),
-                cols.len()
-            ));
-        }
-        let mut v = [0.0f64; 11];
-        for (k, (c, f)) in cols.iter().zip(NAV_FIELDS).enumerate() {
-            v[k] = c
-                .parse::<f64>()
-                .map_err(|_| format!("{name}:{ln}: field `{f}`: cannot parse {c:?} as a number"))?;
-            // Time and position must be known; velocity and attitude may be NaN.
-            if k < 5 && !v[k].is_finite() {
-                return Err(format!(
-                    "{name}:{ln}: field `{f}`: {c:?} is not a finite number"
-                ));
-            }
-        }
-        if v[0] < 0.0 || v[0].fract() != 0.0 {
-            return Err(format!(
-                "{name}:{ln}: field `week`: {} is not a GPS week",
-                cols[0]
-            ));
-        }
-        if v[2].abs() > 90.0 {
-            return Err(format!(
-                "{name}:{ln}: field `lat`: {} is outside ±90°",
-                cols[2]
-            ));
-        }
-        let d = std::f64::consts::PI / 180.0;
-        let mut s = NavSolution::unknown_at(v[0] * WEEK_S + v[1]);
-        s.lat = v[2] * d;
-        s.lon = v[3] * d;
-        s.h = v[4];
-        s.v_n = Vec3::new(v[5], v[6], v[7]);
-        let wrap = |a: f64| {
-            let a = a.rem_euclid(360.0);
-            if a > 180.0 {
-                a - 360.0
-            } else {
-                a
-            }
-        };
-        s.rpy = Vec3::new(wrap(v[8]) * d, v[9] * d, wrap(v[10]) * d);
-        out.push(s);
+    for r in src.by_ref() {
+        out.push(r.map_err(|e| e.to_string())?);
     }
-    Ok(out)
+    Ok((out, src.stats().clone()))
 }
 
 fn is_tow_only(s: &[NavSolution]) -> bool {
@@ -318,38 +279,6 @@ fn parse_outages(
         _ => return Err(format!("--outages: expected S,P,L or S,P,L,T0, got {s:?}")),
     };
     OutageSchedule::periodic(t0, sp[0], sp[1], sp[2], count).map_err(|e| format!("--outages: {e}"))
-}
-
-/// Fix times: the first field (whitespace- or comma-separated) of each
-/// non-empty, non-comment line, as time of week or GPS seconds.
-///
-/// TODO(io): read GNSS files with navfuse-io once it lands.
-fn read_fix_times(path: &Path, week: Option<f64>) -> Result<Vec<f64>, String> {
-    let text = std::fs::read_to_string(path).map_err(|e| format!("{}: {e}", path.display()))?;
-    let mut out = Vec::new();
-    for (i, line) in text.lines().enumerate() {
-        let line = line.trim();
-        if line.is_empty() || line.starts_with('#') || line.starts_with('%') {
-            continue;
-        }
-        let first = line
-            .split(|c: char| c.is_whitespace() || c == ',')
-            .next()
-            .unwrap_or("");
-        let t = first
-            .parse::<f64>()
-            .ok()
-            .filter(|t| t.is_finite())
-            .ok_or_else(|| {
-                format!(
-                    "{}:{}: field `time` (first column): cannot parse {first:?}",
-                    path.display(),
-                    i + 1
-                )
-            })?;
-        out.push(in_week(t, week));
-    }
-    Ok(out)
 }
 
 /// "week W TOW s" for GPS seconds (just "TOW s" in week 0).
@@ -518,33 +447,35 @@ fn errors_csv(ev: &Evaluation) -> String {
 mod tests {
     use super::*;
 
-    #[test]
-    fn parses_nav_lines_and_units() {
-        let text = "# comment\n2374 100.5 40.0 -105.0 1600.0 1.0 2.0 3.0 1.0 2.0 359.0\n\n\
-                    0 100.75 40.0 -105.0 1600.0 nan nan nan nan nan nan\n";
-        let v = parse_nav(text, "x.nav").unwrap();
-        assert_eq!(v.len(), 2);
-        assert_eq!(v[0].t, 2374.0 * WEEK_S + 100.5);
-        assert!((v[0].lat.to_degrees() - 40.0).abs() < 1e-12);
-        assert!((v[0].rpy.z.to_degrees() + 1.0).abs() < 1e-9); // 359° → −1°
-        assert_eq!(v[1].t, 100.75);
-        assert!(v[1].rpy.x.is_nan() && v[1].v_n.x.is_nan());
+    fn temp_file(name: &str, text: &str) -> PathBuf {
+        let p = std::env::temp_dir().join(format!("navfuse-eval-{}-{name}", std::process::id()));
+        std::fs::write(&p, text).unwrap();
+        p
     }
 
     #[test]
-    fn nav_errors_name_line_and_field() {
-        let e = parse_nav(
+    fn reads_nav_and_reports_bad_lines() {
+        let good = temp_file(
+            "good.nav",
+            "2374 100.5 40.0 -105.0 1600.0 1.0 2.0 3.0 1.0 2.0 359.0\n\
+             0 100.75 40.0 -105.0 1600.0 0 0 0 nan nan nan\n",
+        );
+        let (v, st) = read_trajectory(&good, 0, false).unwrap();
+        assert_eq!(v.len(), 2);
+        assert_eq!(st.used, 2);
+        assert_eq!(v[0].t, 2374.0 * WEEK_S + 100.5);
+        assert!((v[0].rpy.z.to_degrees() + 1.0).abs() < 1e-9); // 359° → −1°
+        assert_eq!(v[1].t, 100.75); // week 0, no week given: time of week
+        let bad = temp_file(
+            "bad.nav",
             "2374 1 40 -105 1600 0 0 0 0 0 0\n2374 2 4x0 -105 1600 0 0 0 0 0 0\n",
-            "a.nav",
-        )
-        .unwrap_err();
-        assert!(e.contains("a.nav:2") && e.contains("`lat`"), "{e}");
-        let e = parse_nav("2374 1 40 -105\n", "a.nav").unwrap_err();
-        assert!(e.contains("a.nav:1") && e.contains("found 4"), "{e}");
-        let e = parse_nav("2374 nan 40 -105 1600 0 0 0 0 0 0\n", "a.nav").unwrap_err();
-        assert!(e.contains("`tow`"), "{e}");
-        let e = parse_nav("2374 1 91 -105 1600 0 0 0 0 0 0\n", "a.nav").unwrap_err();
-        assert!(e.contains("`lat`"), "{e}");
+        );
+        let e = read_trajectory(&bad, 0, false).unwrap_err();
+        assert!(e.contains("bad.nav:2") && e.contains("lat"), "{e}");
+        let e = read_trajectory(Path::new("x.unknown"), 0, false).unwrap_err();
+        assert!(e.contains("unknown trajectory format"), "{e}");
+        let _ = std::fs::remove_file(good);
+        let _ = std::fs::remove_file(bad);
     }
 
     #[test]
@@ -598,8 +529,8 @@ mod tests {
     }
 
     fn eval_of(args: &Args) -> Evaluation {
-        let mut s = read_nav(&args.solution).unwrap();
-        let mut r = read_nav(&args.truth).unwrap();
+        let (mut s, _) = read_trajectory(&args.solution, 0, false).unwrap();
+        let (mut r, _) = read_trajectory(&args.truth, 0, true).unwrap();
         let w = harmonise_weeks(&mut s, &args.solution, &mut r, &args.truth, None).unwrap();
         let lever = parse_floats::<3>(args.lever_arm.as_deref().unwrap(), "l").unwrap();
         let cfg = EvalConfig {
@@ -611,7 +542,10 @@ mod tests {
             .outages
             .as_deref()
             .map(|o| parse_outages(o, s[0].t, w, None).unwrap());
-        let fixes = args.fixes.as_ref().map(|p| read_fix_times(p, w).unwrap());
+        let fixes = args.fixes.as_ref().map(|p| {
+            let (f, _) = read_trajectory(p, w.unwrap() as u32, true).unwrap();
+            f.iter().map(|x| x.t).collect::<Vec<f64>>()
+        });
         evaluate(&s, &r, &cfg, sched.as_ref(), fixes.as_deref()).unwrap()
     }
 

@@ -14,7 +14,8 @@
 //! to (−π, π]. With a lever arm `l_b` (body FRD, from the solution's reference
 //! point to the reference's point, e.g. IMU → antenna) the solution position
 //! is moved first: `p_ant = p_imu + c_bn · l_b` (Groves 2nd ed. eq. 14.103,
-//! `c_bn` from the solution attitude).
+//! `c_bn` from the solution attitude by `navfuse_core::attitude::dcm_from_euler`).
+//! NED offsets are exact (through ECEF, `navfuse_core::geodesy::ned_from_geodetic`).
 
 pub mod outage;
 pub mod stats;
@@ -22,9 +23,10 @@ pub mod stats;
 pub use outage::{outage_metric, Outage, OutageReport, OutageResult, OutageSchedule};
 pub use stats::Stats;
 
-use navfuse_core::{earth, Mat3, NavSolution, Vec3};
+use navfuse_core::attitude::{dcm_from_euler, wrap_pi};
+use navfuse_core::geodesy::{ned_from_geodetic, Geodetic};
+use navfuse_core::{NavSolution, Vec3};
 use serde::{Deserialize, Serialize};
-use std::f64::consts::PI;
 
 /// Where the two series are compared.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
@@ -488,57 +490,15 @@ fn interpolate(r: &[NavSolution], t: f64, max_gap: f64) -> Result<NavSolution, E
     })
 }
 
-/// NED offset [m] of `p` from `origin`, small-offset form with the radii at
-/// the mid latitude and mid height: dN = (R_M + h) dL, dE = (R_N + h) cos L dλ,
-/// dD = −dh (Groves 2nd ed. eq. 2.119, 2.120). For offsets up to ~100 m the
-/// difference to the exact ECEF route is below 1 mm.
-///
-/// TODO(geodesy): switch to `navfuse_core::geodesy::ned_from_geodetic` once
-/// it lands on main (contract stub at the time of writing).
+/// NED offset [m] of `p` from `origin`: exact, through ECEF, in the local
+/// tangent frame at `origin` (Groves 2nd ed. §2.4).
 fn ned_offset(origin: &NavSolution, p: &NavSolution) -> Vec3 {
-    let lat_m = 0.5 * (origin.lat + p.lat);
-    let h_m = 0.5 * (origin.h + p.h);
-    let (rm, rn) = earth::radii(lat_m);
-    Vec3::new(
-        (rm + h_m) * (p.lat - origin.lat),
-        (rn + h_m) * lat_m.cos() * wrap_pi(p.lon - origin.lon),
-        -(p.h - origin.h),
-    )
-}
-
-/// `c_bn` from roll, pitch, yaw (ZYX) [rad] (Groves 2nd ed. eq. 2.22;
-/// `SEEDS.md §1` eq. 3).
-///
-/// TODO(attitude): private copy until `navfuse_core::attitude::dcm_from_euler`
-/// (contract stub) lands on main.
-fn dcm_from_euler(rpy: &Vec3) -> Mat3 {
-    let (sr, cr) = rpy.x.sin_cos();
-    let (sp, cp) = rpy.y.sin_cos();
-    let (sy, cy) = rpy.z.sin_cos();
-    Mat3::new(
-        cp * cy,
-        -cr * sy + sr * sp * cy,
-        sr * sy + cr * sp * cy,
-        cp * sy,
-        cr * cy + sr * sp * sy,
-        -sr * cy + cr * sp * sy,
-        -sp,
-        sr * cp,
-        cr * cp,
-    )
-}
-
-/// Wrap an angle to (−π, π].
-///
-/// TODO(attitude): use `navfuse_core::attitude::wrap_pi` once it lands.
-fn wrap_pi(a: f64) -> f64 {
-    let mut x = a % (2.0 * PI); // (−2π, 2π)
-    if x > PI {
-        x -= 2.0 * PI;
-    } else if x <= -PI {
-        x += 2.0 * PI;
-    }
-    x
+    let g = |x: &NavSolution| Geodetic {
+        lat: x.lat,
+        lon: x.lon,
+        h: x.h,
+    };
+    ned_from_geodetic(&g(origin), &g(p))
 }
 
 #[cfg(test)]
