@@ -141,25 +141,22 @@ pub fn run(args: Args) -> Result<(), String> {
     print!("{title}\n  read: solution {sol_stats}\n        reference {ref_stats}\n{rest}");
 
     if let Some(p) = &args.json {
-        let js = if args.json_errors {
-            serde_json::to_string_pretty(&ev)
-        } else {
-            let mut v = serde_json::to_value(&ev).map_err(|e| e.to_string())?;
-            if let Some(o) = v.as_object_mut() {
+        let mut v = serde_json::to_value(&ev).map_err(|e| format!("JSON: {e}"))?;
+        if let Some(o) = v.as_object_mut() {
+            if !args.json_errors {
                 o.remove("errors");
-                o.insert(
-                    "solution".into(),
-                    args.solution.display().to_string().into(),
-                );
-                o.insert("truth".into(), args.truth.display().to_string().into());
-                o.insert(
-                    "outage_schedule".into(),
-                    serde_json::to_value(&schedule).map_err(|e| e.to_string())?,
-                );
             }
-            serde_json::to_string_pretty(&v)
+            o.insert(
+                "solution".into(),
+                args.solution.display().to_string().into(),
+            );
+            o.insert("truth".into(), args.truth.display().to_string().into());
+            o.insert(
+                "outage_schedule".into(),
+                serde_json::to_value(&schedule).map_err(|e| format!("JSON: {e}"))?,
+            );
         }
-        .map_err(|e| format!("JSON: {e}"))?;
+        let js = serde_json::to_string_pretty(&v).map_err(|e| format!("JSON: {e}"))?;
         std::fs::write(p, js + "\n").map_err(|e| format!("{}: {e}", p.display()))?;
     }
     if let Some(p) = &args.csv {
@@ -476,6 +473,82 @@ mod tests {
         assert!(e.contains("unknown trajectory format"), "{e}");
         let _ = std::fs::remove_file(good);
         let _ = std::fs::remove_file(bad);
+    }
+
+    #[test]
+    fn command_end_to_end_on_synthetic_files() {
+        // Truth at 4 Hz, standing still; the solution (KF-GINS style, week 0)
+        // 1 m north of it except a linear drift (0.5 m/s east) during one
+        // outage 10 ≤ t−t0 < 20 s.
+        let (lat, lon, h) = (40.0f64, -105.0f64, 1600.0);
+        let (rm, rn) = navfuse_core::earth::radii(lat.to_radians());
+        let deg_n = |m: f64| (m / (rm + h)).to_degrees();
+        let deg_e = |m: f64| (m / ((rn + h) * lat.to_radians().cos())).to_degrees();
+        let t0 = 243_000.0;
+        let mut truth = String::new();
+        for i in 0..=160 {
+            let t = t0 + 0.25 * f64::from(i);
+            let _ = writeln!(
+                truth,
+                "2374 {t:.3} {lat:.9} {lon:.9} {h:.4} 0 0 0 nan nan nan"
+            );
+        }
+        let mut sol = String::new();
+        for i in 0..=400 {
+            let dt = 0.1 * f64::from(i);
+            let east = if (10.0..20.0).contains(&dt) {
+                0.5 * (dt - 10.0)
+            } else {
+                0.0
+            };
+            let _ = writeln!(
+                sol,
+                "0 {:.3} {:.10} {:.10} {h:.4} 0 0 0 0 0 90",
+                t0 + dt,
+                lat + deg_n(1.0),
+                lon + deg_e(east)
+            );
+        }
+        let tp = temp_file("truth.nav", &truth);
+        let sp = temp_file("sol.nav", &sol);
+        let jp = std::env::temp_dir().join(format!("navfuse-eval-{}-out.json", std::process::id()));
+        let cp = std::env::temp_dir().join(format!("navfuse-eval-{}-out.csv", std::process::id()));
+        let args = Args {
+            solution: sp.clone(),
+            truth: tp.clone(),
+            lever_arm: None,
+            outages: Some("10,100,10,243000".into()),
+            outage_count: Some(1),
+            fixes: None,
+            max_gap: 1.0,
+            at: At::Solution,
+            week: None,
+            json: Some(jp.clone()),
+            json_errors: false,
+            csv: Some(cp.clone()),
+        };
+        run(args).unwrap();
+        let js: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(&jp).unwrap()).unwrap();
+        let north = &js["summary"]["north"];
+        // 1 m north everywhere (degree scale of the test vs WGS84: < 0.5 %).
+        assert!(
+            (north["mean"].as_f64().unwrap() - 1.0).abs() < 0.005,
+            "{north}"
+        );
+        assert_eq!(js["counts"]["evaluated"].as_u64(), Some(401));
+        assert!(js.get("errors").is_none());
+        let o = &js["outages"]["outages"][0];
+        // Last epoch before the outage end: +9.9 s → east 4.95 m.
+        let m = o["max_horizontal"].as_f64().unwrap();
+        let expect = 4.95f64.hypot(1.0);
+        assert!((m - expect).abs() < 1e-4, "{m} vs {expect}");
+        assert_eq!(o["count"].as_u64(), Some(100));
+        let csv = std::fs::read_to_string(&cp).unwrap();
+        assert_eq!(csv.lines().count(), 402);
+        for p in [tp, sp, jp, cp] {
+            let _ = std::fs::remove_file(p);
+        }
     }
 
     #[test]
