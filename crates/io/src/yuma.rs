@@ -8,35 +8,22 @@
 //! roll-overs (`week_rollovers`, 2 for April 2019 – 2038; the shared
 //! `yuma_week1011.alm` of January 2019 needs 1 → GPS week 2035).
 
+use crate::ReadError;
 use navfuse_core::gnss::{KeplerOrbit, SECONDS_PER_WEEK};
 use std::path::Path;
+use std::sync::Arc;
 
-/// A parse error naming file, line and field.
-#[derive(Debug, thiserror::Error)]
-#[error("{file}:{line}: {field}: {msg}")]
-pub struct GnssParseError {
-    pub file: String,
-    pub line: usize,
-    pub field: String,
-    pub msg: String,
-}
+type GnssParseError = ReadError;
 
-impl GnssParseError {
-    pub fn new(file: &str, line: usize, field: &str, msg: impl Into<String>) -> Self {
-        GnssParseError {
-            file: file.to_string(),
-            line,
-            field: field.to_string(),
-            msg: msg.into(),
-        }
-    }
+fn err(file: &str, line: usize, field: &str, msg: impl Into<String>) -> ReadError {
+    ReadError::new(&Arc::from(file), line as u64, field.to_string(), msg)
 }
 
 /// Read a YUMA almanac file.
 pub fn read_yuma(path: &Path, week_rollovers: u32) -> Result<Vec<KeplerOrbit>, GnssParseError> {
     let name = path.display().to_string();
     let text = std::fs::read_to_string(path)
-        .map_err(|e| GnssParseError::new(&name, 0, "file", e.to_string()))?;
+        .map_err(|e| err(&name, 0, "<file>", format!("cannot read: {e}")))?;
     parse_yuma(&text, &name, week_rollovers)
 }
 
@@ -55,7 +42,7 @@ pub fn parse_yuma(
         let (o, line, seen, _) = c;
         if seen != ALL {
             let missing = (0..13).find(|b| seen & (1 << b) == 0).unwrap_or(0);
-            return Err(GnssParseError::new(
+            return Err(err(
                 name,
                 line,
                 FIELDS[missing],
@@ -79,7 +66,7 @@ pub fn parse_yuma(
             continue;
         }
         let Some((key, val)) = line.split_once(':') else {
-            return Err(GnssParseError::new(
+            return Err(err(
                 name,
                 ln,
                 "line",
@@ -87,7 +74,7 @@ pub fn parse_yuma(
             ));
         };
         let Some(c) = cur.as_mut() else {
-            return Err(GnssParseError::new(
+            return Err(err(
                 name,
                 ln,
                 key.trim(),
@@ -95,31 +82,26 @@ pub fn parse_yuma(
             ));
         };
         let key = key.trim();
-        let idx = field_index(key)
-            .ok_or_else(|| GnssParseError::new(name, ln, key, "unknown YUMA field"))?;
-        let v: f64 = val.trim().parse().map_err(|_| {
-            GnssParseError::new(name, ln, key, format!("not a number: `{}`", val.trim()))
-        })?;
+        let idx = field_index(key).ok_or_else(|| err(name, ln, key, "unknown YUMA field"))?;
+        let v: f64 = val
+            .trim()
+            .parse()
+            .map_err(|_| err(name, ln, key, format!("not a number: `{}`", val.trim())))?;
         if !v.is_finite() {
-            return Err(GnssParseError::new(name, ln, key, "not finite"));
+            return Err(err(name, ln, key, "not finite"));
         }
         let o = &mut c.0;
         match idx {
             0 => {
                 if !(1.0..=63.0).contains(&v) || v.fract() != 0.0 {
-                    return Err(GnssParseError::new(
-                        name,
-                        ln,
-                        key,
-                        format!("PRN {v} out of 1..63"),
-                    ));
+                    return Err(err(name, ln, key, format!("PRN {v} out of 1..63")));
                 }
                 o.prn = v as u8
             }
             1 => o.health = v as u32,
             2 => {
                 if !(0.0..1.0).contains(&v) {
-                    return Err(GnssParseError::new(
+                    return Err(err(
                         name,
                         ln,
                         key,
@@ -133,12 +115,7 @@ pub fn parse_yuma(
             5 => o.omega_dot = v,
             6 => {
                 if !(4000.0..6000.0).contains(&v) {
-                    return Err(GnssParseError::new(
-                        name,
-                        ln,
-                        key,
-                        format!("√a {v} is not a GPS orbit"),
-                    ));
+                    return Err(err(name, ln, key, format!("√a {v} is not a GPS orbit")));
                 }
                 o.sqrt_a = v
             }
@@ -167,7 +144,7 @@ pub fn parse_yuma(
         finish(c, &mut out)?;
     }
     if out.is_empty() {
-        return Err(GnssParseError::new(name, 0, "file", "no almanac records"));
+        return Err(err(name, 0, "<file>", "no almanac records"));
     }
     Ok(out)
 }
@@ -246,12 +223,12 @@ week:                        1011
         let bad = REC.replace("0.9741820631", "0.97x");
         let e = parse_yuma(&bad, "t.alm", 1).unwrap_err().to_string();
         assert!(
-            e.starts_with("t.alm:6: Orbital Inclination(rad): not a number"),
+            e.starts_with("t.alm:6: field `Orbital Inclination(rad)`: not a number"),
             "{e}"
         );
         let missing = REC.replace("Af1(s/s):                  -0.7275957614E-011\n", "");
         let e = parse_yuma(&missing, "t.alm", 1).unwrap_err().to_string();
-        assert!(e.contains("t.alm:1: Af1(s/s): missing"), "{e}");
+        assert!(e.contains("t.alm:1: field `Af1(s/s)`: missing"), "{e}");
         let e = parse_yuma("", "t.alm", 1).unwrap_err().to_string();
         assert!(e.contains("no almanac records"));
     }

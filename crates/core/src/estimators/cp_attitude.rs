@@ -368,36 +368,22 @@ pub fn paper_euler(c_nb: &Mat3) -> Vec3 {
 }
 
 /// The paper's least-squares DCM (eq. 4): `C_nb = R_b R_nᵀ (R_n R_nᵀ)⁻¹` from
-/// body baselines `b_b` and their navigation-frame estimates `b_n` (≥ 3,
-/// not coplanar). Not orthonormal in general. `None` when singular.
+/// three body baselines `b_b` and their navigation-frame estimates `b_n`
+/// (`attitude::dcm_from_baselines_ls`). Not orthonormal in general. `None`
+/// when singular or not three baselines.
 pub fn ls_dcm(b_b: &[Vec3], b_n: &[Vec3]) -> Option<Mat3> {
-    let mut rb_rnt = Mat3::zeros();
-    let mut rn_rnt = Mat3::zeros();
-    for (vb, vn) in b_b.iter().zip(b_n) {
-        rb_rnt += vb * vn.transpose();
-        rn_rnt += vn * vn.transpose();
-    }
-    let inv = rn_rnt.try_inverse()?;
-    Some(rb_rnt * inv)
-}
-
-/// Wahba's problem by SVD (Markley 1988): the rotation `C_nb` minimising
-/// `Σ wᵢ |b_b,i − C_nb b_n,i|²`. Private to seed 003 (the general one is
-/// `attitude::wahba_svd`, filled on another branch). `None` when degenerate.
-pub fn wahba_nb(b_b: &[Vec3], b_n: &[Vec3], w: &[f64]) -> Option<Mat3> {
-    let mut b = Mat3::zeros();
-    for ((vb, vn), wi) in b_b.iter().zip(b_n).zip(w) {
-        b += *wi * vb * vn.transpose();
-    }
-    let svd = b.svd(true, true);
-    let (u, vt) = (svd.u?, svd.v_t?);
-    let s = svd.singular_values;
-    if s[1] < 1e-12 * s[0].max(1e-300) {
+    if b_b.len() != 3 || b_n.len() != 3 {
         return None;
     }
-    let d = (u.determinant() * vt.determinant()).signum();
-    let m = Mat3::from_diagonal(&Vec3::new(1.0, 1.0, d));
-    Some(u * m * vt)
+    let r_b = Mat3::from_columns(b_b);
+    let r_n = Mat3::from_columns(b_n);
+    crate::attitude::dcm_from_baselines_ls::<3>(&r_b, &r_n)
+}
+
+/// Wahba's problem by SVD (`attitude::wahba_svd`, Markley 1988) in the
+/// paper's direction: the rotation `C_nb` minimising `Σ wᵢ |b_b,i − C_nb b_n,i|²`.
+pub fn wahba_nb(b_b: &[Vec3], b_n: &[Vec3], w: &[f64]) -> Option<Mat3> {
+    crate::attitude::wahba_svd(b_b, b_n, w).map(|c_bn| c_bn.transpose())
 }
 
 /// Attitude output of one epoch.
