@@ -6,7 +6,7 @@ use clap::{Args as ClapArgs, ValueEnum};
 use std::io::Write;
 use std::path::PathBuf;
 
-use navfuse_core::estimators::cp_attitude::{CpAttConfig, CpAttitude};
+use navfuse_core::estimators::cp_attitude::{CpAttConfig, CpAttitude, FixConfig, FixMethod};
 use navfuse_core::gnss::dd::DdNoise;
 use navfuse_core::Vec3;
 use navfuse_sim::carrier_phase::{
@@ -59,6 +59,9 @@ pub struct Args {
     pub almanac: Option<PathBuf>,
     #[arg(long)]
     pub synthetic_sky: bool,
+    /// Process noise q of the fixed-baseline filter [m²/s³] (0: epoch-wise fixed baselines).
+    #[arg(long, default_value_t = FixConfig::default().q_fixed)]
+    pub q_fixed: f64,
     /// Statistics over epochs after this one.
     #[arg(long, default_value_t = 150)]
     pub after: usize,
@@ -77,9 +80,13 @@ pub struct Row {
     pub rpy_fixed: Option<Vec3>,
     /// Whether every baseline's fixed integers equal the truth (None: not fixed).
     pub fix_correct: Option<bool>,
+    /// Every baseline fixed by LAMBDA on the float filter (not the search).
+    pub by_lambda: bool,
     /// Float DD ambiguity error [m] and its √P, first baseline, first DD.
     pub amb_err0: f64,
     pub amb_sd0: f64,
+    /// Every float DD ambiguity of baseline 1: (PRN pair, error [m], √P [m]).
+    pub amb: Vec<(u8, u8, f64, f64)>,
 }
 
 /// A processed scene.
@@ -108,15 +115,27 @@ pub fn run_scene(
     scene: &[SceneEpoch],
     cfg: &SceneConfig,
     fcfg: CpAttConfig,
-    _fix: bool,
+    fix: Option<FixConfig>,
 ) -> SceneRun {
     let mut est = CpAttitude::new(fcfg, &cfg.b_b);
+    if let Some(fc) = fix {
+        est = est.with_fixing(fc);
+    }
     let mut rows = Vec::with_capacity(scene.len());
     for s in scene {
         let sol = est.update(&s.epoch);
         let f = &est.filters[0];
         let (a, q, m) = f.ambiguities();
         let (mut amb_err0, mut amb_sd0) = (f64::NAN, f64::NAN);
+        let idx = |prn: u8| s.epoch.prn[..s.epoch.n_sats].iter().position(|&p| p == prn);
+        let mut amb = Vec::with_capacity(m);
+        for d in 0..m {
+            if let (Some(i), Some(j)) = (idx(f.prn[d]), idx(f.prn[d + 1])) {
+                let truth = navfuse_sim::carrier_phase::LAMBDA_L1
+                    * (s.sd_amb[0][i] - s.sd_amb[0][j]) as f64;
+                amb.push((f.prn[d], f.prn[d + 1], a[d] - truth, q[(d, d)].sqrt()));
+            }
+        }
         if m > 0 {
             // Truth of the filter's first DD (its PRN pair) from the scene.
             let idx = |prn: u8| s.epoch.prn[..s.epoch.n_sats].iter().position(|&p| p == prn);
@@ -132,10 +151,20 @@ pub fn run_scene(
             n_sats: s.epoch.n_sats,
             rpy_true: s.rpy,
             rpy_float: sol.rpy_float,
-            rpy_fixed: None,
-            fix_correct: None,
+            rpy_fixed: sol.rpy_fixed,
+            fix_correct: sol.rpy_fixed.map(|_| {
+                (0..cfg.b_b.len().min(3)).all(|k| {
+                    let f = &sol.fixes[k];
+                    (0..f.m).all(|i| f.n_dd[i] == s.sd_amb[k][i] - s.sd_amb[k][i + 1])
+                })
+            }),
+            by_lambda: sol.rpy_fixed.is_some()
+                && sol.fixes[..cfg.b_b.len().min(3)]
+                    .iter()
+                    .all(|f| f.method == FixMethod::LambdaFloat),
             amb_err0,
             amb_sd0,
+            amb,
         });
     }
     SceneRun { rows }
@@ -184,7 +213,11 @@ pub fn run(args: Args) -> Result<(), String> {
         ..Default::default()
     };
     let scene = simulate(&cfg, &orbits);
-    let run = run_scene(&scene, &cfg, fcfg, true);
+    let fix = FixConfig {
+        q_fixed: args.q_fixed,
+        ..Default::default()
+    };
+    let run = run_scene(&scene, &cfg, fcfg, Some(fix));
     if let Some(p) = &args.out {
         let f = std::fs::File::create(p).map_err(|e| format!("{}: {e}", p.display()))?;
         let mut w = std::io::BufWriter::new(f);

@@ -10,6 +10,7 @@ pub mod imu;
 pub mod kfgins;
 pub mod navcsv;
 pub mod pos;
+pub mod rinex;
 pub mod text;
 pub mod time;
 pub mod trajectory;

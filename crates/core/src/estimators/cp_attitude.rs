@@ -386,6 +386,369 @@ pub fn wahba_nb(b_b: &[Vec3], b_n: &[Vec3], w: &[f64]) -> Option<Mat3> {
     crate::attitude::wahba_svd(b_b, b_n, w).map(|c_bn| c_bn.transpose())
 }
 
+/// How an epoch's baseline integers were found.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+pub enum FixMethod {
+    #[default]
+    None,
+    /// LAMBDA on the float filter's ambiguities, ratio test passed.
+    LambdaFloat,
+    /// Single-epoch length-constrained search (below), ratio test passed.
+    ConstrainedSearch,
+}
+
+/// Integer fix of one baseline at one epoch.
+#[derive(Clone, Copy, Debug, PartialEq, Default)]
+pub struct BaselineFix {
+    pub method: FixMethod,
+    /// DD integers [cycles] in the epoch's satellite order (`n_sats − 1`).
+    pub n_dd: [i64; MAX_DD],
+    pub m: usize,
+    /// Fixed baseline, ENU [m].
+    pub b_n: Vec3,
+    /// Ratio test statistic (second best / best squared norm).
+    pub ratio: f64,
+}
+
+/// Configuration of the integer ambiguity resolution ("beyond" the paper).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct FixConfig {
+    /// Carrier wavelength [m].
+    pub lambda: f64,
+    /// Ratio test threshold.
+    pub ratio_min: f64,
+    /// Baseline length tolerance in the search and the integrity check [m].
+    pub len_tol: f64,
+    /// Inter-baseline angle tolerance of the integrity check [rad].
+    pub angle_tol: f64,
+    /// Try LAMBDA on the float filter first.
+    pub use_float_lambda: bool,
+    /// Single-epoch length-constrained search when LAMBDA does not pass.
+    pub use_search: bool,
+    /// Process noise q of the fixed-baseline filter [m²/s³]; 0 = no
+    /// smoothing (each epoch's fixed baselines alone).
+    pub q_fixed: f64,
+    /// Fixed-baseline filters coast this many epochs without a fix, then reset.
+    pub max_coast: u32,
+}
+
+impl Default for FixConfig {
+    fn default() -> Self {
+        FixConfig {
+            lambda: 0.190293673,
+            ratio_min: 3.0,
+            len_tol: 0.03,
+            angle_tol: 1.5f64.to_radians(),
+            use_float_lambda: true,
+            use_search: true,
+            q_fixed: 0.0,
+            max_coast: 6,
+        }
+    }
+}
+
+/// Weighted least-squares baseline from DDs with known integers:
+/// `b = (ΔSᵀ W ΔS)⁻¹ ΔSᵀ W (z − λN)`, `W = R⁻¹`; returns (b, weighted SSR).
+fn fixed_ls(ds: &[Vec3], z: &[f64], n: &[i64], lambda: f64, w: &DdMat) -> Option<(Vec3, f64)> {
+    fixed_ls_info(ds, z, n, lambda, w).map(|(b, s, _)| (b, s))
+}
+
+/// [`fixed_ls`] also returning the information matrix `ΔSᵀ W ΔS`.
+fn fixed_ls_info(
+    ds: &[Vec3],
+    z: &[f64],
+    n: &[i64],
+    lambda: f64,
+    w: &DdMat,
+) -> Option<(Vec3, f64, Mat3)> {
+    let m = ds.len();
+    let mut ata = Mat3::zeros();
+    let mut atb = Vec3::zeros();
+    let mut y = [0.0; MAX_DD];
+    for i in 0..m {
+        y[i] = z[i] - lambda * n[i] as f64;
+    }
+    for i in 0..m {
+        for j in 0..m {
+            let wij = w[(i, j)];
+            if wij == 0.0 {
+                continue;
+            }
+            ata += wij * ds[i] * ds[j].transpose();
+            atb += wij * ds[i] * y[j];
+        }
+    }
+    let b = ata.try_inverse()? * atb;
+    let info = ata;
+    let mut e = [0.0; MAX_DD];
+    for i in 0..m {
+        e[i] = y[i] - ds[i].dot(&b);
+    }
+    let mut ssr = 0.0;
+    for i in 0..m {
+        for j in 0..m {
+            ssr += e[i] * w[(i, j)] * e[j];
+        }
+    }
+    Some((b, ssr, info))
+}
+
+/// Weighted Wahba: the rotation `C_nb` minimising
+/// `Σ (b_n,k − C_bn b_b,k)ᵀ W_k (b_n,k − C_bn b_b,k)` with full 3×3 weights
+/// (Gauss–Newton on a small rotation from the SVD solution, 3 iterations).
+pub fn wahba_weighted_nb(b_b: &[Vec3], b_n: &[Vec3], w: &[Mat3]) -> Option<Mat3> {
+    let ones = [1.0; MAX_BASELINES];
+    let mut c_bn = wahba_nb(b_b, b_n, &ones[..b_b.len().min(MAX_BASELINES)])?.transpose();
+    for _ in 0..3 {
+        let mut n = Mat3::zeros();
+        let mut g = Vec3::zeros();
+        for ((vb, vn), wk) in b_b.iter().zip(b_n).zip(w) {
+            let u = c_bn * vb;
+            let a = crate::attitude::skew(&u);
+            let r = vn - u;
+            n += a.transpose() * wk * a;
+            g += a.transpose() * wk * r;
+        }
+        // e = r + [u×] δθ  ⇒  δθ = −N⁻¹ g.
+        let d = -(n.try_inverse()? * g);
+        c_bn = crate::attitude::dcm_from_rotvec(&d) * c_bn;
+        if d.norm() < 1e-12 {
+            break;
+        }
+    }
+    Some(c_bn.transpose())
+}
+
+/// Constant-velocity Kalman filter of a fixed baseline (ENU): state
+/// `[b, ḃ]`, measurement the epoch's fixed baseline with covariance
+/// `(ΔSᵀ R⁻¹ ΔS)⁻¹`; process noise spectral density `q` (as eq. 11).
+#[derive(Clone, Copy, Debug, PartialEq, Default)]
+pub struct FixedBaselineKf {
+    pub x: SVector<f64, 6>,
+    pub p: SMatrix<f64, 6, 6>,
+    pub t: f64,
+    pub active: bool,
+}
+
+impl FixedBaselineKf {
+    /// Predict to `t` and update with `b_meas` of information `info` [1/m²].
+    pub fn update(&mut self, t: f64, b_meas: &Vec3, info: &Mat3, q: f64) -> Option<()> {
+        let r = info.try_inverse()?;
+        if !self.active {
+            self.x = SVector::<f64, 6>::zeros();
+            self.p = SMatrix::<f64, 6, 6>::zeros();
+            for i in 0..3 {
+                self.x[i] = b_meas[i];
+                self.p[(3 + i, 3 + i)] = 0.1 * 0.1;
+                for j in 0..3 {
+                    self.p[(i, j)] = r[(i, j)];
+                }
+            }
+            self.t = t;
+            self.active = true;
+            return Some(());
+        }
+        self.predict(t, q);
+        let mut h = SMatrix::<f64, 3, 6>::zeros();
+        for i in 0..3 {
+            h[(i, i)] = 1.0;
+        }
+        let innov = b_meas - h * self.x;
+        let s = h * self.p * h.transpose() + r;
+        let k = self.p * h.transpose() * s.try_inverse()?;
+        self.x += k * innov;
+        let ikh = SMatrix::<f64, 6, 6>::identity() - k * h;
+        self.p = ikh * self.p * ikh.transpose() + k * r * k.transpose();
+        Some(())
+    }
+
+    /// Time update to `t`.
+    pub fn predict(&mut self, t: f64, q: f64) {
+        let dt = t - self.t;
+        if dt <= 0.0 || !self.active {
+            return;
+        }
+        let mut f = SMatrix::<f64, 6, 6>::identity();
+        for i in 0..3 {
+            f[(i, 3 + i)] = dt;
+        }
+        self.x = f * self.x;
+        self.p = f * self.p * f.transpose();
+        for i in 0..3 {
+            self.p[(i, i)] += q * dt * dt * dt / 3.0;
+            self.p[(i, 3 + i)] += q * dt * dt / 2.0;
+            self.p[(3 + i, i)] += q * dt * dt / 2.0;
+            self.p[(3 + i, 3 + i)] += q * dt;
+        }
+        self.t = t;
+    }
+
+    pub fn baseline(&self) -> Vec3 {
+        Vec3::new(self.x[0], self.x[1], self.x[2])
+    }
+
+    pub fn cov(&self) -> Mat3 {
+        self.p.fixed_view::<3, 3>(0, 0).into_owned()
+    }
+}
+
+/// Single-epoch ambiguity search constrained by the known baseline length
+/// (a least-squares ambiguity search in the spirit of Hatch 1990): the
+/// integers of the three best-conditioned DDs are enumerated over the range
+/// the length allows, each triple gives a baseline that must have the right
+/// length, the other DDs are rounded from it, and the candidates are ranked
+/// by the weighted residual. Returns the best with its ratio (second best /
+/// best), `None` with fewer than 4 DDs or no candidate.
+pub fn constrained_search(
+    ds: &[Vec3],
+    z: &[f64],
+    r: &DdMat,
+    length: f64,
+    cfg: &FixConfig,
+) -> Option<BaselineFix> {
+    let m = ds.len();
+    if !(4..=MAX_DD).contains(&m) {
+        return None;
+    }
+    let mut w = DdMat::zeros();
+    {
+        let mut rr = DdMat::identity();
+        for i in 0..m {
+            for j in 0..m {
+                rr[(i, j)] = r[(i, j)];
+            }
+        }
+        let inv = rr.try_inverse()?;
+        for i in 0..m {
+            for j in 0..m {
+                w[(i, j)] = inv[(i, j)];
+            }
+        }
+    }
+    // Best-conditioned triple (largest |det| of unit-normalised rows).
+    let mut best_t = (0, 1, 2);
+    let mut best_det = -1.0;
+    for i in 0..m {
+        for j in i + 1..m {
+            for k in j + 1..m {
+                let a = Mat3::from_rows(&[ds[i].transpose(), ds[j].transpose(), ds[k].transpose()]);
+                let d = a.determinant().abs() / (ds[i].norm() * ds[j].norm() * ds[k].norm());
+                if d > best_det {
+                    best_det = d;
+                    best_t = (i, j, k);
+                }
+            }
+        }
+    }
+    let (i0, i1, i2) = best_t;
+    let a = Mat3::from_rows(&[ds[i0].transpose(), ds[i1].transpose(), ds[i2].transpose()]);
+    let a_inv = a.try_inverse()?;
+    let lam = cfg.lambda;
+    let range = |i: usize| -> (i64, i64) {
+        let reach = ds[i].norm() * (length + cfg.len_tol);
+        (
+            ((z[i] - reach) / lam).floor() as i64 - 1,
+            ((z[i] + reach) / lam).ceil() as i64 + 1,
+        )
+    };
+    let (r0, r1, r2) = (range(i0), range(i1), range(i2));
+    let mut best: [(f64, [i64; MAX_DD], Vec3); 2] =
+        [(f64::INFINITY, [0; MAX_DD], Vec3::zeros()); 2];
+    for n0 in r0.0..=r0.1 {
+        for n1 in r1.0..=r1.1 {
+            for n2 in r2.0..=r2.1 {
+                let y = Vec3::new(
+                    z[i0] - lam * n0 as f64,
+                    z[i1] - lam * n1 as f64,
+                    z[i2] - lam * n2 as f64,
+                );
+                let b = a_inv * y;
+                if (b.norm() - length).abs() > cfg.len_tol {
+                    continue;
+                }
+                let mut n = [0i64; MAX_DD];
+                for i in 0..m {
+                    n[i] = ((z[i] - ds[i].dot(&b)) / lam).round() as i64;
+                }
+                let Some((bf, ssr)) = fixed_ls(&ds[..m], &z[..m], &n[..m], lam, &w) else {
+                    continue;
+                };
+                if (bf.norm() - length).abs() > cfg.len_tol {
+                    continue;
+                }
+                if (best[0].0.is_finite() && best[0].1[..m] == n[..m])
+                    || (best[1].0.is_finite() && best[1].1[..m] == n[..m])
+                {
+                    continue;
+                }
+                if ssr < best[0].0 {
+                    best[1] = best[0];
+                    best[0] = (ssr, n, bf);
+                } else if ssr < best[1].0 {
+                    best[1] = (ssr, n, bf);
+                }
+            }
+        }
+    }
+    if !best[0].0.is_finite() {
+        return None;
+    }
+    Some(BaselineFix {
+        method: FixMethod::ConstrainedSearch,
+        n_dd: best[0].1,
+        m,
+        b_n: best[0].2,
+        ratio: if best[0].0 > 0.0 {
+            best[1].0 / best[0].0
+        } else {
+            f64::INFINITY
+        },
+    })
+}
+
+/// LAMBDA on the float filter of one baseline; the fixed baseline is the
+/// conditional `b̌ = b̂ − P_ba P_aa⁻¹ (â − λ ž)` (Teunissen 1995).
+pub fn lambda_on_float(f: &BaselineFilter, cfg: &FixConfig) -> Option<BaselineFix> {
+    let (a, q, m) = f.ambiguities();
+    if !(1..=MAX_DD).contains(&m) {
+        return None;
+    }
+    let lam = cfg.lambda;
+    let mut ac = [0.0; MAX_DD];
+    let mut qc = [0.0; MAX_DD * MAX_DD];
+    for i in 0..m {
+        ac[i] = a[i] / lam;
+        for j in 0..m {
+            qc[i * m + j] = q[(i, j)] / (lam * lam);
+        }
+    }
+    let res = crate::lambda::lambda(&ac[..m], &qc[..m * m], m, 2).ok()?;
+    let mut n = [0i64; MAX_DD];
+    let mut da = DdVec::zeros();
+    let mut qa = DdMat::identity();
+    for i in 0..m {
+        n[i] = res.fixed[0][i] as i64;
+        da[i] = a[i] - lam * res.fixed[0][i];
+        for j in 0..m {
+            qa[(i, j)] = q[(i, j)];
+        }
+    }
+    let sol = qa.cholesky()?.solve(&da);
+    let mut b = f.baseline();
+    for c in 0..3 {
+        for i in 0..m {
+            b[c] -= f.p[(c, 6 + i)] * sol[i];
+        }
+    }
+    Some(BaselineFix {
+        method: FixMethod::LambdaFloat,
+        n_dd: n,
+        m,
+        b_n: b,
+        ratio: res.ratio(),
+    })
+}
+
 /// Attitude output of one epoch.
 #[derive(Clone, Copy, Debug, PartialEq, Default)]
 pub struct CpAttSolution {
@@ -395,17 +758,26 @@ pub struct CpAttSolution {
     /// Float baselines, ENU [m].
     pub b_n_float: [Vec3; MAX_BASELINES],
     pub n_sats: usize,
+    /// Fixed solution when every baseline passed the ratio test and the
+    /// integrity checks: Wahba/SVD attitude with the known body geometry.
+    pub rpy_fixed: Option<Vec3>,
+    pub fixes: [BaselineFix; MAX_BASELINES],
+    /// Why the fix was rejected (0 none, 1 ratio/no candidate, 2 length, 3 angle).
+    pub reject: u8,
 }
 
 /// The seed 003 estimator: one float filter per baseline and the paper's
-/// least-squares attitude.
+/// least-squares attitude; optionally integer fixing + Wahba.
 #[derive(Clone, Debug)]
 pub struct CpAttitude {
     pub cfg: CpAttConfig,
+    pub fix: Option<FixConfig>,
     /// Body-frame baselines (slave − master) [m].
     pub b_b: [Vec3; MAX_BASELINES],
     pub n_baselines: usize,
     pub filters: [BaselineFilter; MAX_BASELINES],
+    pub fixed_kf: [FixedBaselineKf; MAX_BASELINES],
+    coast: u32,
 }
 
 impl CpAttitude {
@@ -416,13 +788,23 @@ impl CpAttitude {
         bb[..n].copy_from_slice(&b_b[..n]);
         CpAttitude {
             cfg,
+            fix: None,
             b_b: bb,
             n_baselines: n,
             filters: core::array::from_fn(|_| BaselineFilter::default()),
+            fixed_kf: [FixedBaselineKf::default(); MAX_BASELINES],
+            coast: 0,
         }
     }
 
-    /// Feed one epoch; returns the float attitude (NaN when fewer than 3 baselines).
+    /// Enable integer fixing.
+    pub fn with_fixing(mut self, fix: FixConfig) -> Self {
+        self.fix = Some(fix);
+        self
+    }
+
+    /// Feed one epoch; returns the float attitude (NaN when fewer than 3
+    /// baselines) and, with fixing enabled, the fixed one.
     pub fn update(&mut self, ep: &CpEpoch) -> CpAttSolution {
         let nb = self.n_baselines.min(ep.n_baselines);
         let mut sol = CpAttSolution {
@@ -440,7 +822,138 @@ impl CpAttitude {
                 sol.rpy_float = paper_euler(&c);
             }
         }
+        if let Some(fc) = self.fix {
+            self.fix_epoch(ep, nb, &fc, &mut sol);
+        }
         sol
+    }
+
+    fn fix_epoch(&mut self, ep: &CpEpoch, nb: usize, fc: &FixConfig, sol: &mut CpAttSolution) {
+        let n = ep.n_sats;
+        if n < 5 || nb < 2 {
+            sol.reject = 1;
+            return;
+        }
+        let m = n - 1;
+        let mut ds = [Vec3::zeros(); MAX_DD];
+        for i in 0..m {
+            ds[i] = ep.los_enu[i] - ep.los_enu[i + 1];
+        }
+        let r = dd_covariance(&ep.sigma[..n], self.cfg.dd_noise);
+        let mut b_fix = [Vec3::zeros(); MAX_BASELINES];
+        let mut z_all = [[0.0; MAX_DD]; MAX_BASELINES];
+        for k in 0..nb {
+            for i in 0..m {
+                z_all[k][i] = ep.sd_phase[k][i] - ep.sd_phase[k][i + 1];
+            }
+        }
+        let mut w = DdMat::zeros();
+        if let Some(inv) = r.try_inverse() {
+            for i in 0..m {
+                for j in 0..m {
+                    w[(i, j)] = inv[(i, j)];
+                }
+            }
+        }
+        let ok = self.fix_baselines(ep, nb, fc, sol, &ds[..m], &z_all, &r, &mut b_fix);
+        if !ok {
+            self.coast += 1;
+            if self.coast > fc.max_coast {
+                for f in self.fixed_kf.iter_mut() {
+                    f.active = false;
+                }
+            }
+            return;
+        }
+        self.coast = 0;
+        // Fixed baselines re-estimated with all DDs (weights W), information per baseline.
+        let mut info = [Mat3::identity(); MAX_BASELINES];
+        for k in 0..nb {
+            let f = &sol.fixes[k];
+            if let Some((b, _, inf)) =
+                fixed_ls_info(&ds[..m], &z_all[k][..m], &f.n_dd[..m], fc.lambda, &w)
+            {
+                b_fix[k] = b;
+                info[k] = inf;
+            }
+        }
+        let mut b_use = b_fix;
+        let mut w_use = info;
+        if fc.q_fixed > 0.0 {
+            for k in 0..nb {
+                if self.fixed_kf[k]
+                    .update(ep.t, &b_fix[k], &info[k], fc.q_fixed)
+                    .is_some()
+                {
+                    b_use[k] = self.fixed_kf[k].baseline();
+                    w_use[k] = self.fixed_kf[k].cov().try_inverse().unwrap_or(info[k]);
+                }
+            }
+        }
+        if let Some(c) = wahba_weighted_nb(&self.b_b[..nb], &b_use[..nb], &w_use[..nb]) {
+            sol.rpy_fixed = Some(paper_euler(&c));
+        }
+    }
+
+    /// Fix every baseline (LAMBDA on the float filter, else the constrained
+    /// search), then check lengths and inter-baseline angles.
+    #[allow(clippy::too_many_arguments)]
+    fn fix_baselines(
+        &self,
+        ep: &CpEpoch,
+        nb: usize,
+        fc: &FixConfig,
+        sol: &mut CpAttSolution,
+        ds: &[Vec3],
+        z_all: &[[f64; MAX_DD]; MAX_BASELINES],
+        r: &DdMat,
+        b_fix: &mut [Vec3; MAX_BASELINES],
+    ) -> bool {
+        let n = ep.n_sats;
+        let m = ds.len();
+        for k in 0..nb {
+            let len = self.b_b[k].norm();
+            let mut fx = None;
+            if fc.use_float_lambda && self.filters[k].n_sats == n {
+                if let Some(f) = lambda_on_float(&self.filters[k], fc) {
+                    let _ = n;
+                    if f.ratio >= fc.ratio_min && (f.b_n.norm() - len).abs() <= fc.len_tol {
+                        fx = Some(f);
+                    }
+                }
+            }
+            if fx.is_none() && fc.use_search {
+                if let Some(f) = constrained_search(ds, &z_all[k][..m], r, len, fc) {
+                    if f.ratio >= fc.ratio_min {
+                        fx = Some(f);
+                    }
+                }
+            }
+            let Some(f) = fx else {
+                sol.reject = 1;
+                return false;
+            };
+            if (f.b_n.norm() - len).abs() > fc.len_tol {
+                sol.reject = 2;
+                return false;
+            }
+            sol.fixes[k] = f;
+            b_fix[k] = f.b_n;
+        }
+        // Integrity: inter-baseline angles against the body geometry.
+        for i in 0..nb {
+            for j in i + 1..nb {
+                let ang =
+                    |a: &Vec3, b: &Vec3| (a.dot(b) / (a.norm() * b.norm())).clamp(-1.0, 1.0).acos();
+                if (ang(&b_fix[i], &b_fix[j]) - ang(&self.b_b[i], &self.b_b[j])).abs()
+                    > fc.angle_tol
+                {
+                    sol.reject = 3;
+                    return false;
+                }
+            }
+        }
+        true
     }
 }
 
