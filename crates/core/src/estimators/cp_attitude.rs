@@ -53,6 +53,9 @@ pub struct CpAttConfig {
     /// Prior σ of a newly risen satellite's ambiguity beyond what the
     /// baseline predicts [m].
     pub sigma_new_amb: f64,
+    /// False-alarm probability of the cycle-slip NIS gate (0 = off; the
+    /// paper has none).
+    pub slip_gate: f64,
 }
 
 impl Default for CpAttConfig {
@@ -64,6 +67,7 @@ impl Default for CpAttConfig {
             sigma_baseline0: 1.0,
             sigma_rate0: 0.1,
             sigma_new_amb: 1.0,
+            slip_gate: 0.0,
         }
     }
 }
@@ -116,6 +120,8 @@ pub struct BaselineFilter {
     initialized: bool,
     /// Number of times the satellite set or order changed (state re-mapped).
     pub remaps: u32,
+    /// Number of ambiguities reset by the cycle-slip detector.
+    pub slips_detected: u32,
 }
 
 impl Default for BaselineFilter {
@@ -128,6 +134,7 @@ impl Default for BaselineFilter {
             t_last: 0.0,
             initialized: false,
             remaps: 0,
+            slips_detected: 0,
         }
     }
 }
@@ -328,7 +335,69 @@ impl BaselineFilter {
             self.initialize(ep, k, cfg);
             return 0.0;
         }
+        if cfg.slip_gate > 0.0 {
+            self.detect_slips(ep, k, cfg);
+        }
         self.correct(ep, k, cfg)
+    }
+
+    /// Normalised innovation squared of the DDs of baseline `k` against the
+    /// current (predicted) state, without updating.
+    fn nis(&self, ep: &CpEpoch, k: usize, cfg: &CpAttConfig) -> f64 {
+        let n = ep.n_sats;
+        let m = n - 1;
+        let r: DdMat = dd_covariance(&ep.sigma[..n], cfg.dd_noise);
+        let mut h = SMatrix::<f64, MAX_DD, NS>::zeros();
+        let mut z = DdVec::zeros();
+        for i in 0..m {
+            let ds = ep.los_enu[i] - ep.los_enu[i + 1];
+            for c in 0..3 {
+                h[(i, c)] = ds[c];
+            }
+            h[(i, 6 + i)] = 1.0;
+            z[i] = ep.sd_phase[k][i] - ep.sd_phase[k][i + 1];
+        }
+        let innov = z - h * self.x;
+        let s = h * self.p * h.transpose() + r;
+        match s.cholesky() {
+            Some(ch) => innov.dot(&ch.solve(&innov)),
+            None => f64::NAN,
+        }
+    }
+
+    /// Cycle-slip detection: when the predicted NIS exceeds the χ²(n−1)
+    /// quantile of `cfg.slip_gate` (false-alarm probability, Wilson–Hilferty),
+    /// the satellite whose ambiguity reset lowers the NIS most is treated as
+    /// newly risen (fresh ambiguity), repeated up to 2 satellites per epoch.
+    fn detect_slips(&mut self, ep: &CpEpoch, k: usize, cfg: &CpAttConfig) {
+        let m = ep.n_sats - 1;
+        if m < 4 {
+            return;
+        }
+        for _ in 0..2 {
+            let nis = self.nis(ep, k, cfg);
+            let gate = chi2_quantile(m as f64, cfg.slip_gate);
+            if !(nis > gate) {
+                return;
+            }
+            let mut best: Option<(usize, f64, Self)> = None;
+            for s in 0..ep.n_sats {
+                let mut trial = self.clone();
+                trial.prn[s] = 0; // forget this satellite: re-mapped as new
+                if !trial.remap(ep, k, cfg) {
+                    continue;
+                }
+                let v = trial.nis(ep, k, cfg);
+                if v.is_finite() && best.as_ref().map(|b| v < b.1).unwrap_or(true) {
+                    best = Some((s, v, trial));
+                }
+            }
+            let Some((_, _, trial)) = best else { return };
+            let remaps = self.remaps;
+            *self = trial;
+            self.remaps = remaps;
+            self.slips_detected += 1;
+        }
     }
 
     /// Float DD ambiguities [m] and their covariance block, active part only.
@@ -344,6 +413,24 @@ impl BaselineFilter {
         }
         (a, q, m)
     }
+}
+
+/// Upper `1 − alpha` quantile of χ²(k) (Wilson–Hilferty approximation).
+pub fn chi2_quantile(k: f64, alpha: f64) -> f64 {
+    // Normal quantile by bisection on erf (no_std friendly).
+    let (mut lo, mut hi) = (0.0f64, 10.0f64);
+    for _ in 0..60 {
+        let mid = 0.5 * (lo + hi);
+        let tail = 0.5 * libm::erfc(mid / core::f64::consts::SQRT_2);
+        if tail > alpha {
+            lo = mid;
+        } else {
+            hi = mid;
+        }
+    }
+    let z = 0.5 * (lo + hi);
+    let a = 2.0 / (9.0 * k);
+    k * (1.0 - a + z * a.sqrt()).powi(3)
 }
 
 /// The paper's DCM `C_nb = C(φ) C(θ) C(ψ)` (eq. 1; ψ about z, θ about x,
@@ -975,6 +1062,46 @@ mod tests {
         assert!((c[(0, 0)] - (cp * cy - sp * st * sy)).abs() < 1e-12);
         let e = paper_euler(&c);
         assert!((e - Vec3::new(r, p, y)).norm() < 1e-12);
+    }
+
+    #[test]
+    fn chi2_quantiles() {
+        // χ²(10) upper 1 % ≈ 23.21, χ²(4) upper 0.1 % ≈ 18.47.
+        assert!((chi2_quantile(10.0, 0.01) - 23.21).abs() < 0.2);
+        assert!((chi2_quantile(4.0, 0.001) - 18.47).abs() < 0.5);
+    }
+
+    /// The constrained search finds the true integers in one noise-free epoch,
+    /// and the integrity/length rules reject a wrong body length.
+    #[test]
+    fn constrained_search_single_epoch() {
+        const LAM: f64 = 0.190293673;
+        let b = Vec3::new(0.3, -0.8, 0.52).normalize();
+        let mut ds = [Vec3::zeros(); 8];
+        let mut z = [0.0; 8];
+        let mut n_true = [0i64; 8];
+        let mut prev = Vec3::z();
+        for i in 0..9 {
+            let el = 1.4 - 0.14 * i as f64;
+            let az = 1.9 * i as f64;
+            let s = Vec3::new(el.cos() * az.sin(), el.cos() * az.cos(), el.sin());
+            if i > 0 {
+                ds[i - 1] = prev - s;
+                n_true[i - 1] = (i as i64 * 37) % 11 - 5;
+                z[i - 1] = ds[i - 1].dot(&b) + LAM * n_true[i - 1] as f64;
+            }
+            prev = s;
+        }
+        let r = dd_covariance(&[0.002; 9], DdNoise::PaperDiagonal);
+        let cfg = FixConfig::default();
+        let f = constrained_search(&ds, &z, &r, 1.0, &cfg).unwrap();
+        assert_eq!(&f.n_dd[..8], &n_true);
+        assert!((f.b_n - b).norm() < 1e-9);
+        assert!(f.ratio > 100.0, "{}", f.ratio);
+        // With a body length 20 cm off no candidate has the true integers.
+        if let Some(g) = constrained_search(&ds, &z, &r, 1.2, &cfg) {
+            assert_ne!(&g.n_dd[..8], &n_true);
+        }
     }
 
     #[test]
