@@ -377,7 +377,7 @@ impl BaselineFilter {
         for _ in 0..2 {
             let nis = self.nis(ep, k, cfg);
             let gate = chi2_quantile(m as f64, cfg.slip_gate);
-            if !(nis > gate) {
+            if nis.is_nan() || nis <= gate {
                 return;
             }
             let mut best: Option<(usize, f64, Self)> = None;
