@@ -16,6 +16,8 @@ pub mod trajectory;
 pub mod writers;
 
 #[cfg(test)]
+mod realdata;
+#[cfg(test)]
 mod testutil;
 
 pub use error::{ReadError, RecordStats};
