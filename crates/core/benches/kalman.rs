@@ -1,5 +1,5 @@
 //! Kalman core timings: 15-state covariance predict with an INS-like
-//! transition (NED psi-angle error model, Groves 2nd ed. eq. 14.63 blocks,
+//! transition (NED psi-angle error model blocks, Groves 2nd ed. ch. 14,
 //! F = I + F_c·dt at 100 Hz) and a 6-measurement (position + velocity) Joseph
 //! update. Run: `cargo bench -p navfuse-core --bench kalman`.
 

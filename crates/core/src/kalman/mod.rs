@@ -5,7 +5,7 @@
 //! the heap (checked by `tests/kalman_no_alloc.rs`); only the RTS smoother
 //! store ([`RtsStore`], feature `alloc`) keeps a history.
 //!
-//! - [`predict`]: `P ← F P Fᵀ + Q` (Groves eq. 3.46), symmetrised;
+//! - [`predict`]: `P ← F P Fᵀ + Q` (Groves §3.2.2), symmetrised;
 //!   [`predict_sparse`] computes the same, skipping zero entries of `F`
 //!   (an INS `F = I + F_c Δt` is ~70 % zeros).
 //! - [`update_joseph`]: Joseph-form covariance update (Bucy & Joseph 1968;
@@ -38,7 +38,7 @@ pub fn symmetrize<const N: usize>(p: &mut SMatrix<f64, N, N>) {
 }
 
 /// Covariance predict in place: `P ← F P Fᵀ + Q`, then symmetrised
-/// (Groves eq. 3.46; `F` the transition matrix Φ, `Q` the discrete process noise).
+/// (Groves §3.2.2; `F` the transition matrix Φ, `Q` the discrete process noise).
 pub fn predict<const N: usize>(
     p: &mut SMatrix<f64, N, N>,
     f: &SMatrix<f64, N, N>,
@@ -53,49 +53,62 @@ pub fn predict<const N: usize>(
 
 /// Same result as [`predict`] (to rounding), skipping the zero entries of `F`.
 ///
-/// Computes `W = P Fᵀ` column by column from the non-zeros of each row of `F`,
-/// then only the upper triangle of `F W + Q`, mirrored to the lower one; the
-/// cost is about 1.5·nnz(F)·N multiply-adds instead of 2·N³. General: any `F`
-/// is accepted (a dense one just gains nothing). The output is exactly
-/// symmetric; it equals [`predict`] when `P` is symmetric on entry, as every
-/// function in this module leaves it.
+/// With `P` symmetric, `W = P Fᵀ` has columns `w_j = Σ_k F[j,k] · p_k` and
+/// `F P Fᵀ = F W` has columns `Σ_k F[j,k] · (row k of W)ᵀ`; both are sums of
+/// contiguous column `axpy`s over the non-zeros of row `j` of `F`, about
+/// 2·nnz(F)·N multiply-adds instead of 2·N³. General: any `F` is accepted (a
+/// dense one just gains nothing). Assumes `P` symmetric on entry, as every
+/// function in this module leaves it; the result is symmetrised like [`predict`].
 pub fn predict_sparse<const N: usize>(
     p: &mut SMatrix<f64, N, N>,
     f: &SMatrix<f64, N, N>,
     q: &SMatrix<f64, N, N>,
 ) {
-    // Row-wise non-zero pattern of F: cols[i][..cnt[i]] (stack arrays).
-    let mut cols = [[0usize; N]; N];
+    // Row-wise non-zeros of F: (column, value), stack arrays.
+    let mut nz = [[(0usize, 0.0f64); N]; N];
     let mut cnt = [0usize; N];
     for k in 0..N {
-        for i in 0..N {
-            if f[(i, k)] != 0.0 {
-                cols[i][cnt[i]] = k;
-                cnt[i] += 1;
+        for j in 0..N {
+            let v = f[(j, k)];
+            if v != 0.0 {
+                nz[j][cnt[j]] = (k, v);
+                cnt[j] += 1;
             }
         }
     }
-    // W = P Fᵀ: column j = Σ_k F[j,k] · P[:,k].
+    // W = P Fᵀ (column-major slices: column k of P is ps[k*N..][..N]).
     let mut w = SMatrix::<f64, N, N>::zeros();
-    for j in 0..N {
-        let mut wj = w.column_mut(j);
-        for &k in &cols[j][..cnt[j]] {
-            wj.axpy(f[(j, k)], &p.column(k), 1.0);
-        }
-    }
-    // P'[i,j] = Σ_k F[i,k] W[k,j] + Q[i,j], i ≤ j, mirrored.
-    for j in 0..N {
-        let wj = w.column(j);
-        for i in 0..=j {
-            let mut s = 0.0;
-            for &k in &cols[i][..cnt[i]] {
-                s += f[(i, k)] * wj[k];
+    {
+        let ps = p.as_slice();
+        let ws = w.as_mut_slice();
+        for j in 0..N {
+            let dst = &mut ws[j * N..(j + 1) * N];
+            for &(k, a) in &nz[j][..cnt[j]] {
+                let src = &ps[k * N..(k + 1) * N];
+                for (d, s) in dst.iter_mut().zip(src) {
+                    *d += a * s;
+                }
             }
-            let v = s + 0.5 * (q[(i, j)] + q[(j, i)]);
-            p[(i, j)] = v;
-            p[(j, i)] = v;
         }
     }
+    // Wᵀ, so that rows of W become contiguous columns.
+    let wt = w.transpose();
+    // P' = F W + Q: column j = q_j + Σ_k F[j,k] · (Wᵀ)_k.
+    p.copy_from(q);
+    {
+        let ws = wt.as_slice();
+        let out = p.as_mut_slice();
+        for j in 0..N {
+            let dst = &mut out[j * N..(j + 1) * N];
+            for &(k, a) in &nz[j][..cnt[j]] {
+                let src = &ws[k * N..(k + 1) * N];
+                for (d, s) in dst.iter_mut().zip(src) {
+                    *d += a * s;
+                }
+            }
+        }
+    }
+    symmetrize(p);
 }
 
 /// Result of one measurement update.

@@ -4,7 +4,7 @@
 //! from the previous epoch, the predicted `(x⁻, P⁻)` and the filtered
 //! `(x⁺, P⁺)` (equal to the prediction when the epoch had no measurement).
 //! [`RtsStore::smooth`] then runs the backward pass (Rauch, Tung & Striebel
-//! 1965; Groves 2nd ed. §3.4.2, eq. 3.83–3.85):
+//! 1965; Groves 2nd ed. ch. 3, fixed-interval smoothing):
 //!
 //! ```text
 //! G_k   = P⁺_k F_{k+1}ᵀ (P⁻_{k+1})⁻¹

@@ -29,7 +29,7 @@ impl Rng {
 }
 
 /// INS-like 15-state transition F = I + F_c dt (pos, vel, att, b_a, b_g; NED),
-/// Groves eq. 14.63-style block structure.
+/// psi-angle error-model block structure (Groves ch. 14; Titterton & Weston ch. 12).
 fn ins_f(rng: &mut Rng) -> SMatrix<f64, 15, 15> {
     let dt = 0.01;
     let mut fc = SMatrix::<f64, 15, 15>::zeros();
@@ -283,7 +283,7 @@ fn chi2_cdf_inverts_quantile_and_edges() {
 // ---------------------------------------------------------------------------
 // RTS smoother against an independent batch least-squares solution.
 
-/// Constant-velocity model with white-noise acceleration (Groves eq. 3.41–3.42 analogue).
+/// Constant-velocity model with white-noise acceleration (discrete white-noise acceleration).
 fn cv_model(dt: f64, q: f64) -> (Matrix2<f64>, Matrix2<f64>) {
     let f = Matrix2::new(1.0, dt, 0.0, 1.0);
     let qd = Matrix2::new(
