@@ -3,7 +3,7 @@
 //! F = I + F_c·dt at 100 Hz) and a 6-measurement (position + velocity) Joseph
 //! update. Run: `cargo bench -p navfuse-core --bench kalman`.
 
-use criterion::{black_box, criterion_group, criterion_main, Criterion};
+use criterion::{black_box, criterion_group, Criterion};
 use nalgebra::{SMatrix, SVector};
 use navfuse_core::attitude::{dcm_from_euler, skew};
 use navfuse_core::kalman::{predict, predict_sparse, update_joseph};
@@ -92,5 +92,66 @@ fn bench(c: &mut Criterion) {
     });
 }
 
+/// On-CPU nanoseconds of this thread (Linux `schedstat`), so the per-step
+/// cost can be reported even when other processes load the machine and
+/// inflate criterion's wall-clock times.
+fn thread_cpu_ns() -> Option<u64> {
+    std::fs::read_to_string("/proc/thread-self/schedstat")
+        .ok()?
+        .split_whitespace()
+        .next()?
+        .parse()
+        .ok()
+}
+
+fn cpu_time_per_call(name: &str, iters: u32, mut step: impl FnMut()) {
+    for _ in 0..iters / 10 {
+        step();
+    }
+    let (Some(t0), w0) = (thread_cpu_ns(), std::time::Instant::now()) else {
+        return;
+    };
+    for _ in 0..iters {
+        step();
+    }
+    let wall = w0.elapsed().as_nanos() as f64 / iters as f64;
+    if let Some(t1) = thread_cpu_ns() {
+        let cpu = (t1 - t0) as f64 / iters as f64;
+        println!("{name:<24} on-CPU {cpu:8.0} ns/call   (wall {wall:8.0} ns/call, {iters} calls)");
+    }
+}
+
+fn cpu_time_report() {
+    let f = ins_f(0.01);
+    let q = SMatrix::<f64, N, N>::identity() * 1e-9;
+    let p0 = initial_p();
+    let mut h = SMatrix::<f64, 6, N>::zeros();
+    for i in 0..6 {
+        h[(i, i)] = 1.0;
+    }
+    let r = SMatrix::<f64, 6, 6>::identity();
+    let nu = SVector::<f64, 6>::new(0.5, -0.3, 1.0, 0.02, -0.01, 0.03);
+    let n = 200_000;
+    let mut p = p0;
+    cpu_time_per_call("predict_15_dense", n, || {
+        predict(&mut p, black_box(&f), black_box(&q))
+    });
+    let mut p = p0;
+    cpu_time_per_call("predict_15_sparse", n, || {
+        predict_sparse(&mut p, black_box(&f), black_box(&q))
+    });
+    cpu_time_per_call("update_joseph_15x6", n, || {
+        let mut x = SVector::<f64, N>::zeros();
+        let mut p = p0;
+        black_box(update_joseph(&mut x, &mut p, &h, &r, black_box(&nu), None));
+        black_box((x, p));
+    });
+}
+
 criterion_group!(benches, bench);
-criterion_main!(benches);
+
+fn main() {
+    benches();
+    cpu_time_report();
+    Criterion::default().configure_from_args().final_summary();
+}
