@@ -428,3 +428,24 @@ fn rts_scalar_random_walk_and_errors() {
     bad.push(2.0, &f, &x0, &m1(1.0), &x0, &m1(1.0));
     assert_eq!(bad.smooth(), Err(RtsError::SingularPrediction { step: 1 }));
 }
+
+#[test]
+fn joseph_keeps_covariance_psd_under_precise_measurements() {
+    // Large prior, near-perfect measurements of combinations of states: the
+    // conventional (I − K H) P form is prone to losing symmetry/definiteness
+    // here; the Joseph form must keep P symmetric and PSD.
+    let mut rng = Rng(21);
+    let mut x = SVector::<f64, 6>::zeros();
+    let mut p = rng.spd::<6>() * 1e6;
+    for step in 0..50 {
+        let h: SMatrix<f64, 2, 6> = rng.mat();
+        let r = SMatrix::<f64, 2, 2>::identity() * 1e-10;
+        let nu: SVector<f64, 2> = rng.mat();
+        let info = update_joseph(&mut x, &mut p, &h, &r, &nu, None);
+        assert!(info.accepted, "step {step}");
+        assert_eq!(p, p.transpose());
+        let ev = p.symmetric_eigenvalues();
+        assert!(ev.min() > -1e-9 * ev.max().max(1.0), "step {step}: {ev}");
+        predict(&mut p, &SMatrix::identity(), &(SMatrix::identity() * 1e-8));
+    }
+}
