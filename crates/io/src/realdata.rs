@@ -98,6 +98,7 @@ fn drive_csv_imu_parses_with_repeated_rows_counted() {
     let (r, n) = open("drive_0708/imu_1934_gpst.csv");
     let cfg = CsvImuConfig {
         mount_rpy_deg: None,
+        misalign_rpy_deg: None,
         ..CsvImuConfig::drive_0708()
     };
     let t0 = Instant::now();
@@ -135,4 +136,46 @@ fn vn310_csv_imu_parses() {
     let fz = v.iter().map(|s| s.dvel_b.z / s.dt).sum::<f64>() / v.len() as f64;
     assert!((fz + 9.80).abs() < 0.05, "static specific force z {fz}");
     assert_eq!(v[0].t, gps_seconds(2303, 403_575.847627));
+}
+
+#[test]
+#[ignore = "real data: run with `cargo test --release -- --ignored`"]
+fn drive_preset_mounting_matches_kfgins_body_frame_at_rest() {
+    // Mean specific force over the first 3 s (vehicle at rest), preset vs the
+    // KF-GINS input that was prepared with the upstream mounting.
+    let (r, n) = open("drive_0708/imu_1934_gpst.csv");
+    let v: Vec<_> = CsvImuReader::new(r, &n, CsvImuConfig::drive_0708())
+        .map(Result::unwrap)
+        .take_while(|s| s.t < gps_seconds(2374, 243_264.85))
+        .collect();
+    let f = v
+        .iter()
+        .map(|s| s.dvel_b)
+        .sum::<navfuse_core::types::Vec3>()
+        / v.iter().map(|s| s.dt).sum::<f64>();
+    let (r, n) = open("drive_0708/kfgins/imu.txt");
+    let k: Vec<_> = KfGinsImuReader::new(
+        r,
+        &n,
+        KfGinsImuOptions {
+            week: 2374,
+            ..Default::default()
+        },
+    )
+    .map(Result::unwrap)
+    .take_while(|s| s.t < gps_seconds(2374, 243_264.66))
+    .collect();
+    let fk = k
+        .iter()
+        .map(|s| s.dvel_b)
+        .sum::<navfuse_core::types::Vec3>()
+        / k.iter().map(|s| s.dt).sum::<f64>();
+    eprintln!("static f_b: preset {f:?}, kfgins imu.txt {fk:?}");
+    assert!(f.z < -9.7 && f.x.abs() < 0.05, "{f}");
+    let cos = f.dot(&fk) / (f.norm() * fk.norm());
+    assert!(
+        cos.acos().to_degrees() < 1.0,
+        "directions differ by {}°",
+        cos.acos().to_degrees()
+    );
 }
