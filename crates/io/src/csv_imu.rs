@@ -551,6 +551,42 @@ mod tests {
         assert!(r.stats().is_balanced());
     }
 
+    #[test]
+    fn increment_form_by_header_names_with_seconds_column() {
+        let data = "# increments\ntime_s,dax,day,daz,dvx,dvy,dvz\n100.00,0.5,0,0,0.01,0,-0.098\n100.02,0,1.0,0,0.02,0,-0.196\n";
+        let n = |s: &str| Col::Name(s.to_string());
+        let cfg = CsvImuConfig {
+            header: true,
+            columns: None,
+            time: CsvTime::Seconds(n("time_s")),
+            week: 2374,
+            gyro: [n("dax"), n("day"), n("daz")],
+            accel: [n("dvx"), n("dvy"), n("dvz")],
+            gyro_unit: GyroUnit::Deg,
+            accel_unit: AccelUnit::Si,
+            form: ImuForm::Increment,
+            mount_rpy_deg: None,
+            misalign_rpy_deg: None,
+            reject_repeated_values: false,
+            ..CsvImuConfig::drive_0708()
+        };
+        let v = read(data.as_bytes(), cfg.clone()).unwrap();
+        assert_eq!(v.len(), 2);
+        assert_eq!(v[1].t, 2374.0 * 604800.0 + 100.02);
+        assert!(
+            (v[0].dtheta_b.x - 0.5f64.to_radians()).abs() < 1e-15,
+            "deg → rad, passed through"
+        );
+        assert_eq!(v[1].dvel_b.z, -0.196);
+        assert!((v[0].dt - 0.02).abs() < 1e-12);
+        // A name map without a header line is a configuration error at line 1.
+        let no_hdr = CsvImuConfig {
+            header: false,
+            ..cfg
+        };
+        assert_err(read(b"1,2,3,4,5,6,7\n", no_hdr), "imu.csv", 1, "time_s");
+    }
+
     const VN_HDR: &str = "Time [s],GpsCycle,GpsWeek,GpsTow [s],IMU::UncompAccel::X [m/s^2],IMU::UncompAccel::Y [m/s^2],\
 IMU::UncompAccel::Z [m/s^2],IMU::UncompGyro::X [rad/s],IMU::UncompGyro::Y [rad/s],IMU::UncompGyro::Z [rad/s],Time::GpsWeek\n";
     const VN: &str = "0,2,255,403575.847627,0.098480731,0.30079985,-9.7986994,0.000011909131,0.0018414459,-0.00043417249,2303\n\
