@@ -258,3 +258,105 @@ fn gnss_fixes(
 
 #[cfg(test)]
 mod tests;
+
+/// Error statistics of the simulated sensors against truth.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct SensorStats {
+    pub gnss_fixes: usize,
+    /// Horizontal error RMS, 50 % (CEP) and max [m]; vertical RMS [m].
+    pub gnss_h_rms: f64,
+    pub gnss_h_cep: f64,
+    pub gnss_h_max: f64,
+    pub gnss_v_rms: f64,
+    /// RMS of the gyro [rad/s] and accelerometer [m/s²] error (average rate
+    /// over each interval, measured − ideal, all axes; sensor frame vs body
+    /// frame, so a mounting rotation shows up here).
+    pub gyro_err_rms: f64,
+    pub accel_err_rms: f64,
+    /// Mean error over the run per axis (≈ total bias) of gyro and accel.
+    pub gyro_err_mean: Vec3,
+    pub accel_err_mean: Vec3,
+}
+
+impl SimRun {
+    /// Sensor error statistics against truth.
+    pub fn sensor_stats(&self) -> SensorStats {
+        let mut s = SensorStats {
+            gnss_fixes: self.gnss.len(),
+            ..Default::default()
+        };
+        let mut hs: Vec<f64> = Vec::with_capacity(self.gnss.len());
+        let mut v2 = 0.0;
+        for (g, t) in self.gnss.iter().zip(&self.gnss_truth) {
+            let (rm, rn) = earth::radii(t.0);
+            let h = ((g.lat - t.0) * (rm + t.2)).hypot((g.lon - t.1) * (rn + t.2) * t.0.cos());
+            hs.push(h);
+            v2 += (g.h - t.2).powi(2);
+        }
+        if !hs.is_empty() {
+            let n = hs.len() as f64;
+            s.gnss_h_rms = (hs.iter().map(|x| x * x).sum::<f64>() / n).sqrt();
+            s.gnss_h_max = hs.iter().cloned().fold(0.0, f64::max);
+            s.gnss_v_rms = (v2 / n).sqrt();
+            hs.sort_by(f64::total_cmp);
+            s.gnss_h_cep = hs[hs.len() / 2];
+        }
+        let n = self.imu.len().max(1) as f64;
+        let (mut g2, mut a2) = (0.0, 0.0);
+        let (mut gm, mut am) = (Vec3::zeros(), Vec3::zeros());
+        for (m, i) in self.imu.iter().zip(&self.traj.imu) {
+            let eg = (m.dtheta_b - i.dtheta_b) / m.dt;
+            let ea = (m.dvel_b - i.dvel_b) / m.dt;
+            g2 += eg.norm_squared();
+            a2 += ea.norm_squared();
+            gm += eg;
+            am += ea;
+        }
+        s.gyro_err_rms = (g2 / (3.0 * n)).sqrt();
+        s.accel_err_rms = (a2 / (3.0 * n)).sqrt();
+        s.gyro_err_mean = gm / n;
+        s.accel_err_mean = am / n;
+        s
+    }
+
+    /// A short human-readable summary of the run and its sensors' errors.
+    pub fn summary(&self) -> String {
+        let s = self.sensor_stats();
+        let r2d = 180.0 / core::f64::consts::PI;
+        let gyro = if self.imu_spec.gyro.is_some() {
+            format!(
+                "gyro error rms {:.4} °/s, mean ({:.2}, {:.2}, {:.2}) °/h",
+                s.gyro_err_rms * r2d,
+                s.gyro_err_mean.x * r2d * 3600.0,
+                s.gyro_err_mean.y * r2d * 3600.0,
+                s.gyro_err_mean.z * r2d * 3600.0
+            )
+        } else {
+            "no gyro (accelerometer-only preset: gyro increments are written as 0)".into()
+        };
+        let g0 = earth::STANDARD_GRAVITY;
+        format!(
+            "scenario '{}': {:.1} s, {} IMU samples at {} Hz, seed {}\n\
+             IMU  {} — {}; {gyro}; accel error rms {:.2} mg, mean ({:.3}, {:.3}, {:.3}) mg\n\
+             GNSS {} — {} fixes at {} Hz; horizontal error rms {:.2} m, CEP {:.2} m, max {:.2} m; vertical rms {:.2} m",
+            self.scenario.name,
+            self.traj.duration(),
+            self.imu.len(),
+            self.scenario.imu.rate_hz,
+            self.seed,
+            self.imu_spec.name,
+            self.imu_spec.source,
+            s.accel_err_rms / g0 * 1e3,
+            s.accel_err_mean.x / g0 * 1e3,
+            s.accel_err_mean.y / g0 * 1e3,
+            s.accel_err_mean.z / g0 * 1e3,
+            self.gnss_spec.name,
+            s.gnss_fixes,
+            self.gnss_spec.rate_hz,
+            s.gnss_h_rms,
+            s.gnss_h_cep,
+            s.gnss_h_max,
+            s.gnss_v_rms,
+        )
+    }
+}

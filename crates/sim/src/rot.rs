@@ -1,65 +1,9 @@
-//! Private rotation helpers (ZYX Euler ↔ DCM, rotation vector).
-//!
-//! `navfuse_core::attitude` is still a contract stub on `main`; these few
-//! functions are written here so the simulator can work today. Switch to the
-//! core versions once they land (same conventions: `c_bn` body→NED, FRD/NED,
-//! roll/pitch/yaw ZYX; Groves 2nd ed. eq. 2.22, 2.24).
+//! Rotation helpers: the core attitude functions plus the Euler-rate
+//! kinematics the trajectory generator needs (conventions of
+//! `navfuse_core::attitude`: `c_bn` body→NED, FRD/NED, roll/pitch/yaw ZYX).
 
-use navfuse_core::{Mat3, Vec3};
-
-/// `c_bn` from roll, pitch, yaw (ZYX) [rad] (Groves eq. 2.22, transposed).
-pub fn dcm_from_euler(rpy: &Vec3) -> Mat3 {
-    let (sr, cr) = rpy.x.sin_cos();
-    let (sp, cp) = rpy.y.sin_cos();
-    let (sy, cy) = rpy.z.sin_cos();
-    Mat3::new(
-        cp * cy,
-        -cr * sy + sr * sp * cy,
-        sr * sy + cr * sp * cy,
-        cp * sy,
-        cr * cy + sr * sp * sy,
-        -sr * cy + cr * sp * sy,
-        -sp,
-        sr * cp,
-        cr * cp,
-    )
-}
-
-/// Roll, pitch, yaw (ZYX) [rad] from `c_bn` (Groves eq. 2.24); yaw in (−π, π].
-pub fn euler_from_dcm(c: &Mat3) -> Vec3 {
-    let pitch = (-c[(2, 0)]).clamp(-1.0, 1.0).asin();
-    Vec3::new(
-        c[(2, 1)].atan2(c[(2, 2)]),
-        pitch,
-        wrap_pi(c[(1, 0)].atan2(c[(0, 0)])),
-    )
-}
-
-/// Skew-symmetric matrix: `skew(a)·b = a × b`.
-pub fn skew(a: &Vec3) -> Mat3 {
-    Mat3::new(0.0, -a.z, a.y, a.z, 0.0, -a.x, -a.y, a.x, 0.0)
-}
-
-/// DCM of a rotation vector (Rodrigues; Groves eq. 2.39).
-pub fn dcm_from_rotvec(phi: &Vec3) -> Mat3 {
-    let a = phi.norm();
-    let k = skew(phi);
-    if a < 1e-8 {
-        return Mat3::identity() + k + 0.5 * k * k;
-    }
-    Mat3::identity() + (a.sin() / a) * k + ((1.0 - a.cos()) / (a * a)) * k * k
-}
-
-/// Wrap an angle to (−π, π].
-pub fn wrap_pi(a: f64) -> f64 {
-    let mut x = a % (2.0 * core::f64::consts::PI);
-    if x > core::f64::consts::PI {
-        x -= 2.0 * core::f64::consts::PI;
-    } else if x <= -core::f64::consts::PI {
-        x += 2.0 * core::f64::consts::PI;
-    }
-    x
-}
+pub use navfuse_core::attitude::{dcm_from_euler, dcm_from_rotvec, euler_from_dcm, skew, wrap_pi};
+use navfuse_core::Vec3;
 
 /// Euler-angle rates → body angular rate ω_nb^b (ZYX; Groves eq. 2.58 inverse).
 pub fn omega_nb_b_from_euler_rates(rpy: &Vec3, rpy_dot: &Vec3) -> Vec3 {
@@ -75,6 +19,7 @@ pub fn omega_nb_b_from_euler_rates(rpy: &Vec3, rpy_dot: &Vec3) -> Vec3 {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use navfuse_core::Mat3;
 
     #[test]
     fn euler_round_trip_and_orthonormal() {
