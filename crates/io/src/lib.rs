@@ -2,3 +2,4 @@
 //! happen here and nowhere else; errors name file, line and field.
 
 pub mod data;
+pub mod kfgins_yaml;
