@@ -106,7 +106,9 @@ impl KfGinsConfig {
             if a.iter().all(|v| v.is_finite() && *v >= 0.0) {
                 Ok(())
             } else {
-                Err(format!("{name}: field `{field}` must be finite and ≥ 0, got {a:?}"))
+                Err(format!(
+                    "{name}: field `{field}` must be finite and ≥ 0, got {a:?}"
+                ))
             }
         };
         pos("initposstd", &self.initposstd)?;
@@ -124,10 +126,16 @@ impl KfGinsConfig {
             pos(f, &a)?;
         }
         if !(n.corrtime > 0.0) {
-            return Err(format!("{name}: field `imunoise.corrtime` must be > 0 h, got {}", n.corrtime));
+            return Err(format!(
+                "{name}: field `imunoise.corrtime` must be > 0 h, got {}",
+                n.corrtime
+            ));
         }
         if self.imudatalen < 7 {
-            return Err(format!("{name}: field `imudatalen` must be ≥ 7, got {}", self.imudatalen));
+            return Err(format!(
+                "{name}: field `imudatalen` must be ≥ 7, got {}",
+                self.imudatalen
+            ));
         }
         let all_finite = self
             .initpos
@@ -137,7 +145,9 @@ impl KfGinsConfig {
             .chain(&self.antlever)
             .all(|v| v.is_finite());
         if !all_finite || self.initpos[0].abs() > 90.0 {
-            return Err(format!("{name}: initpos/initvel/initatt/antlever must be finite, |lat| ≤ 90°"));
+            return Err(format!(
+                "{name}: initpos/initvel/initatt/antlever must be finite, |lat| ≤ 90°"
+            ));
         }
         Ok(())
     }

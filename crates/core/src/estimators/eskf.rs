@@ -31,10 +31,10 @@
 //! A GNSS fix between two IMU samples is applied at its own time: the IMU
 //! interval is split at the fix (increments scaled linearly), as KF-GINS does.
 
-#[allow(unused_imports)]
-use crate::prelude::*;
 use crate::earth;
 use crate::ins::mech::{mechanize, quat_from_rotvec, NavState};
+#[allow(unused_imports)]
+use crate::prelude::*;
 use crate::types::{Estimator, Event, GnssFix, ImuSample, NavSolution};
 use crate::{Mat3, Vec3};
 use nalgebra::{SMatrix, SVector};
@@ -467,8 +467,22 @@ impl Eskf {
             (I_ATT, std.att),
             (I_BG, std.bg),
             (I_BA, std.ba),
-            (I_SG, if cfg.scale_factors { std.sg } else { Vec3::zeros() }),
-            (I_SA, if cfg.scale_factors { std.sa } else { Vec3::zeros() }),
+            (
+                I_SG,
+                if cfg.scale_factors {
+                    std.sg
+                } else {
+                    Vec3::zeros()
+                },
+            ),
+            (
+                I_SA,
+                if cfg.scale_factors {
+                    std.sa
+                } else {
+                    Vec3::zeros()
+                },
+            ),
         ];
         for (i, s) in blocks {
             for k in 0..3 {
@@ -669,7 +683,17 @@ impl Eskf {
             0.0,
             -ve * tl / (rnh * rnh),
         );
-        let av = Mat3::new(0.0, 1.0 / rnh, 0.0, -1.0 / rmh, 0.0, 0.0, 0.0, -tl / rnh, 0.0);
+        let av = Mat3::new(
+            0.0,
+            1.0 / rnh,
+            0.0,
+            -1.0 / rmh,
+            0.0,
+            0.0,
+            0.0,
+            -tl / rnh,
+            0.0,
+        );
         let aa = -skew(&w_in);
         let scale = self.cfg.scale_factors;
         let (vsa, asg) = if scale {
@@ -692,7 +716,11 @@ impl Eskf {
             av,
             aa,
             asg,
-            beta: if t.is_finite() && t > 0.0 { -1.0 / t } else { 0.0 },
+            beta: if t.is_finite() && t > 0.0 {
+                -1.0 / t
+            } else {
+                0.0
+            },
             scale,
         }
     }
@@ -816,7 +844,8 @@ impl Eskf {
         let std = fix.std_ned;
         if position_allowed {
             let mut h = SMatrix::<f64, 3, NX>::zeros();
-            h.fixed_view_mut::<3, 3>(0, I_POS).copy_from(&Mat3::identity());
+            h.fixed_view_mut::<3, 3>(0, I_POS)
+                .copy_from(&Mat3::identity());
             h.fixed_view_mut::<3, 3>(0, I_ATT).copy_from(&skew(&l_n));
             let r = Mat3::from_diagonal(&std.component_mul(&std));
             match self.update(&h, &r, &dz_pos, true) {
@@ -845,8 +874,10 @@ impl Eskf {
                 let lever_v = c * self.w_ib_b.cross(&self.cfg.lever_arm_b);
                 let dz = self.nav.v_n + lever_v - v_meas;
                 let mut h = SMatrix::<f64, 3, NX>::zeros();
-                h.fixed_view_mut::<3, 3>(0, I_VEL).copy_from(&Mat3::identity());
-                h.fixed_view_mut::<3, 3>(0, I_ATT).copy_from(&skew(&lever_v));
+                h.fixed_view_mut::<3, 3>(0, I_VEL)
+                    .copy_from(&Mat3::identity());
+                h.fixed_view_mut::<3, 3>(0, I_ATT)
+                    .copy_from(&skew(&lever_v));
                 let r = Mat3::from_diagonal(&sv.component_mul(&sv));
                 match self.update(&h, &r, &dz, true) {
                     Ok(_) => self.stats.gnss_vel_used += 1,
@@ -870,7 +901,8 @@ impl Eskf {
             if self.standstill && t - self.last_zupt >= z.interval {
                 self.last_zupt = t;
                 let mut h = SMatrix::<f64, 3, NX>::zeros();
-                h.fixed_view_mut::<3, 3>(0, I_VEL).copy_from(&Mat3::identity());
+                h.fixed_view_mut::<3, 3>(0, I_VEL)
+                    .copy_from(&Mat3::identity());
                 let r = Mat3::identity() * (z.vel_std * z.vel_std);
                 let dz = self.nav.v_n;
                 match self.update(&h, &r, &dz, true) {
@@ -878,12 +910,15 @@ impl Eskf {
                     Err(UpdateReject::Gate) => self.stats.zupt_rejected_gate += 1,
                     Err(UpdateReject::Singular) => {}
                 }
-                if let (Some(zs), Some((_, _, w_mean))) = (z.zaru_std, self.detector.stats(z.window)) {
+                if let (Some(zs), Some((_, _, w_mean))) =
+                    (z.zaru_std, self.detector.stats(z.window))
+                {
                     // Window-mean compensated rate minus the earth rate = δb_g.
                     let w_ie_b = self.nav.c_bn().transpose() * earth::omega_ie_n(self.nav.lat);
                     let dz = w_mean - w_ie_b;
                     let mut h = SMatrix::<f64, 3, NX>::zeros();
-                    h.fixed_view_mut::<3, 3>(0, I_BG).copy_from(&Mat3::identity());
+                    h.fixed_view_mut::<3, 3>(0, I_BG)
+                        .copy_from(&Mat3::identity());
                     let r = Mat3::identity() * (zs * zs);
                     // The window mean holds the bias of its samples: one ZARU per window.
                     let window_s = z.window as f64 * self.last_dt;
@@ -896,7 +931,10 @@ impl Eskf {
             }
         }
         if let Some(n) = self.cfg.nhc {
-            if self.standstill || t - self.last_nhc < n.interval || self.nav.v_n.norm() < n.min_speed {
+            if self.standstill
+                || t - self.last_nhc < n.interval
+                || self.nav.v_n.norm() < n.min_speed
+            {
                 return;
             }
             self.last_nhc = t;
@@ -963,7 +1001,11 @@ impl Eskf {
     /// a pending GNSS fix at its own time inside or at the ends of the interval.
     fn push_imu(&mut self, imu: &ImuSample) -> Option<NavSolution> {
         if !(imu.dt > 0.0 && imu.dt.is_finite() && imu.t.is_finite())
-            || !imu.dtheta_b.iter().chain(imu.dvel_b.iter()).all(|v| v.is_finite())
+            || !imu
+                .dtheta_b
+                .iter()
+                .chain(imu.dvel_b.iter())
+                .all(|v| v.is_finite())
             || (self.started && imu.t <= self.t)
         {
             self.stats.imu_rejected_bad += 1;

@@ -3,9 +3,9 @@
 //!
 //! Body FRD; a level IMU at rest measures f_b ≈ (0, 0, −g).
 
+use crate::earth;
 #[allow(unused_imports)]
 use crate::prelude::*;
-use crate::earth;
 use crate::types::ImuSample;
 use crate::Vec3;
 
@@ -101,7 +101,12 @@ pub fn gyro_bias(cal: &StaticCalibration, yaw: f64, lat: f64) -> Vec3 {
 /// Length (samples) of the static window at the start of `samples`: the
 /// longest prefix whose sliding `window`-sample std of |f| stays below
 /// `max_f_std` [m/s²] and of each gyro axis below `max_w_std` [rad/s].
-pub fn initial_static_len(samples: &[ImuSample], window: usize, max_f_std: f64, max_w_std: f64) -> usize {
+pub fn initial_static_len(
+    samples: &[ImuSample],
+    window: usize,
+    max_f_std: f64,
+    max_w_std: f64,
+) -> usize {
     let window = window.max(2);
     if samples.len() < window {
         return 0;
@@ -123,7 +128,9 @@ pub fn initial_static_len(samples: &[ImuSample], window: usize, max_f_std: f64, 
         let n = window as f64;
         let fstd = (sn2 / n - (sn / n).powi(2)).max(0.0).sqrt();
         let wm = sw / n;
-        let wstd = (sw2 / n - wm.component_mul(&wm)).map(|v| v.max(0.0).sqrt()).max();
+        let wstd = (sw2 / n - wm.component_mul(&wm))
+            .map(|v| v.max(0.0).sqrt())
+            .max();
         if fstd > max_f_std || wstd > max_w_std {
             break;
         }
@@ -165,7 +172,10 @@ mod tests {
         for (r, p) in [(0.1, -0.2), (-0.5, 0.3), (0.0, 0.0), (3.0, 0.1)] {
             let s = at_rest(r, p, 0);
             let (rr, pp) = level(&(s.dvel_b / s.dt));
-            assert!((rr - r).abs() < 1e-12 && (pp - p).abs() < 1e-12, "{r} {p} -> {rr} {pp}");
+            assert!(
+                (rr - r).abs() < 1e-12 && (pp - p).abs() < 1e-12,
+                "{r} {p} -> {rr} {pp}"
+            );
         }
     }
 

@@ -12,9 +12,9 @@
 //! Frames and signs: body FRD; `q_bn` rotates body → NED (`v_n = C_bn v_b`);
 //! the specific force of a level IMU at rest is (0, 0, −g).
 
+use crate::earth;
 #[allow(unused_imports)]
 use crate::prelude::*;
-use crate::earth;
 use crate::{Mat3, Vec3};
 use nalgebra::{Quaternion, UnitQuaternion};
 
@@ -123,15 +123,21 @@ pub fn mechanize(
     let c_bn = pre.c_bn();
 
     // --- velocity -------------------------------------------------------
-    let dv_fb = dvel
-        + 0.5 * dtheta.cross(dvel)
-        + (dtheta_pre.cross(dvel) + dvel_pre.cross(dtheta)) / 12.0;
+    let dv_fb =
+        dvel + 0.5 * dtheta.cross(dvel) + (dtheta_pre.cross(dvel) + dvel_pre.cross(dtheta)) / 12.0;
     // First pass with the rates at the start, to extrapolate the mid-interval
     // velocity and position; second pass with the rates there.
     let dv0 = velocity_increment(&c_bn, &dv_fb, pre.lat, pre.h, &pre.v_n, dt);
     let v_mid = pre.v_n + 0.5 * dv0;
     let d_mid = geodetic_step(pre.lat, pre.h, &v_mid, 0.5 * dt);
-    let dv = velocity_increment(&c_bn, &dv_fb, pre.lat + d_mid.x, pre.h + d_mid.z, &v_mid, dt);
+    let dv = velocity_increment(
+        &c_bn,
+        &dv_fb,
+        pre.lat + d_mid.x,
+        pre.h + d_mid.z,
+        &v_mid,
+        dt,
+    );
     let v_cur = pre.v_n + dv;
 
     // --- position -------------------------------------------------------
@@ -196,7 +202,10 @@ mod tests {
         assert!((s.h - h).abs() < 0.5, "dh {}", s.h - h);
         assert!(s.v_n.norm() < 1e-3, "v {}", s.v_n);
         let rpy = s.rpy();
-        assert!((rpy.z - 0.3).abs() < 1e-7 && rpy.x.abs() < 1e-7, "rpy {rpy}");
+        assert!(
+            (rpy.z - 0.3).abs() < 1e-7 && rpy.x.abs() < 1e-7,
+            "rpy {rpy}"
+        );
     }
 
     #[test]
