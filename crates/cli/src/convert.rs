@@ -1,12 +1,102 @@
-//! `navfuse convert`: Convert between trajectory/sensor file formats (format from extension or given).
-//! (placeholder: implemented by its issue)
+//! `navfuse convert`: any trajectory reader → any trajectory writer.
+//!
+//! Formats come from the extensions (`.pos`, `.nav`, `.csv` in;
+//! `.csv`, `.nav`, `.geojson`/`.json`, `.kml`, `.gpx` out) or from
+//! `--from`/`--to`. KF-GINS GNSS text needs `--from kfgins-gnss`. Prints one
+//! summary line: records read, written, rejected (with reasons).
 
-use clap::Args as ClapArgs;
+use clap::{Args as ClapArgs, ValueEnum};
+use navfuse_io::trajectory::{create_writer, open_nav_source, InFormat, OutFormat};
+use std::path::PathBuf;
 
-/// Convert between trajectory/sensor file formats (format from extension or given).
+/// Input format names.
+#[derive(Clone, Copy, Debug, ValueEnum)]
+pub enum From {
+    /// RTKLIB .pos solution
+    Pos,
+    /// KF-GINS .nav
+    Nav,
+    /// navfuse trajectory CSV
+    Csv,
+    /// KF-GINS GNSS text (TOW lat lon h σN σE σD [vN vE vD σvN σvE σvD])
+    KfginsGnss,
+}
+
+/// Output format names.
+#[derive(Clone, Copy, Debug, ValueEnum)]
+pub enum To {
+    Csv,
+    Nav,
+    Geojson,
+    Kml,
+    Gpx,
+}
+
+/// Convert between trajectory file formats (format from extension or given).
 #[derive(ClapArgs, Debug)]
-pub struct Args {}
+pub struct Args {
+    /// Input trajectory file.
+    pub input: PathBuf,
+    /// Output file.
+    pub output: PathBuf,
+    /// Input format (default: from the extension).
+    #[arg(long, value_enum)]
+    pub from: Option<From>,
+    /// Output format (default: from the extension).
+    #[arg(long, value_enum)]
+    pub to: Option<To>,
+    /// GPS week for time-of-week-only inputs (KF-GINS text; .nav lines with week 0).
+    #[arg(long, default_value_t = 0)]
+    pub gps_week: u32,
+}
 
-pub fn run(_args: Args) -> Result<(), String> {
-    Err("`convert` is not implemented yet".into())
+pub fn run(args: Args) -> Result<(), String> {
+    let fin = match args.from {
+        Some(From::Pos) => InFormat::Pos,
+        Some(From::Nav) => InFormat::Nav,
+        Some(From::Csv) => InFormat::Csv,
+        Some(From::KfginsGnss) => InFormat::KfGinsGnss,
+        None => InFormat::from_path(&args.input).ok_or_else(|| {
+            format!(
+                "{}: cannot tell the input format from the extension; give --from (pos, nav, csv, kfgins-gnss)",
+                args.input.display()
+            )
+        })?,
+    };
+    let fout = match args.to {
+        Some(To::Csv) => OutFormat::Csv,
+        Some(To::Nav) => OutFormat::Nav,
+        Some(To::Geojson) => OutFormat::GeoJson,
+        Some(To::Kml) => OutFormat::Kml,
+        Some(To::Gpx) => OutFormat::Gpx,
+        None => OutFormat::from_path(&args.output).ok_or_else(|| {
+            format!(
+                "{}: cannot tell the output format from the extension; give --to (csv, nav, geojson, kml, gpx)",
+                args.output.display()
+            )
+        })?,
+    };
+    let mut src = open_nav_source(&args.input, fin, args.gps_week).map_err(|e| e.to_string())?;
+    let mut out = create_writer(&args.output, fout)
+        .map_err(|e| format!("{}: cannot create: {e}", args.output.display()))?;
+    let mut written = 0u64;
+    for sol in src.by_ref() {
+        let sol = sol.map_err(|e| e.to_string())?;
+        out.write(&sol)
+            .map_err(|e| format!("{}: write failed: {e}", args.output.display()))?;
+        written += 1;
+    }
+    out.finish()
+        .map_err(|e| format!("{}: write failed: {e}", args.output.display()))?;
+    let st = src.stats();
+    println!(
+        "convert: {} ({fin:?}) -> {} ({fout:?}): {} records read, {} written, {} rejected; {}",
+        args.input.display(),
+        args.output.display(),
+        st.used,
+        written,
+        st.rejected_total(),
+        st
+    );
+    Ok(())
 }

@@ -1,0 +1,162 @@
+//! Trajectory formats by name or file extension: open any trajectory reader
+//! as a stream of [`NavSolution`], create any writer. Used by `navfuse
+//! convert` (and by anything that needs "a trajectory file").
+
+use crate::error::{ReadError, RecordStats};
+use crate::kfgins::{KfGinsGnssReader, KfGinsNavReader};
+use crate::navcsv::NavCsvReader;
+use crate::pos::PosReader;
+use crate::writers::{
+    CsvWriter, GeoJsonWriter, GpxWriter, KfGinsNavWriter, KmlWriter, TrajectoryWriter,
+};
+use navfuse_core::types::{GnssFix, NavSolution, Vec3};
+use std::fs::File;
+use std::io::{BufRead, BufWriter};
+use std::path::Path;
+
+/// Trajectory input formats.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum InFormat {
+    /// RTKLIB `.pos`.
+    Pos,
+    /// KF-GINS `.nav`.
+    Nav,
+    /// navfuse trajectory CSV.
+    Csv,
+    /// KF-GINS GNSS text (no extension of its own: `.txt` is ambiguous).
+    KfGinsGnss,
+}
+
+/// Trajectory output formats.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum OutFormat {
+    Csv,
+    Nav,
+    GeoJson,
+    Kml,
+    Gpx,
+}
+
+fn ext(path: &Path) -> String {
+    path.extension()
+        .and_then(|e| e.to_str())
+        .unwrap_or("")
+        .to_ascii_lowercase()
+}
+
+impl InFormat {
+    /// From the extension: `.pos`, `.nav`, `.csv`.
+    pub fn from_path(path: &Path) -> Option<Self> {
+        match ext(path).as_str() {
+            "pos" => Some(InFormat::Pos),
+            "nav" => Some(InFormat::Nav),
+            "csv" => Some(InFormat::Csv),
+            _ => None,
+        }
+    }
+}
+
+impl OutFormat {
+    /// From the extension: `.csv`, `.nav`, `.geojson`/`.json`, `.kml`, `.gpx`.
+    pub fn from_path(path: &Path) -> Option<Self> {
+        match ext(path).as_str() {
+            "csv" => Some(OutFormat::Csv),
+            "nav" => Some(OutFormat::Nav),
+            "geojson" | "json" => Some(OutFormat::GeoJson),
+            "kml" => Some(OutFormat::Kml),
+            "gpx" => Some(OutFormat::Gpx),
+            _ => None,
+        }
+    }
+}
+
+/// A GNSS fix as a navigation solution: position, σ, velocity when the fix
+/// has it; unknown velocity, attitude and their σ are NaN.
+pub fn nav_from_fix(f: &GnssFix) -> NavSolution {
+    let mut s = NavSolution::unknown_at(f.t);
+    s.lat = f.lat;
+    s.lon = f.lon;
+    s.h = f.h;
+    s.std_pos_ned = f.std_ned;
+    s.v_n = f.v_n.unwrap_or(Vec3::repeat(f64::NAN));
+    s.std_v_n = f.std_v_n.unwrap_or(Vec3::repeat(f64::NAN));
+    s
+}
+
+/// A stream of solutions that keeps line accounting.
+pub trait NavSource: Iterator<Item = Result<NavSolution, ReadError>> {
+    fn stats(&self) -> &RecordStats;
+}
+
+struct Fixes<I>(I);
+
+macro_rules! nav_source {
+    ($t:ident) => {
+        impl<R: BufRead> NavSource for $t<R> {
+            fn stats(&self) -> &RecordStats {
+                $t::stats(self)
+            }
+        }
+    };
+}
+nav_source!(KfGinsNavReader);
+nav_source!(NavCsvReader);
+
+impl<I: Iterator<Item = Result<GnssFix, ReadError>>> Iterator for Fixes<I> {
+    type Item = Result<NavSolution, ReadError>;
+    fn next(&mut self) -> Option<Self::Item> {
+        self.0.next().map(|r| r.map(|f| nav_from_fix(&f)))
+    }
+}
+impl<R: BufRead> NavSource for Fixes<PosReader<R>> {
+    fn stats(&self) -> &RecordStats {
+        self.0.stats()
+    }
+}
+impl<R: BufRead> NavSource for Fixes<KfGinsGnssReader<R>> {
+    fn stats(&self) -> &RecordStats {
+        self.0.stats()
+    }
+}
+
+/// Open a trajectory reader over `rdr` (`name` labels errors).
+pub fn nav_source<R: BufRead + 'static>(
+    rdr: R,
+    name: &str,
+    fmt: InFormat,
+    gps_week: u32,
+) -> Box<dyn NavSource> {
+    match fmt {
+        InFormat::Pos => Box::new(Fixes(PosReader::new(rdr, name))),
+        InFormat::Nav => Box::new(KfGinsNavReader::new(rdr, name, gps_week)),
+        InFormat::Csv => Box::new(NavCsvReader::new(rdr, name)),
+        InFormat::KfGinsGnss => Box::new(Fixes(KfGinsGnssReader::new(rdr, name, gps_week))),
+    }
+}
+
+/// Open the trajectory file `path`.
+pub fn open_nav_source(
+    path: &Path,
+    fmt: InFormat,
+    gps_week: u32,
+) -> Result<Box<dyn NavSource>, ReadError> {
+    let (rdr, name) = crate::open(path)?;
+    Ok(nav_source(rdr, &name, fmt, gps_week))
+}
+
+/// A writer of `fmt` over any `Write`.
+pub fn writer<W: std::io::Write + 'static>(w: W, fmt: OutFormat) -> Box<dyn TrajectoryWriter> {
+    match fmt {
+        OutFormat::Csv => Box::new(CsvWriter::new(w)),
+        OutFormat::Nav => Box::new(KfGinsNavWriter::new(w)),
+        OutFormat::GeoJson => Box::new(GeoJsonWriter::new(w)),
+        OutFormat::Kml => Box::new(KmlWriter::new(w)),
+        OutFormat::Gpx => Box::new(GpxWriter::new(w)),
+    }
+}
+
+/// Create `path` and a buffered writer of `fmt` on it.
+pub fn create_writer(path: &Path, fmt: OutFormat) -> std::io::Result<Box<dyn TrajectoryWriter>> {
+    let f = File::create(path)?;
+    Ok(writer(BufWriter::with_capacity(1 << 16, f), fmt))
+}
