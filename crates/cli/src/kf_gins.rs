@@ -129,8 +129,12 @@ pub fn run(args: Args) -> Result<(), String> {
 
 /// Read, filter, write. Returns the solutions too.
 pub fn run_config(args: &Args) -> Result<KfGinsRun, String> {
+    let t_read = Instant::now();
     let cfg = KfGinsConfig::load(&args.config)?;
     let input = ingest::read_kfgins(&cfg)?;
+    if args.verbose {
+        eprintln!("read inputs: {:.3} s", t_read.elapsed().as_secs_f64());
+    }
     let mut ecfg = cfg.eskf_config();
     if args.enhanced {
         ecfg = enhanced(ecfg);
@@ -150,7 +154,11 @@ pub fn run_config(args: &Args) -> Result<KfGinsRun, String> {
         cfg.endtime
     };
     let mut eskf = Eskf::new(ecfg, cfg.init_nav(), cfg.init_errors(), &cfg.init_std());
+    let t_filter = Instant::now();
     let r = filter(&mut eskf, &input, cfg.starttime, end, &out_dir, args.smooth)?;
+    if args.verbose {
+        eprintln!("filter + write: {:.3} s", t_filter.elapsed().as_secs_f64());
+    }
     Ok(KfGinsRun {
         solutions: r.0,
         smoothed: r.1,
@@ -255,7 +263,7 @@ pub(crate) fn put(buf: &mut Vec<u8>, x: f64) {
 
 /// Fast `{:.9}` for |x| < 9e9 (falls back to `format!` beyond, and for NaN).
 fn fixed9(buf: &mut Vec<u8>, x: f64) {
-    if !(x.abs() < 9.0e9) {
+    if x.is_nan() || x.abs() >= 9.0e9 {
         buf.extend_from_slice(format!("{x:.9}").as_bytes());
         return;
     }

@@ -5,6 +5,7 @@
 use clap::Args as ClapArgs;
 use navfuse_core::types::{GnssFix, ImuSample};
 use navfuse_core::Vec3;
+use navfuse_io::kfgins::{KfGinsGnssReader, KfGinsImuOptions, KfGinsImuReader};
 use navfuse_io::kfgins_yaml::KfGinsConfig;
 use std::path::Path;
 
@@ -54,54 +55,26 @@ fn fields<const N: usize>(
     Ok(out)
 }
 
-/// KF-GINS IMU text: `tow Δθxyz Δvxyz`; `dt` from consecutive stamps
-/// (the first uses `1/rate`); non-increasing stamps are dropped.
-pub fn read_kfgins_imu(path: &Path, rate: f64) -> Result<Vec<ImuSample>, String> {
-    let text = read(path)?;
-    let mut v: Vec<ImuSample> = Vec::with_capacity(text.len() / 120);
-    const N: [&str; 7] = [
-        "tow", "dtheta_x", "dtheta_y", "dtheta_z", "dvel_x", "dvel_y", "dvel_z",
-    ];
-    for (i, line) in text.lines().enumerate() {
-        if line.trim().is_empty() {
-            continue;
-        }
-        let f = fields(line, path, i + 1, &N)?;
-        let dt = match v.last() {
-            Some(p) if f[0] <= p.t => continue,
-            Some(p) => f[0] - p.t,
-            None => 1.0 / rate,
-        };
-        v.push(ImuSample {
-            t: f[0],
-            dt,
-            dtheta_b: Vec3::new(f[1], f[2], f[3]),
-            dvel_b: Vec3::new(f[4], f[5], f[6]),
-        });
-    }
-    Ok(v)
+/// KF-GINS IMU text via navfuse-io (`dt` from consecutive stamps, the first
+/// from the nominal rate; duplicates/bad lines rejected and counted there).
+pub fn read_kfgins_imu(path: &Path, rate: f64, columns: usize) -> Result<Vec<ImuSample>, String> {
+    let (rdr, name) = navfuse_io::open(path).map_err(|e| e.to_string())?;
+    let opt = KfGinsImuOptions {
+        week: 0,
+        columns,
+        nominal_rate_hz: Some(rate),
+    };
+    KfGinsImuReader::new(rdr, &name, opt)
+        .collect::<Result<Vec<_>, _>>()
+        .map_err(|e| e.to_string())
 }
 
-/// KF-GINS GNSS text: `tow lat lon h σN σE σD` ([deg], [m]).
+/// KF-GINS GNSS text (`tow lat lon h σN σE σD`, optionally + velocity) via navfuse-io.
 pub fn read_kfgins_gnss(path: &Path) -> Result<Vec<GnssFix>, String> {
-    let text = read(path)?;
-    const N: [&str; 7] = ["tow", "lat", "lon", "h", "std_n", "std_e", "std_d"];
-    let mut v = Vec::new();
-    for (i, line) in text.lines().enumerate() {
-        if line.trim().is_empty() {
-            continue;
-        }
-        let f = fields(line, path, i + 1, &N)?;
-        v.push(GnssFix {
-            t: f[0],
-            lat: f[1].to_radians(),
-            lon: f[2].to_radians(),
-            h: f[3],
-            std_ned: Vec3::new(f[4], f[5], f[6]),
-            ..Default::default()
-        });
-    }
-    Ok(v)
+    let (rdr, name) = navfuse_io::open(path).map_err(|e| e.to_string())?;
+    KfGinsGnssReader::new(rdr, &name, 0)
+        .collect::<Result<Vec<_>, _>>()
+        .map_err(|e| e.to_string())
 }
 
 /// navfuse's GNSS velocity file: `tow vN vE vD σvN σvE σvD` ([m/s]); merged into
@@ -127,7 +100,7 @@ pub fn merge_gnss_velocity(path: &Path, fixes: &mut [GnssFix]) -> Result<usize, 
 
 /// All inputs named by a KF-GINS configuration.
 pub fn read_kfgins(cfg: &KfGinsConfig) -> Result<RunInput, String> {
-    let imu = read_kfgins_imu(&cfg.resolve(&cfg.imupath), cfg.imudatarate)?;
+    let imu = read_kfgins_imu(&cfg.resolve(&cfg.imupath), cfg.imudatarate, cfg.imudatalen)?;
     let mut gnss = read_kfgins_gnss(&cfg.resolve(&cfg.gnsspath))?;
     if let Some(v) = &cfg.gnssvelpath {
         merge_gnss_velocity(&cfg.resolve(v), &mut gnss)?;

@@ -125,7 +125,7 @@ impl KfGinsConfig {
         ] {
             pos(f, &a)?;
         }
-        if !(n.corrtime > 0.0) {
+        if n.corrtime.is_nan() || n.corrtime <= 0.0 {
             return Err(format!(
                 "{name}: field `imunoise.corrtime` must be > 0 h, got {}",
                 n.corrtime

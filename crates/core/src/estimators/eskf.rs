@@ -32,7 +32,7 @@
 //! interval is split at the fix (increments scaled linearly), as KF-GINS does.
 
 use crate::earth;
-use crate::ins::mech::{mechanize, quat_from_rotvec, NavState};
+use crate::ins::mech::{mechanize_with, quat_from_rotvec, EarthAt, NavState};
 #[allow(unused_imports)]
 use crate::prelude::*;
 use crate::types::{Estimator, Event, GnssFix, ImuSample, NavSolution};
@@ -334,37 +334,125 @@ struct FBlocks {
     scale: bool,
 }
 
-impl FBlocks {
-    /// `y = F x` for one column `x`.
+/// Largest number of non-zero entries of `F`.
+const F_MAX_NNZ: usize = 128;
+
+/// `F` in compressed-row form: row `i` has the entries
+/// `(col[j], val[j])` for `j` in `start[i]..start[i+1]`. Rebuilt in place
+/// every sample (no zero-fill of the buffers).
+#[derive(Clone, Debug)]
+struct FSparse {
+    start: [usize; NX + 1],
+    col: [usize; F_MAX_NNZ],
+    val: [f64; F_MAX_NNZ],
+}
+
+impl FSparse {
+    fn new() -> Self {
+        FSparse {
+            start: [0; NX + 1],
+            col: [0; F_MAX_NNZ],
+            val: [0.0; F_MAX_NNZ],
+        }
+    }
+
+    /// Fill from blocks: `rows[b]` lists the `(column offset, block)` pairs of
+    /// block-row `b` (position, velocity, attitude); bias/scale rows are `β` on
+    /// the diagonal for indices below `diag_end`.
     #[inline(always)]
-    fn mul_vec(&self, x: &[f64], y: &mut [f64]) {
-        let v3 = |s: &[f64], i: usize| Vec3::new(s[i], s[i + 1], s[i + 2]);
-        let xp = v3(x, I_POS);
-        let xv = v3(x, I_VEL);
-        let xa = v3(x, I_ATT);
-        let xbg = v3(x, I_BG);
-        let xba = v3(x, I_BA);
-        let mut yp = self.pp * xp + xv;
-        let mut yv = self.vp * xp + self.vv * xv + self.va * xa + self.c_bn * xba;
-        let mut ya = self.ap * xp + self.av * xv + self.aa * xa - self.c_bn * xbg;
-        if self.scale {
-            yv += self.vsa * v3(x, I_SA);
-            ya += self.asg * v3(x, I_SG);
+    fn fill(&mut self, rows: [&[(usize, &Mat3)]; 3], beta: f64, diag_end: usize) {
+        let mut n = 0;
+        for (b, blocks) in rows.iter().enumerate() {
+            for r in 0..3 {
+                self.start[3 * b + r] = n;
+                for (c0, m) in blocks.iter() {
+                    for k in 0..3 {
+                        let v = m[(r, k)];
+                        if v != 0.0 {
+                            self.col[n] = c0 + k;
+                            self.val[n] = v;
+                            n += 1;
+                        }
+                    }
+                }
+            }
         }
-        for i in 0..3 {
-            y[I_POS + i] = yp[i];
-            y[I_VEL + i] = yv[i];
-            y[I_ATT + i] = ya[i];
+        for i in I_BG..NX {
+            self.start[i] = n;
+            if beta != 0.0 && i < diag_end {
+                self.col[n] = i;
+                self.val[n] = beta;
+                n += 1;
+            }
         }
-        let n = if self.scale { NX } else { I_SG };
-        for i in I_BG..n {
-            y[i] = self.beta * x[i];
+        self.start[NX] = n;
+    }
+
+    /// All of `F`.
+    fn set_full(&mut self, b: &FBlocks) {
+        let id = Mat3::identity();
+        let nc = -b.c_bn;
+        let z = Mat3::zeros();
+        let (vsa, asg) = if b.scale { (&b.vsa, &b.asg) } else { (&z, &z) };
+        self.fill(
+            [
+                &[(I_POS, &b.pp), (I_VEL, &id)],
+                &[
+                    (I_POS, &b.vp),
+                    (I_VEL, &b.vv),
+                    (I_ATT, &b.va),
+                    (I_BA, &b.c_bn),
+                    (I_SA, vsa),
+                ],
+                &[
+                    (I_POS, &b.ap),
+                    (I_VEL, &b.av),
+                    (I_ATT, &b.aa),
+                    (I_BG, &nc),
+                    (I_SG, asg),
+                ],
+            ],
+            b.beta,
+            if b.scale { NX } else { I_SG },
+        );
+    }
+
+    /// The O(1) blocks of `F` only (I, [f×], ±C_bn, scale) for the dt² term.
+    fn set_dominant(&mut self, b: &FBlocks) {
+        let id = Mat3::identity();
+        let nc = -b.c_bn;
+        let z = Mat3::zeros();
+        let (vsa, asg) = if b.scale { (&b.vsa, &b.asg) } else { (&z, &z) };
+        self.fill(
+            [
+                &[(I_VEL, &id)],
+                &[(I_ATT, &b.va), (I_BA, &b.c_bn), (I_SA, vsa)],
+                &[(I_BG, &nc), (I_SG, asg)],
+            ],
+            0.0,
+            0,
+        );
+    }
+
+    /// `out.col(i)[..L] = Σ_k F[i,k] · x.col(k)[..L]` for `i < rows`, i.e. the
+    /// first `L` rows of `out = x Fᵀ` (column-major; each output column is
+    /// accumulated in registers).
+    #[inline(always)]
+    fn x_ft<const L: usize>(&self, x: &Cov, out: &mut Cov, rows: usize) {
+        let xs = x.as_slice();
+        let os = out.as_mut_slice();
+        for i in 0..rows {
+            let mut acc = [0.0f64; L];
+            for j in self.start[i]..self.start[i + 1] {
+                let k = self.col[j];
+                let v = self.val[j];
+                let src: &[f64; L] = xs[NX * k..NX * k + L].try_into().unwrap_or(&[0.0; L]);
+                for r in 0..L {
+                    acc[r] += v * src[r];
+                }
+            }
+            os[NX * i..NX * i + L].copy_from_slice(&acc);
         }
-        for yi in y.iter_mut().take(NX).skip(n) {
-            *yi = 0.0;
-        }
-        // Silence "unused assignment" lints of the mutable temporaries.
-        let _ = (&mut yp, &mut yv, &mut ya);
     }
 }
 
@@ -441,7 +529,8 @@ pub struct Eskf {
     detector: StandstillDetector,
     stats: EskfStats,
     // Smoother bookkeeping.
-    rec_phi: Cov,
+    /// Transpose of the transition matrix accumulated since the last checkpoint.
+    rec_phi_t: Cov,
     rec_p_post: Cov,
     rec_dx: StateVec,
     rec_p_prior: Option<Cov>,
@@ -449,6 +538,10 @@ pub struct Eskf {
     rec_updated: bool,
     rec_have_prev: bool,
     record: Option<SmootherRecord>,
+    f_sparse: FSparse,
+    scratch_t: Cov,
+    scratch_m: Cov,
+    scratch_n: Cov,
     /// Last compensated angular rate [rad/s] and specific force [m/s²], body.
     w_ib_b: Vec3,
     f_b: Vec3,
@@ -521,7 +614,7 @@ impl Eskf {
             standstill: false,
             detector: StandstillDetector::new(),
             stats: EskfStats::default(),
-            rec_phi: Cov::identity(),
+            rec_phi_t: Cov::identity(),
             rec_p_post: p,
             rec_dx: StateVec::zeros(),
             rec_p_prior: None,
@@ -531,6 +624,10 @@ impl Eskf {
             record: None,
             w_ib_b: Vec3::zeros(),
             f_b: Vec3::zeros(),
+            f_sparse: FSparse::new(),
+            scratch_t: Cov::zeros(),
+            scratch_m: Cov::zeros(),
+            scratch_n: Cov::zeros(),
             cfg,
         }
     }
@@ -612,30 +709,37 @@ impl Eskf {
     fn propagate(&mut self, dtheta_raw: &Vec3, dvel_raw: &Vec3, dt: f64) {
         let (dth, dv) = self.compensate(dtheta_raw, dvel_raw, dt);
         let pre = self.nav;
-        self.nav = mechanize(&pre, &self.dtheta_pre, &self.dvel_pre, &dth, &dv, dt);
+        let c_bn = pre.c_bn();
+        let e0 = EarthAt::new(pre.lat, pre.h);
+        self.nav = mechanize_with(
+            &pre,
+            &c_bn,
+            &e0,
+            &self.dtheta_pre,
+            &self.dvel_pre,
+            &dth,
+            &dv,
+            dt,
+        );
         self.dtheta_pre = dth;
         self.dvel_pre = dv;
         self.w_ib_b = dth / dt;
         self.f_b = dv / dt;
-        let fb = self.error_model(&pre, &self.w_ib_b, &self.f_b);
-        self.propagate_cov(&fb, &pre, dt);
+        let fb = self.error_model(&pre, &c_bn, &e0, &self.w_ib_b, &self.f_b);
+        self.propagate_cov(&fb, &c_bn, dt);
     }
 
     /// `F` blocks at `s` (the state at the start of the interval), KF-GINS's
     /// NED model with position error in metres.
-    fn error_model(&self, s: &NavState, w_b: &Vec3, f_b: &Vec3) -> FBlocks {
-        let (rm, rn) = earth::radii(s.lat);
-        let rmh = rm + s.h;
-        let rnh = rn + s.h;
-        let (sl, cl) = s.lat.sin_cos();
+    fn error_model(&self, s: &NavState, c: &Mat3, e: &EarthAt, w_b: &Vec3, f_b: &Vec3) -> FBlocks {
+        let (rm, rn, rmh, rnh) = (e.rm, e.rn, e.rmh, e.rnh);
+        let (sl, cl) = (e.sin_lat, e.cos_lat);
         let tl = sl / cl;
         let (vn, ve, vd) = (s.v_n.x, s.v_n.y, s.v_n.z);
         let wie = earth::OMEGA_IE;
-        let g = earth::gravity(s.lat, s.h);
-        let c = s.c_bn();
-        let w_ie = earth::omega_ie_n(s.lat);
-        let w_en = earth::omega_en_n(s.lat, s.h, &s.v_n);
-        let w_in = w_ie + w_en;
+        let g = e.g;
+        let c = *c;
+        let w_in = e.w_ie() + e.w_en(&s.v_n);
 
         let pp = Mat3::new(
             -vd / rmh,
@@ -726,9 +830,9 @@ impl Eskf {
     }
 
     /// `P ← Φ (P + Q_d/2) Φᵀ + Q_d/2`, `Φ = I + F dt`, with `F` sparse.
-    fn propagate_cov(&mut self, fb: &FBlocks, pre: &NavState, dt: f64) {
+    fn propagate_cov(&mut self, fb: &FBlocks, c_bn: &Mat3, dt: f64) {
         // Q_d = G Q_c Gᵀ dt: G maps velocity and angle noise through C_bn.
-        let c = pre.c_bn();
+        let c = *c_bn;
         let qv = c * Mat3::from_diagonal(&self.q_vrw) * c.transpose() * dt;
         let qa = c * Mat3::from_diagonal(&self.q_arw) * c.transpose() * dt;
         let p = &mut self.p;
@@ -743,20 +847,50 @@ impl Eskf {
                 p[(I_BG + 3 * b + k, I_BG + 3 * b + k)] += 0.5 * q[k] * dt;
             }
         }
-        // M = F X (column by column), N = F Mᵀ = F X Fᵀ.
-        let mut m = Cov::zeros();
-        for j in 0..NX {
-            fb.mul_vec(p.column(j).as_slice(), m.column_mut(j).as_mut_slice());
+        // With X symmetric: T = X Fᵀ, M = Tᵀ = F X, N = M Fᵀ = F X Fᵀ, and
+        // Φ X Φᵀ = X + dt (T + M) + dt² N. Only contiguous column axpys.
+        let fs = &mut self.f_sparse;
+        fs.set_full(fb);
+        let t = &mut self.scratch_t;
+        fs.x_ft::<NX>(p, t, NX);
+        let m = &mut self.scratch_m;
+        {
+            // M = Tᵀ (fixed-size loops so the compiler unrolls them).
+            let ts: &[f64; NX * NX] = t.as_slice().try_into().unwrap_or(&[0.0; NX * NX]);
+            let ms = m.as_mut_slice();
+            for c in 0..NX {
+                for r in 0..NX {
+                    ms[NX * r + c] = ts[NX * c + r];
+                }
+            }
         }
-        let mt = m.transpose();
-        let mut nmat = Cov::zeros();
-        for j in 0..NX {
-            fb.mul_vec(mt.column(j).as_slice(), nmat.column_mut(j).as_mut_slice());
-        }
+        // The dt² term with the O(1) blocks of F only (I, [f×], ±C_bn, scale):
+        // the dropped earth-rate/transport blocks are ≤ 1e-4 of these, so
+        // they change Φ X Φᵀ by < 1e-10 relative at 100 Hz. The dominant F
+        // has no rows ≥ 9, so N is zero outside its 9×9 corner.
+        fs.set_dominant(fb);
+        let nmat = &mut self.scratch_n;
+        fs.x_ft::<I_BG>(m, nmat, I_BG);
         let dt2 = dt * dt;
-        for j in 0..NX {
-            for i in 0..NX {
-                p[(i, j)] += dt * (m[(i, j)] + mt[(i, j)]) + dt2 * nmat[(i, j)];
+        {
+            let ps = p.as_mut_slice();
+            let (ts, ms, ns) = (t.as_slice(), m.as_slice(), nmat.as_slice());
+            for c in 0..NX {
+                let o = NX * c;
+                let pc: &mut [f64; NX] = (&mut ps[o..o + NX])
+                    .try_into()
+                    .unwrap_or_else(|_| unreachable!());
+                let tc: &[f64; NX] = ts[o..o + NX].try_into().unwrap_or(&[0.0; NX]);
+                let mc: &[f64; NX] = ms[o..o + NX].try_into().unwrap_or(&[0.0; NX]);
+                for r in 0..NX {
+                    pc[r] += dt * (tc[r] + mc[r]);
+                }
+                if c < I_BG {
+                    let nc: &[f64; I_BG] = ns[o..o + I_BG].try_into().unwrap_or(&[0.0; I_BG]);
+                    for r in 0..I_BG {
+                        pc[r] += dt2 * nc[r];
+                    }
+                }
             }
         }
         for i in 0..3 {
@@ -771,15 +905,11 @@ impl Eskf {
             }
         }
         if self.cfg.smoother_every > 0 {
-            // Φ_acc ← Φ Φ_acc = Φ_acc + dt F Φ_acc.
-            let mut fphi = Cov::zeros();
-            for j in 0..NX {
-                fb.mul_vec(
-                    self.rec_phi.column(j).as_slice(),
-                    fphi.column_mut(j).as_mut_slice(),
-                );
-            }
-            self.rec_phi += fphi * dt;
+            // Ψ = Φ_accᵀ; Φ_acc ← Φ Φ_acc ⇔ Ψ ← Ψ + dt Ψ Fᵀ.
+            self.f_sparse.set_full(fb);
+            let d = &mut self.scratch_t;
+            self.f_sparse.x_ft::<NX>(&self.rec_phi_t, d, NX);
+            self.rec_phi_t += *d * dt;
         }
     }
 
@@ -973,7 +1103,7 @@ impl Eskf {
         // covariance before the first update since the last checkpoint).
         let p_prior = self.rec_p_prior.take().unwrap_or(self.p);
         let gain = if self.rec_have_prev {
-            let b = self.rec_phi * self.rec_p_post; // (P⁺Φᵀ)ᵀ = Φ P⁺
+            let b = self.rec_phi_t.transpose() * self.rec_p_post; // (P⁺Φᵀ)ᵀ = Φ P⁺
             match p_prior.cholesky() {
                 Some(ch) => ch.solve(&b).transpose(),
                 None => Cov::zeros(),
@@ -991,7 +1121,7 @@ impl Eskf {
         });
         self.rec_have_prev = true;
         self.rec_p_post = self.p;
-        self.rec_phi = Cov::identity();
+        self.rec_phi_t = Cov::identity();
         self.rec_dx = StateVec::zeros();
         self.rec_count = 0;
         self.rec_updated = false;
@@ -1000,14 +1130,14 @@ impl Eskf {
     /// Process one IMU sample (KF-GINS `newImuProcess`): propagate, and apply
     /// a pending GNSS fix at its own time inside or at the ends of the interval.
     fn push_imu(&mut self, imu: &ImuSample) -> Option<NavSolution> {
-        if !(imu.dt > 0.0 && imu.dt.is_finite() && imu.t.is_finite())
-            || !imu
+        let finite = imu.dt.is_finite()
+            && imu.t.is_finite()
+            && imu
                 .dtheta_b
                 .iter()
                 .chain(imu.dvel_b.iter())
-                .all(|v| v.is_finite())
-            || (self.started && imu.t <= self.t)
-        {
+                .all(|v| v.is_finite());
+        if !finite || imu.dt <= 0.0 || (self.started && imu.t <= self.t) {
             self.stats.imu_rejected_bad += 1;
             return None;
         }

@@ -54,7 +54,7 @@ pub fn static_calibration(samples: &[ImuSample], lat: f64, h: f64) -> Option<Sta
     let (mut sn, mut sn2) = (0.0, 0.0);
     let mut ttot = 0.0;
     for s in samples {
-        if !(s.dt > 0.0) {
+        if s.dt.is_nan() || s.dt <= 0.0 {
             continue;
         }
         let f = s.dvel_b / s.dt;

@@ -71,9 +71,12 @@ pub fn q_bn_from_rpy(rpy: &Vec3) -> UnitQuaternion<f64> {
 #[inline]
 pub fn quat_from_rotvec(phi: &Vec3) -> UnitQuaternion<f64> {
     let a2 = phi.norm_squared();
-    let (w, s) = if a2 < 1e-8 {
-        // cos(a/2) and sin(a/2)/a to O(a⁴).
-        (1.0 - a2 / 8.0 + a2 * a2 / 384.0, 0.5 - a2 / 48.0)
+    let (w, s) = if a2 < 1e-4 {
+        // cos(a/2) and sin(a/2)/a to O(a⁶); the next terms are below 2e-17.
+        (
+            1.0 - a2 / 8.0 + a2 * a2 / 384.0,
+            0.5 - a2 / 48.0 + a2 * a2 / 3840.0,
+        )
     } else {
         let a = a2.sqrt();
         ((0.5 * a).cos(), (0.5 * a).sin() / a)
@@ -81,25 +84,96 @@ pub fn quat_from_rotvec(phi: &Vec3) -> UnitQuaternion<f64> {
     UnitQuaternion::new_unchecked(Quaternion::new(w, s * phi.x, s * phi.y, s * phi.z))
 }
 
+/// The earth model at one point with a single `sin_cos` (the same formulas
+/// as [`earth::radii`], [`earth::gravity`], [`earth::omega_ie_n`],
+/// [`earth::omega_en_n`], evaluated once per point for speed).
+#[derive(Clone, Copy, Debug)]
+pub struct EarthAt {
+    pub sin_lat: f64,
+    pub cos_lat: f64,
+    /// R_M + h, R_N + h [m].
+    pub rmh: f64,
+    pub rnh: f64,
+    /// R_M, R_N [m].
+    pub rm: f64,
+    pub rn: f64,
+    /// Normal gravity [m/s²] (down).
+    pub g: f64,
+}
+
+impl EarthAt {
+    #[inline]
+    pub fn new(lat: f64, h: f64) -> Self {
+        let (sl, cl) = lat.sin_cos();
+        let s2 = sl * sl;
+        let w2 = 1.0 - earth::WGS84_E2 * s2;
+        let w = w2.sqrt();
+        let rm = earth::WGS84_A * (1.0 - earth::WGS84_E2) / (w2 * w);
+        let rn = earth::WGS84_A / w;
+        let g0 = earth::GAMMA_EQUATOR * (1.0 + earth::SOMIGLIANA_K * s2) / w;
+        let a = earth::WGS84_A;
+        let m = earth::OMEGA_IE * earth::OMEGA_IE * a * a * earth::WGS84_B / earth::WGS84_GM;
+        let g = g0
+            * (1.0 - 2.0 / a * (1.0 + earth::WGS84_F + m - 2.0 * earth::WGS84_F * s2) * h
+                + 3.0 / (a * a) * h * h);
+        EarthAt {
+            sin_lat: sl,
+            cos_lat: cl,
+            rmh: rm + h,
+            rnh: rn + h,
+            rm,
+            rn,
+            g,
+        }
+    }
+    /// ω_ie^n [rad/s].
+    #[inline]
+    pub fn w_ie(&self) -> Vec3 {
+        Vec3::new(
+            earth::OMEGA_IE * self.cos_lat,
+            0.0,
+            -earth::OMEGA_IE * self.sin_lat,
+        )
+    }
+    /// ω_en^n for `v_n` [rad/s].
+    #[inline]
+    pub fn w_en(&self, v_n: &Vec3) -> Vec3 {
+        Vec3::new(
+            v_n.y / self.rnh,
+            -v_n.x / self.rmh,
+            -v_n.y * self.sin_lat / (self.cos_lat * self.rnh),
+        )
+    }
+    /// (ΔL, Δl, Δh) for `v_n` held over `dt`.
+    #[inline]
+    pub fn step(&self, v_n: &Vec3, dt: f64) -> Vec3 {
+        Vec3::new(
+            v_n.x / self.rmh * dt,
+            v_n.y / (self.rnh * self.cos_lat) * dt,
+            -v_n.z * dt,
+        )
+    }
+}
+
 /// Geodetic position increment (ΔL, Δl, Δh) for velocity `v_n` held over `dt`
 /// at (`lat`, `h`) (`SEEDS.md §1` eq. 5).
 #[inline]
-fn geodetic_step(lat: f64, h: f64, v_n: &Vec3, dt: f64) -> Vec3 {
-    earth::geodetic_rates(lat, h, v_n) * dt
+fn geodetic_step(e: &EarthAt, v_n: &Vec3, dt: f64) -> Vec3 {
+    e.step(v_n, dt)
 }
 
 /// Velocity increment from the specific-force and gravity/Coriolis terms over
-/// one interval, with all rates evaluated at (`lat`, `h`) and velocity `v_mid`.
+/// one interval, with all rates evaluated at `e` and velocity `v_mid`.
 #[inline]
-fn velocity_increment(c_bn: &Mat3, dv_fb: &Vec3, lat: f64, h: f64, v_mid: &Vec3, dt: f64) -> Vec3 {
-    let w_ie = earth::omega_ie_n(lat);
-    let w_en = earth::omega_en_n(lat, h, v_mid);
+fn velocity_increment(c_bn: &Mat3, dv_fb: &Vec3, e: &EarthAt, v_mid: &Vec3, dt: f64) -> Vec3 {
+    let w_ie = e.w_ie();
+    let w_en = e.w_en(v_mid);
     let zeta = (w_ie + w_en) * dt;
     // Rotation of the navigation frame over the interval, to first order,
     // applied at mid-interval: (I − ½[ζ×]) C_bn Δv_f^b (Savage eq. 7.2.2.2).
     let dv_f = c_bn * dv_fb;
     let dv_fn = dv_f - 0.5 * zeta.cross(&dv_f);
-    let g_n = earth::gravity_n(lat, h);
+    let g_n = Vec3::new(0.0, 0.0, e.g);
     let dv_gn = (g_n - (2.0 * w_ie + w_en).cross(v_mid)) * dt;
     dv_fn + dv_gn
 }
@@ -121,34 +195,43 @@ pub fn mechanize(
     dt: f64,
 ) -> NavState {
     let c_bn = pre.c_bn();
+    let e0 = EarthAt::new(pre.lat, pre.h);
+    mechanize_with(pre, &c_bn, &e0, dtheta_pre, dvel_pre, dtheta, dvel, dt)
+}
 
+/// [`mechanize`] with `C_bn` and the earth model at `pre` already evaluated.
+#[allow(clippy::too_many_arguments)]
+#[inline]
+pub fn mechanize_with(
+    pre: &NavState,
+    c_bn: &Mat3,
+    e0: &EarthAt,
+    dtheta_pre: &Vec3,
+    dvel_pre: &Vec3,
+    dtheta: &Vec3,
+    dvel: &Vec3,
+    dt: f64,
+) -> NavState {
     // --- velocity -------------------------------------------------------
     let dv_fb =
         dvel + 0.5 * dtheta.cross(dvel) + (dtheta_pre.cross(dvel) + dvel_pre.cross(dtheta)) / 12.0;
     // First pass with the rates at the start, to extrapolate the mid-interval
     // velocity and position; second pass with the rates there.
-    let dv0 = velocity_increment(&c_bn, &dv_fb, pre.lat, pre.h, &pre.v_n, dt);
+    let dv0 = velocity_increment(c_bn, &dv_fb, e0, &pre.v_n, dt);
     let v_mid = pre.v_n + 0.5 * dv0;
-    let d_mid = geodetic_step(pre.lat, pre.h, &v_mid, 0.5 * dt);
-    let dv = velocity_increment(
-        &c_bn,
-        &dv_fb,
-        pre.lat + d_mid.x,
-        pre.h + d_mid.z,
-        &v_mid,
-        dt,
-    );
+    let d_mid = geodetic_step(e0, &v_mid, 0.5 * dt);
+    let e_mid = EarthAt::new(pre.lat + d_mid.x, pre.h + d_mid.z);
+    let dv = velocity_increment(c_bn, &dv_fb, &e_mid, &v_mid, dt);
     let v_cur = pre.v_n + dv;
 
     // --- position -------------------------------------------------------
     let v_mid = 0.5 * (pre.v_n + v_cur);
-    let d_half = geodetic_step(pre.lat, pre.h, &v_mid, 0.5 * dt);
-    let lat_mid = pre.lat + d_half.x;
-    let h_mid = pre.h + d_half.z;
-    let d = geodetic_step(lat_mid, h_mid, &v_mid, dt);
+    let d_half = geodetic_step(e0, &v_mid, 0.5 * dt);
+    let e_mid = EarthAt::new(pre.lat + d_half.x, pre.h + d_half.z);
+    let d = geodetic_step(&e_mid, &v_mid, dt);
 
     // --- attitude -------------------------------------------------------
-    let w_in = earth::omega_ie_n(lat_mid) + earth::omega_en_n(lat_mid, h_mid, &v_mid);
+    let w_in = e_mid.w_ie() + e_mid.w_en(&v_mid);
     let q_nn = quat_from_rotvec(&(-w_in * dt));
     let q_bb = quat_from_rotvec(&(dtheta + dtheta_pre.cross(dtheta) / 12.0));
     let mut q_bn = q_nn * pre.q_bn * q_bb;
@@ -268,8 +351,8 @@ mod tests {
         for k in 0..100 {
             let t0 = k as f64 * dt;
             let d = incr(t0, t0 + dt);
-            q_c = q_c * quat_from_rotvec(&(d + prev.cross(&d) / 12.0));
-            q_n = q_n * quat_from_rotvec(&d);
+            q_c *= quat_from_rotvec(&(d + prev.cross(&d) / 12.0));
+            q_n *= quat_from_rotvec(&d);
             prev = d;
         }
         let e_c = (exact(1.0).inverse() * q_c).angle();
