@@ -21,6 +21,7 @@ pub mod data;
 pub mod error;
 pub mod imu;
 pub mod kfgins;
+pub mod kfgins_yaml;
 pub mod navcsv;
 pub mod pos;
 pub mod text;
