@@ -28,6 +28,7 @@ pub mod text;
 pub mod time;
 pub mod trajectory;
 pub mod writers;
+pub mod yuma;
 
 #[cfg(test)]
 mod realdata;
