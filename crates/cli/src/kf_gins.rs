@@ -27,6 +27,11 @@ pub struct Args {
     /// Also run the RTS smoother and write `KF_GINS_Navresult_smoothed.nav`.
     #[arg(long)]
     pub smooth: bool,
+    /// Use GNSS positions only until this many seconds after `starttime`; after
+    /// that only GNSS velocity (needs `gnssvelpath`) and height aid the INS
+    /// (seed 001's after-370-s mode).
+    #[arg(long)]
+    pub position_until: Option<f64>,
     /// Write the outputs here instead of the YAML's `outputpath`.
     #[arg(long)]
     pub output: Option<PathBuf>,
@@ -127,11 +132,15 @@ pub fn run(args: Args) -> Result<(), String> {
     if args.verbose {
         let s = &r.stats;
         eprintln!(
-            "navfuse kf-gins: {} IMU samples, GNSS pos used {} (gated {}), vel used {}, NHC {}, ZUPT {}, ZARU {}, {:.3} s -> {}",
+            "navfuse kf-gins: {} IMU samples, GNSS pos used {} (gated {}, forced {}), vel used {} (gated {}), height used {} (gated {}), NHC {}, ZUPT {}, ZARU {}, {:.3} s -> {}",
             s.imu_samples,
             s.gnss_pos_used,
             s.gnss_pos_rejected_gate,
+            s.gnss_pos_forced,
             s.gnss_vel_used,
+            s.gnss_vel_rejected_gate,
+            s.height_used,
+            s.height_rejected_gate,
             s.nhc_used,
             s.zupt_used,
             s.zaru_used,
@@ -156,6 +165,15 @@ pub fn run_config(args: &Args) -> Result<KfGinsRun, String> {
     }
     if args.smooth {
         ecfg.smoother_every = 10;
+    }
+    if let Some(p) = args.position_until {
+        if cfg.gnssvelpath.is_none() {
+            return Err(format!(
+                "--position-until needs GNSS velocity: add `gnssvelpath:` to {}",
+                args.config.display()
+            ));
+        }
+        ecfg.position_until = Some(cfg.starttime + p);
     }
     let out_dir = match &args.output {
         Some(d) => d.clone(),
