@@ -220,6 +220,7 @@ impl KfGinsConfig {
             scale_factors: true,
             gate_probability: None,
             gnss_force_after: 0,
+            gate_deweight_factor: 1.0,
             use_gnss_velocity: self.gnssvelpath.is_some(),
             position_until: None,
             nhc: None,

@@ -161,6 +161,11 @@ pub struct EskfConfig {
     pub scale_factors: bool,
     /// χ² gate probability for GNSS and constraint updates (e.g. 0.9999); `None`: no gate.
     pub gate_probability: Option<f64>,
+    /// Innovations with NIS between the gate and this multiple of it are
+    /// applied with R scaled by NIS/gate instead of rejected (robust
+    /// de-weighting of a filter that is briefly overconfident); beyond it they
+    /// are rejected and counted. 1: plain gate.
+    pub gate_deweight_factor: f64,
     /// After this many consecutive gated-out GNSS positions the next one is
     /// applied without the gate (recovers from a filter that has drifted away
     /// and become overconfident); 0: never.
@@ -200,6 +205,7 @@ impl EskfConfig {
             scale_factors: false,
             gate_probability: None,
             gnss_force_after: 0,
+            gate_deweight_factor: 1.0,
             use_gnss_velocity: true,
             position_until: None,
             nhc: None,
@@ -217,6 +223,9 @@ pub struct EskfStats {
     pub imu_rejected_bad: u64,
     pub gnss_pos_used: u64,
     pub gnss_pos_rejected_gate: u64,
+    /// Updates beyond the gate but within `gate_deweight_factor` × gate,
+    /// applied with an inflated R.
+    pub deweighted: u64,
     /// Fixes applied without the gate after `gnss_force_after` rejections.
     pub gnss_pos_forced: u64,
     /// Fixes dropped because they were older than the filter time or not finite.
@@ -942,8 +951,8 @@ impl Eskf {
             return Err(UpdateReject::Singular);
         }
         let u: SMatrix<f64, NX, M> = self.p * h.transpose();
-        let s: SMatrix<f64, M, M> = h * u + r;
-        let Some(s_inv) = s.try_inverse() else {
+        let mut s: SMatrix<f64, M, M> = h * u + r;
+        let Some(mut s_inv) = s.try_inverse() else {
             self.stats.singular += 1;
             return Err(UpdateReject::Singular);
         };
@@ -954,15 +963,44 @@ impl Eskf {
         }
         if gate {
             if let Some(pg) = self.cfg.gate_probability {
-                if nis > chi2_gate(M, pg) {
-                    return Err(UpdateReject::Gate);
+                let g = chi2_gate(M, pg);
+                if nis > g {
+                    let hard = g * self.cfg.gate_deweight_factor;
+                    if nis > hard {
+                        return Err(UpdateReject::Gate);
+                    }
+                    // Robust de-weighting: R ← R·NIS/g so the innovation sits
+                    // on the gate (Huber-type M-estimation; Groves §17.3.3).
+                    let rs = r * (nis / g);
+                    s = h * u + rs;
+                    let Some(si) = s.try_inverse() else {
+                        self.stats.singular += 1;
+                        return Err(UpdateReject::Singular);
+                    };
+                    s_inv = si;
+                    self.stats.deweighted += 1;
+                    let k: SMatrix<f64, NX, M> = u * s_inv;
+                    return Ok(self.apply_update(&k, &s, &u, dz, nis));
                 }
             }
         }
+        let k: SMatrix<f64, NX, M> = u * s_inv;
+        Ok(self.apply_update(&k, &s, &u, dz, nis))
+    }
+
+    /// Joseph-form covariance update and feedback for gain `k`, innovation
+    /// covariance `s`, `u = P Hᵀ`.
+    fn apply_update<const M: usize>(
+        &mut self,
+        k: &SMatrix<f64, NX, M>,
+        s: &SMatrix<f64, M, M>,
+        u: &SMatrix<f64, NX, M>,
+        dz: &SVector<f64, M>,
+        nis: f64,
+    ) -> f64 {
         if self.cfg.smoother_every > 0 && self.rec_p_prior.is_none() {
             self.rec_p_prior = Some(self.p);
         }
-        let k: SMatrix<f64, NX, M> = u * s_inv;
         let dx: StateVec = k * dz;
         // Joseph form, expanded: (I−KH)P(I−KH)ᵀ + KRKᵀ = P − KUᵀ − UKᵀ + K S Kᵀ.
         let ks = k * s;
@@ -972,7 +1010,7 @@ impl Eskf {
         apply_correction(&mut self.nav, &mut self.err, &dx);
         self.rec_dx += dx;
         self.rec_updated = true;
-        Ok(nis)
+        nis
     }
 
     /// GNSS updates for `fix` at the current state time.
