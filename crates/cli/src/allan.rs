@@ -95,6 +95,7 @@ fn read_samples(path: &Path, format: &str) -> Result<Vec<ImuSample>, String> {
                 accel_unit: AccelUnit::Si,
                 form: ImuForm::Increment,
                 mount_rpy_deg: None,
+                misalign_rpy_deg: None,
                 reject_repeated_values: false,
                 nominal_rate_hz: None,
             };
@@ -168,40 +169,42 @@ impl AllanResult {
         );
         let _ = writeln!(
             o,
-            "axis     ARW [°/√h]   N [rad/√s]   B [°/h]   τ_min [s]   RRW [°/h/√h]"
+            "axis     ARW [°/√h]   N [rad/√s]   B [°/h]  min-B [°/h]  τ_min [s]   RRW [°/h/√h]"
         );
         for (i, f) in self.fits.iter().take(3).enumerate() {
             let _ = writeln!(
                 o,
-                "gyro {}   {:>10.4}   {:>10.3e}   {:>7.2}   {:>9.2}   {:>12.3}",
+                "gyro {}   {:>10.4}   {:>10.3e}   {:>7.2}  {:>11.2}  {:>9.2}   {:>12.3}",
                 ["x", "y", "z"][i],
                 f.n * R2D * 60.0,
                 f.n,
                 f.b * R2D * 3600.0,
+                f.b_min * R2D * 3600.0,
                 f.tau_min,
                 f.k * R2D * 3600.0 * 60.0
             );
         }
         let _ = writeln!(
             o,
-            "axis     VRW [m/s/√h]  N [m/s/√s]   B [mg]    τ_min [s]   RRW [mg/√h]"
+            "axis     VRW [m/s/√h]  N [m/s/√s]   B [mg]   min-B [mg]   τ_min [s]   RRW [mg/√h]"
         );
         for (i, f) in self.fits.iter().skip(3).enumerate() {
             let _ = writeln!(
                 o,
-                "accel {}  {:>10.4}   {:>10.3e}   {:>7.4}   {:>9.2}   {:>12.4}",
+                "accel {}  {:>10.4}   {:>10.3e}   {:>7.4}  {:>11.4}  {:>9.2}   {:>12.4}",
                 ["x", "y", "z"][i],
                 f.n * 60.0,
                 f.n,
                 f.b / G0 * 1e3,
+                f.b_min / G0 * 1e3,
                 f.tau_min,
                 f.k / G0 * 1e3 * 60.0
             );
         }
         let _ = write!(
             o,
-            "(N from σ² = N²/τ + C + K²τ/3 fitted over all τ; B = min σ / 0.664; \
-             K is 0 when no +½ slope is seen — a {:.0} s log cannot show it beyond τ ≈ {:.0} s)",
+            "(N, B = √C/0.664, K from σ² = N²/τ + C + K²τ/3 fitted over all τ; \
+             min-B = min σ/0.664 over τ with ≥ 8 clusters; K is 0 when no +½ slope is seen — a {:.0} s log cannot show it beyond τ ≈ {:.0} s)",
             self.samples as f64 * self.tau0,
             self.samples as f64 * self.tau0 / 2.0
         );
