@@ -24,6 +24,7 @@ pub mod kfgins;
 pub mod kfgins_yaml;
 pub mod navcsv;
 pub mod pos;
+pub mod rinex;
 pub mod text;
 pub mod time;
 pub mod trajectory;
