@@ -1,12 +1,24 @@
 //! `navfuse experiment`: Reproduce a seed paper's experiment and print its table beside ours.
-//! (placeholder: implemented by its issue)
+//! (TEMPORARY dispatch added on branch `gpsacc` until the subcommand enum lands.)
 
-use clap::Args as ClapArgs;
+use clap::{Args as ClapArgs, Subcommand};
 
 /// Reproduce a seed paper's experiment and print its table beside ours.
 #[derive(ClapArgs, Debug)]
-pub struct Args {}
+pub struct Args {
+    #[command(subcommand)]
+    pub which: Which,
+}
 
-pub fn run(_args: Args) -> Result<(), String> {
-    Err("`experiment` is not implemented yet".into())
+/// The experiments.
+#[derive(Subcommand, Debug)]
+pub enum Which {
+    /// Seed 004: GPS + accelerometer dead reckoning, Tables 3 and 4.
+    Seed004(crate::exp_seed004::Args),
+}
+
+pub fn run(args: Args) -> Result<(), String> {
+    match args.which {
+        Which::Seed004(a) => crate::exp_seed004::run(a),
+    }
 }
