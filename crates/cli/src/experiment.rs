@@ -20,6 +20,8 @@ pub struct Args {
 pub enum Which {
     /// Seed 003 (CP-ATT): Table 1, LAMBDA vs the paper, GEONET real baseline.
     Seed003(Seed003Args),
+    /// Seed 004 (GPS-ACC): Tables 3 and 4, GPS + accelerometer dead reckoning.
+    Seed004(crate::exp_seed004::Args),
 }
 
 #[derive(ClapArgs, Debug)]
@@ -56,6 +58,7 @@ pub struct Seed003Args {
 pub fn run(args: Args) -> Result<(), String> {
     match args.which {
         Which::Seed003(a) => seed003(a),
+        Which::Seed004(a) => crate::exp_seed004::run(a),
     }
 }
 

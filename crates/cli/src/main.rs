@@ -12,6 +12,7 @@ mod bench;
 mod convert;
 mod demo;
 mod eval;
+mod exp_seed004;
 mod experiment;
 mod kf_gins;
 mod run;
