@@ -1,1 +1,2 @@
 //! The four estimators: eskf (`SEEDS.md §1`), pf_lc (§2), cp_attitude (§3), accel_dr (§4).
+pub mod pf_lc;
