@@ -87,6 +87,9 @@ pub struct AttitudeKfConfig {
     pub course_sigma_rad: f64,
     /// χ² gate for tilt and course updates (NIS).
     pub gate_nis: f64,
+    /// After this many consecutive gated course updates the yaw is reset to
+    /// the course (a yaw error beyond the gate is otherwise never repaired).
+    pub course_reset_after: u32,
 }
 
 impl Default for AttitudeKfConfig {
@@ -112,6 +115,7 @@ impl Default for AttitudeKfConfig {
             orthonormalize_every: 100,
             course_sigma_rad: 3.0 * deg,
             gate_nis: 25.0,
+            course_reset_after: 20,
         }
     }
 }
@@ -125,6 +129,7 @@ pub struct AttitudeStats {
     pub tilt_skipped_dynamic: u64,
     pub course_updates: u64,
     pub course_gated: u64,
+    pub course_resets: u64,
     pub hdr_steps: u64,
     pub rejected_nonfinite: u64,
 }
@@ -147,6 +152,7 @@ pub struct AttitudeKf {
     acc_w2: f64,
     acc_w: f64,
     since_ortho: u32,
+    course_rejects: u32,
     stats: AttitudeStats,
 }
 
@@ -167,6 +173,7 @@ impl AttitudeKf {
             acc_w2: 0.0,
             acc_w: 0.0,
             since_ortho: 0,
+            course_rejects: 0,
             stats: AttitudeStats::default(),
         }
     }
@@ -369,8 +376,15 @@ impl AttitudeKf {
         if u.accepted {
             self.feedback(&x);
             self.stats.course_updates += 1;
+            self.course_rejects = 0;
         } else {
             self.stats.course_gated += 1;
+            self.course_rejects += 1;
+            if self.course_rejects >= self.cfg.course_reset_after {
+                self.set_yaw(course);
+                self.course_rejects = 0;
+                self.stats.course_resets += 1;
+            }
         }
         u.accepted
     }
@@ -505,5 +519,13 @@ mod tests {
         }
         assert!(a.rpy().z.abs() < 0.02, "{}", a.rpy());
         assert_eq!(a.stats().course_updates, 50);
+        // A yaw 90° off is beyond the gate: after `course_reset_after` gated
+        // courses it is reset.
+        a.set_yaw(1.57);
+        let n = a.config().course_reset_after;
+        for _ in 0..n {
+            assert!(!a.update_course(0.0));
+        }
+        assert!(a.rpy().z.abs() < 1e-9 && a.stats().course_resets == 1, "{}", a.rpy());
     }
 }

@@ -56,6 +56,9 @@ pub struct PfLcConfig {
     /// HDR only): applied at GPS epochs when the speed exceeds
     /// `yaw_init_speed_m_s` and the yaw rate is below this [rad/s]. 0 = off.
     pub course_aiding_max_rate_rad_s: f64,
+    /// Feed the IMU acceleration into the position filter (false: the same
+    /// filter as a constant-velocity GPS smoother — a diagnostic baseline).
+    pub use_imu_accel: bool,
 }
 
 impl Default for PfLcConfig {
@@ -67,6 +70,7 @@ impl Default for PfLcConfig {
             pv: PvKfConfig::default(),
             yaw_init_speed_m_s: 3.0,
             course_aiding_max_rate_rad_s: 0.05,
+            use_imu_accel: true,
         }
     }
 }
@@ -162,7 +166,7 @@ impl PfLc {
         }
         let g = crate::earth::gravity(self.plane.map_or(0.0, |p| p.origin.lat), self.h_last);
         let dv_ne = match dv_n {
-            Some(dv) if self.att.yaw_valid() => {
+            Some(dv) if self.att.yaw_valid() && self.cfg.use_imu_accel => {
                 // Δv^n = ĉ_bn Δv_b + g^n Δt; only N and E enter the plane filter.
                 let _ = g;
                 Some([dv.x, dv.y])
@@ -173,7 +177,7 @@ impl PfLc {
             self.pv.predict(s.dt, dv_ne);
         }
         self.t_last = s.t;
-        if dv_ne.is_some() {
+        if self.att.yaw_valid() {
             self.solution(s.t)
         } else {
             None

@@ -45,6 +45,10 @@ pub struct SirConfig {
     pub init_speed_max_m_s: f64,
     /// A gap longer than this re-initialises the cloud at the fix [s].
     pub max_gap_s: f64,
+    /// Re-initialise the cloud at the fix when even the nearest particle is
+    /// farther than this many `sigma_meas_m` (a diverged bootstrap filter
+    /// cannot recover by reweighting; counted in `reinits`).
+    pub reinit_sigmas: f64,
     /// Random seed.
     pub seed: u64,
 }
@@ -58,6 +62,7 @@ impl Default for SirConfig {
             ess_fraction: 0.5,
             init_speed_max_m_s: 15.0,
             max_gap_s: 2.0,
+            reinit_sigmas: 6.0,
             seed: 0x5eed_0002,
         }
     }
@@ -181,12 +186,16 @@ impl<const NP: usize> SirPf<NP> {
         self.propagate(gap);
         let inv2s2 = 0.5 / (self.cfg.sigma_meas_m * self.cfg.sigma_meas_m);
         let mut maxl = f64::NEG_INFINITY;
+        let mut min_d2 = f64::INFINITY;
         for (lw, p) in self.logw.iter_mut().zip(self.parts.iter()) {
             let (dn, de) = (p.north - north, p.east - east);
-            *lw -= (dn * dn + de * de) * inv2s2;
+            let d2 = dn * dn + de * de;
+            min_d2 = min_d2.min(d2);
+            *lw -= d2 * inv2s2;
             maxl = maxl.max(*lw);
         }
-        if !maxl.is_finite() {
+        let far = self.cfg.reinit_sigmas * self.cfg.sigma_meas_m;
+        if !maxl.is_finite() || min_d2 > far * far {
             self.reinit(north, east);
             return Some([north, east]);
         }
@@ -246,6 +255,14 @@ mod tests {
         let (er, ef, st) = run(1);
         assert!(ef < 0.6 * er, "raw {er} pf {ef}");
         assert!(st.resamples > 10 && st.reinits == 1, "{st:?}");
+        // A jump far away re-initialises the cloud instead of diverging.
+        let mut pf: Box<SirPf<100>> = Box::new(SirPf::new(SirConfig::default()));
+        for k in 0..20 {
+            pf.push(k as f64 * 0.25, 0.0, 0.0);
+        }
+        let est = pf.push(5.0, 1000.0, 0.0).unwrap();
+        assert_eq!(est, [1000.0, 0.0]);
+        assert_eq!(pf.stats().reinits, 2);
         assert_eq!(run(1).1, ef);
         assert_ne!(run(2).1, ef);
     }
