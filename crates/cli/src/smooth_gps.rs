@@ -95,7 +95,8 @@ pub fn run(args: Args) -> Result<(), String> {
     if let Some(w) = args.w_max {
         cc.w_max = w;
     }
-    cc.validate().map_err(|e| format!("compensation config: {e}"))?;
+    cc.validate()
+        .map_err(|e| format!("compensation config: {e}"))?;
     if !(args.sigma_m.is_finite() && args.sigma_m > 0.0) {
         return Err(format!("--sigma-m must be > 0, got {}", args.sigma_m));
     }
@@ -112,7 +113,11 @@ pub fn run(args: Args) -> Result<(), String> {
     let (mut written, mut shift_sum) = (0u64, 0.0f64);
     for sol in src.by_ref() {
         let mut sol = sol.map_err(|e| e.to_string())?;
-        let geo = Geodetic { lat: sol.lat, lon: sol.lon, h: sol.h };
+        let geo = Geodetic {
+            lat: sol.lat,
+            lon: sol.lon,
+            h: sol.h,
+        };
         let pl = *plane.get_or_insert_with(|| SmallAreaPlane::new(geo));
         let p = pl.forward(&geo);
         let q = match args.method {
@@ -146,4 +151,87 @@ pub fn run(args: Args) -> Result<(), String> {
         shift_sum / written.max(1) as f64,
     );
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use navfuse_core::estimators::pf_lc::rng::SplitMix64;
+    use navfuse_core::geodesy::LocalFrame;
+
+    /// Noisy KF-GINS GNSS text of a straight 5 m/s drive; returns (path, truth origin).
+    fn write_fixture(dir: &std::path::Path) -> (PathBuf, Geodetic) {
+        let o = Geodetic::from_degrees(40.0, -105.0, 1600.0);
+        let frame = LocalFrame::new(o);
+        let mut rng = SplitMix64::new(4);
+        let mut text = String::new();
+        for k in 0..400 {
+            let t = 1000.0 + k as f64 * 0.25;
+            let d = navfuse_core::Vec3::new(
+                5.0 * (t - 1000.0) + 2.0 * rng.normal(),
+                2.0 * rng.normal(),
+                0.0,
+            );
+            let g = frame.geodetic_from_ned(&d);
+            text += &format!(
+                "{t:.3} {:.9} {:.9} {:.3} 2.0 2.0 3.0\n",
+                g.lat.to_degrees(),
+                g.lon.to_degrees(),
+                g.h
+            );
+        }
+        let p = dir.join("gnss.txt");
+        std::fs::write(&p, text).unwrap();
+        (p, o)
+    }
+
+    #[test]
+    fn smooths_a_noisy_straight_drive_and_rejects_bad_args() {
+        let dir = std::env::temp_dir().join(format!("navfuse_smooth_gps_{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let (input, o) = write_fixture(&dir);
+        let frame = LocalFrame::new(o);
+        let out = dir.join("out.csv");
+        let args = |method| Args {
+            input: input.clone(),
+            output: out.clone(),
+            from: Some(From::KfginsGnss),
+            to: None,
+            gps_week: 2374,
+            method,
+            span: None,
+            w_min: None,
+            w_max: None,
+            sigma_m: 2.0,
+            seed: 1,
+        };
+        for method in [Method::Paper, Method::Sir] {
+            run(args(method)).unwrap();
+            let text = std::fs::read_to_string(&out).unwrap();
+            let mut src = open_nav_source(&out, InFormat::Csv, 0).unwrap();
+            let mut err = 0.0;
+            let mut n = 0;
+            for s in src.by_ref() {
+                let s = s.unwrap();
+                let d = frame.ned(&Geodetic {
+                    lat: s.lat,
+                    lon: s.lon,
+                    h: s.h,
+                });
+                if n > 20 {
+                    // Cross-track error only: the along-track truth needs the time.
+                    err += d.y.abs();
+                }
+                n += 1;
+            }
+            assert_eq!(n, 400, "{method:?}: {text:.200}");
+            // Raw cross-track mean |N(0, 2)| = 1.6 m; smoothing must do better.
+            let mean = err / (n - 21) as f64;
+            assert!(mean < 1.3, "{method:?}: mean cross-track {mean}");
+        }
+        let mut bad = args(Method::Paper);
+        bad.w_min = Some(2.0);
+        assert!(run(bad).unwrap_err().contains("w_min"));
+        std::fs::remove_dir_all(&dir).ok();
+    }
 }

@@ -1,2 +1,4 @@
 //! The four estimators: eskf (`SEEDS.md §1`), pf_lc (§2), cp_attitude (§3), accel_dr (§4).
+
+pub mod eskf;
 pub mod pf_lc;

@@ -526,6 +526,10 @@ mod tests {
         for _ in 0..n {
             assert!(!a.update_course(0.0));
         }
-        assert!(a.rpy().z.abs() < 1e-9 && a.stats().course_resets == 1, "{}", a.rpy());
+        assert!(
+            a.rpy().z.abs() < 1e-9 && a.stats().course_resets == 1,
+            "{}",
+            a.rpy()
+        );
     }
 }
