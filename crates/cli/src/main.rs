@@ -12,11 +12,13 @@ mod bench;
 mod convert;
 mod demo;
 mod eval;
+mod exp_seed002;
 mod exp_seed004;
 mod experiment;
 mod kf_gins;
 mod run;
 mod sim;
+mod smooth_gps;
 
 /// GNSS/INS navigation toolkit: fuse IMU and GNSS recordings into a trajectory
 /// with attitude, and tell how good it is.
@@ -52,6 +54,8 @@ enum Command {
     Baseline(baseline::Args),
     /// Reproduce a seed paper's experiment and print its table beside ours.
     Experiment(experiment::Args),
+    /// Compensate GNSS positions with the seed 002 algorithm (or a SIR particle filter).
+    SmoothGps(smooth_gps::Args),
 }
 
 fn main() -> ExitCode {
@@ -68,6 +72,7 @@ fn main() -> ExitCode {
         Command::Attitude(a) => attitude::run(a),
         Command::Baseline(a) => baseline::run(a),
         Command::Experiment(a) => experiment::run(a),
+        Command::SmoothGps(a) => smooth_gps::run(a),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
