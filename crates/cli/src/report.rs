@@ -24,6 +24,11 @@ pub struct Args {
     /// Another solution file, with its legend name (repeatable).
     #[arg(long = "solution", value_name = "NAME=FILE")]
     pub solutions: Vec<String>,
+    /// A KF-GINS output folder (KF_GINS_Navresult.nav, KF_GINS_STD.txt,
+    /// KF_GINS_IMU_ERR.txt — KF-GINS's or `navfuse kf-gins`'s) with its legend
+    /// name: the solution with ±3σ and its IMU error states (repeatable).
+    #[arg(long = "kfgins-output", value_name = "NAME=DIR")]
+    pub kfgins_outputs: Vec<String>,
     /// Lever arm x,y,z [m], body FRD, from the solutions' point to the truth's
     /// point (drive_0708: 0,-0.05,0, IMU → antenna).
     #[arg(long, value_name = "X,Y,Z", allow_hyphen_values = true)]
@@ -94,6 +99,13 @@ pub fn run(args: Args) -> Result<(), String> {
             .ok_or_else(|| format!("--solution: expected NAME=FILE, got {s:?}"))?;
         solutions.push((name.to_string(), PathBuf::from(path)));
     }
+    let mut kfgins_outputs = Vec::new();
+    for s in &args.kfgins_outputs {
+        let (name, path) = s
+            .split_once('=')
+            .ok_or_else(|| format!("--kfgins-output: expected NAME=DIR, got {s:?}"))?;
+        kfgins_outputs.push((name.to_string(), PathBuf::from(path)));
+    }
     let show = !args.quiet && !args.json && std::io::stderr().is_terminal();
     let bar = show.then(|| {
         let b = indicatif::ProgressBar::new_spinner();
@@ -112,6 +124,7 @@ pub fn run(args: Args) -> Result<(), String> {
             truth: args.truth.clone(),
             fixes: args.fixes.clone(),
             solutions,
+            kfgins_outputs,
             week: args.week,
         },
     )?;
@@ -226,6 +239,7 @@ mod tests {
             truth: None,
             fixes: None,
             solutions: vec![],
+            kfgins_outputs: vec![],
             lever_arm: None,
             outages: None,
             outage_count: None,

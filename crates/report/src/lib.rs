@@ -14,6 +14,7 @@
 //! | `innovations.csv`, `NAME.innovations.csv` | innovations: columns `t` (or `t_gps_s`), `kind`, `nis`, `dof`, `accepted` (1/0/true/false), optional `estimator` |
 //! | `states.csv`, `NAME.states.csv` | estimated states vs time: `t` (or `t_gps_s`) and columns `QUANTITY_AXIS_UNIT` or `QUANTITY_UNIT` (e.g. `bg_x_dph`, `ba_z_mg`, `td_s`); one plot per quantity+unit |
 //! | any other `*.nav`, `*.csv` (navfuse trajectory CSV), `*.pos` | one solution each, named by the file stem, its own colour |
+//! | `KF_GINS_Navresult.nav` + `KF_GINS_STD.txt` + `KF_GINS_IMU_ERR.txt` | a KF-GINS output folder (KF-GINS's or `navfuse kf-gins`'s): the solution with its σ and IMU error states ([`read_kfgins_output`]) |
 //!
 //! Other files (and CSVs without a trajectory header, e.g. an `errors.csv`
 //! from `navfuse eval`) are listed as ignored. Times of week only (KF-GINS
@@ -117,8 +118,137 @@ pub struct LoadOptions {
     pub fixes: Option<PathBuf>,
     /// More solution files: (legend name, path).
     pub solutions: Vec<(String, PathBuf)>,
+    /// KF-GINS output folders: (legend name, folder) — see [`read_kfgins_output`].
+    pub kfgins_outputs: Vec<(String, PathBuf)>,
     /// GPS week for time-of-week-only inputs (default: from the inputs).
     pub week: Option<u32>,
+}
+
+/// Whitespace-separated numeric rows of a KF-GINS text output with at least
+/// `min` columns; errors name file, line and column.
+fn read_columns(path: &Path, min: usize) -> Result<Vec<Vec<f64>>, String> {
+    let text = std::fs::read_to_string(path).map_err(|e| format!("{}: {e}", path.display()))?;
+    let mut rows = Vec::new();
+    for (ln, line) in text.lines().enumerate() {
+        let t = line.trim();
+        if t.is_empty() || t.starts_with('#') {
+            continue;
+        }
+        let mut row = Vec::with_capacity(min);
+        for (k, f) in t.split_whitespace().enumerate() {
+            let v = f.parse::<f64>().map_err(|_| {
+                format!(
+                    "{}:{}: field `column {}`: not a number: {f:?}",
+                    path.display(),
+                    ln + 1,
+                    k + 1
+                )
+            })?;
+            row.push(v);
+        }
+        if row.len() < min {
+            return Err(format!(
+                "{}:{}: field `column {}`: line has {} columns, expected {min}",
+                path.display(),
+                ln + 1,
+                row.len() + 1,
+                row.len()
+            ));
+        }
+        rows.push(row);
+    }
+    Ok(rows)
+}
+
+/// A KF-GINS output folder: `KF_GINS_Navresult.nav` (the solution),
+/// `KF_GINS_STD.txt` (if present: 1-σ position NED [m], velocity [m/s],
+/// attitude [deg], gyro bias [°/h], accelerometer bias [mGal], scale factors
+/// [ppm], after the time column) attached to the solution epoch with the same
+/// time (±1 ms), and `KF_GINS_IMU_ERR.txt` (if present: gyro bias [°/h],
+/// accelerometer bias [mGal], gyro and accelerometer scale factors [ppm]) as
+/// a [`StateSet`] with the σ from the STD file.
+pub fn read_kfgins_output(
+    dir: &Path,
+    name: &str,
+) -> Result<(Trajectory, Option<StateSet>), String> {
+    let mut sol = read_trajectory(&dir.join("KF_GINS_Navresult.nav"), name, false)?;
+    let std_p = dir.join("KF_GINS_STD.txt");
+    let std_rows = if std_p.exists() {
+        Some(read_columns(&std_p, 22)?)
+    } else {
+        None
+    };
+    // Times of the .nav are GPS seconds with week 0 → equal to the TOW here.
+    let mut attached = 0usize;
+    if let Some(rows) = &std_rows {
+        let mut j = 0;
+        for e in sol.epochs.iter_mut() {
+            while j < rows.len() && rows[j][0] < e.t - 1e-3 {
+                j += 1;
+            }
+            if j < rows.len() && (rows[j][0] - e.t).abs() <= 1e-3 {
+                let r = &rows[j];
+                let d = std::f64::consts::PI / 180.0;
+                e.std_pos_ned = navfuse_core::Vec3::new(r[1], r[2], r[3]);
+                e.std_v_n = navfuse_core::Vec3::new(r[4], r[5], r[6]);
+                e.std_rpy = navfuse_core::Vec3::new(r[7] * d, r[8] * d, r[9] * d);
+                attached += 1;
+            }
+        }
+        if attached == 0 {
+            return Err(format!(
+                "{}: no line's time matches an epoch of KF_GINS_Navresult.nav",
+                std_p.display()
+            ));
+        }
+        if let Some(r) = sol.records.as_mut() {
+            r.push_str(&format!("; σ from KF_GINS_STD.txt at {attached} epochs"));
+        }
+    }
+    let err_p = dir.join("KF_GINS_IMU_ERR.txt");
+    let states = if err_p.exists() {
+        let rows = read_columns(&err_p, 13)?;
+        let mut columns: Vec<String> = Vec::new();
+        for (q, u) in [("bg", "dph"), ("ba", "mgal"), ("sg", "ppm"), ("sa", "ppm")] {
+            for a in ["x", "y", "z"] {
+                columns.push(format!("{q}_{a}_{u}"));
+            }
+        }
+        let n_state = columns.len();
+        if std_rows.is_some() {
+            for k in 0..n_state {
+                columns.push(format!("std_{}", columns[k]));
+            }
+        }
+        let mut t = Vec::with_capacity(rows.len());
+        let mut values = Vec::with_capacity(rows.len());
+        let mut j = 0;
+        for r in &rows {
+            t.push(r[0]);
+            let mut v: Vec<f64> = r[1..=n_state].to_vec();
+            if let Some(sr) = &std_rows {
+                while j < sr.len() && sr[j][0] < r[0] - 1e-3 {
+                    j += 1;
+                }
+                if j < sr.len() && (sr[j][0] - r[0]).abs() <= 1e-3 {
+                    v.extend_from_slice(&sr[j][10..10 + n_state]);
+                } else {
+                    v.extend(std::iter::repeat_n(f64::NAN, n_state));
+                }
+            }
+            values.push(v);
+        }
+        Some(StateSet {
+            estimator: name.to_string(),
+            path: Some(err_p),
+            columns,
+            t,
+            values,
+        })
+    } else {
+        None
+    };
+    Ok((sol, states))
 }
 
 fn lower_name(p: &Path) -> String {
@@ -382,6 +512,7 @@ pub fn load_run_dir(dir: &Path, opt: &LoadOptions) -> Result<Inputs, String> {
     let mut truth_path = opt.truth.clone();
     let mut fixes_path = opt.fixes.clone();
     let mut sol_paths: Vec<(String, PathBuf)> = Vec::new();
+    let mut kfgins_dirs: Vec<(String, PathBuf)> = Vec::new();
     for p in &files {
         let n = lower_name(p);
         let ext = n.rsplit('.').next().unwrap_or("").to_string();
@@ -423,6 +554,10 @@ pub fn load_run_dir(dir: &Path, opt: &LoadOptions) -> Result<Inputs, String> {
             if fixes_path.is_none() {
                 fixes_path = Some(p.clone());
             }
+        } else if n == "kf_gins_std.txt" || n == "kf_gins_imu_err.txt" {
+            // Read with KF_GINS_Navresult.nav.
+        } else if n == "kf_gins_navresult.nav" {
+            kfgins_dirs.push(("KF-GINS output".into(), dir.to_path_buf()));
         } else if ext == "nav" || ext == "pos" {
             sol_paths.push((stem(p), p.clone()));
         } else if ext == "csv" {
@@ -441,6 +576,12 @@ pub fn load_run_dir(dir: &Path, opt: &LoadOptions) -> Result<Inputs, String> {
     sol_paths.extend(opt.solutions.iter().cloned());
     for (name, p) in &sol_paths {
         inp.solutions.push(read_trajectory(p, name, false)?);
+    }
+    kfgins_dirs.extend(opt.kfgins_outputs.iter().cloned());
+    for (name, d) in &kfgins_dirs {
+        let (sol, states) = read_kfgins_output(d, name)?;
+        inp.solutions.push(sol);
+        inp.states.extend(states);
     }
     if let Some(p) = &truth_path {
         inp.truth = Some(read_trajectory(p, "truth", true)?);

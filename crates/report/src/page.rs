@@ -55,6 +55,12 @@ fn nearest(s: &[NavSolution], t: f64) -> usize {
     }
 }
 
+/// Line width of estimator `i` of `n`: earlier ones wider, so identical
+/// results stay visible under later ones.
+fn width_for(i: usize, n: usize) -> f64 {
+    (1.2 + 0.7 * n.saturating_sub(1 + i) as f64).min(3.0)
+}
+
 fn colour(i: usize) -> String {
     PALETTE[i % PALETTE.len()].to_string()
 }
@@ -241,7 +247,7 @@ pub(crate) fn render(inp: &Inputs, progress: &mut dyn FnMut(&str)) -> Result<Ren
                 name: s.name.clone(),
                 colour: colour(i),
                 pts: s.epochs.iter().map(enu).collect(),
-                width: 1.6,
+                width: width_for(i, inp.solutions.len()),
                 opacity: 1.0,
                 x_sorted: false,
                 legend: true,
@@ -300,7 +306,7 @@ pub(crate) fn render(inp: &Inputs, progress: &mut dyn FnMut(&str)) -> Result<Ren
                     &r.name,
                     &colour(i),
                     ev.errors.iter().map(|e| (rel(e.t), e.horizontal)).collect(),
-                    1.4,
+                    width_for(i, results.len()),
                 ));
             }
         }
@@ -433,7 +439,7 @@ pub(crate) fn render(inp: &Inputs, progress: &mut dyn FnMut(&str)) -> Result<Ren
                             .map(|e| (rel(e.t), e.rpy[k].to_degrees()))
                             .collect(),
                     ),
-                    1.3,
+                    width_for(i, inp.solutions.len()),
                 ));
             }
             plots.push(p);
@@ -522,7 +528,7 @@ fn error_plot(
                 hi: sig.clone(),
             });
         }
-        lines.push(line(&r.name, &colour(i), pts, 1.3));
+        lines.push(line(&r.name, &colour(i), pts, width_for(i, results.len())));
     }
     p.layers.extend(lines);
     p
@@ -705,6 +711,7 @@ fn unit_label(u: &str) -> String {
         "dph" => "°/h".into(),
         "degph" => "°/h".into(),
         "mg" => "mg".into(),
+        "mgal" => "mGal".into(),
         "ug" => "µg".into(),
         "s" => "s".into(),
         "ms" => "ms".into(),
@@ -751,9 +758,13 @@ fn quantity_title(q: &str) -> String {
     }
 }
 
+/// One plot per estimator and quantity (x, y, z in the first three colours),
+/// ±3σ bands from `std_` columns. The y range ignores the first 0.5 % and the
+/// last 0.5 % of the values (start-up transients would flatten the rest).
 fn states_section(inp: &Inputs, spans: &[(f64, f64)], t0: f64) -> Section {
-    let mut groups: Vec<(String, String, String)> = Vec::new(); // key, quantity, unit
+    let mut plots = Vec::new();
     for s in &inp.states {
+        let mut groups: Vec<(String, String, String)> = Vec::new(); // key, quantity, unit
         for c in &s.columns {
             if c.starts_with("std_") {
                 continue;
@@ -763,20 +774,17 @@ fn states_section(inp: &Inputs, spans: &[(f64, f64)], t0: f64) -> Section {
                 groups.push((k, q, u));
             }
         }
-    }
-    let multi = inp.states.len() > 1;
-    let mut plots = Vec::new();
-    for (gi, (key, q, u)) in groups.iter().enumerate() {
-        let mut p = Plot::new(
-            &format!("state-{gi}"),
-            &format!("{} [{}]", quantity_title(q), unit_label(u)),
-            "t − t₀ [s]",
-            &format!("{} [{}]", q, unit_label(u)),
-        );
-        p.height = 240.0;
-        p.spans = spans.to_vec();
-        let mut ci = 0;
-        for (si, s) in inp.states.iter().enumerate() {
+        for (key, q, u) in &groups {
+            let mut p = Plot::new(
+                &format!("state-{}", plots.len()),
+                &format!("{}: {} [{}]", s.estimator, quantity_title(q), unit_label(u)),
+                "t − t₀ [s]",
+                &format!("{} [{}]", q, unit_label(u)),
+            );
+            p.height = 240.0;
+            p.spans = spans.to_vec();
+            p.robust_y = true;
+            let mut lines = Vec::new();
             for (k, c) in s.columns.iter().enumerate() {
                 if c.starts_with("std_") {
                     continue;
@@ -785,18 +793,13 @@ fn states_section(inp: &Inputs, spans: &[(f64, f64)], t0: f64) -> Section {
                 if &kk != key {
                     continue;
                 }
-                let name = match (&axis, multi) {
-                    (Some(a), true) => format!("{} {a}", s.estimator),
-                    (Some(a), false) => a.clone(),
-                    (None, _) => s.estimator.clone(),
-                };
+                let name = axis.clone().unwrap_or_else(|| q.clone());
+                let col = colour(lines.len());
                 let pts: Vec<(f64, f64)> =
                     s.t.iter()
                         .zip(&s.values)
                         .map(|(t, v)| (t - t0, v[k]))
                         .collect();
-                let col = colour(if multi { si * 3 + ci } else { ci });
-                // ±3σ band if a std_ column for it exists.
                 if let Some(j) = s.columns.iter().position(|x| *x == format!("std_{c}")) {
                     p.layers.push(Layer::Band {
                         name: format!("{name} ±3σ"),
@@ -816,11 +819,11 @@ fn states_section(inp: &Inputs, spans: &[(f64, f64)], t0: f64) -> Section {
                             .collect(),
                     });
                 }
-                p.layers.push(line(&name, &col, pts, 1.4));
-                ci += 1;
+                lines.push(line(&name, &col, pts, 1.4));
             }
+            p.layers.extend(lines);
+            plots.push(p);
         }
-        plots.push(p);
     }
     Section {
         id: "states",

@@ -4,7 +4,7 @@
 //! A [`Plot`] is axes with ticks and unit-named labels, a legend, shaded
 //! x-intervals (GNSS outages), horizontal reference lines (χ² bounds) and
 //! layers: lines, point sets and ±kσ bands. Long series are decimated to at
-//! most four points per pixel column (first, min, max, last), which keeps
+//! most two points per pixel column (its min and max, in time order), which keeps
 //! every extreme visible and the files small.
 //!
 //! Every data series is one `<path class="series">`; the `<svg>` carries
@@ -81,6 +81,9 @@ pub struct Plot {
     pub equal_aspect: bool,
     /// Logarithmic y (values ≤ 0 are dropped).
     pub log_y: bool,
+    /// y range from the 0.5th to the 99.5th percentile of the line values
+    /// (outliers and start-up transients are clipped, not rescaled to).
+    pub robust_y: bool,
     pub layers: Vec<Layer>,
     /// Shaded x-intervals and their legend label.
     pub spans: Vec<(f64, f64)>,
@@ -99,6 +102,7 @@ impl Plot {
             height: 300.0,
             equal_aspect: false,
             log_y: false,
+            robust_y: false,
             layers: Vec::new(),
             spans: Vec::new(),
             span_label: "GNSS outage".into(),
@@ -153,6 +157,26 @@ impl Plot {
                         grow(&mut yr, self.ty(p.1));
                     }
                 }
+            }
+        }
+        if self.robust_y {
+            let mut v: Vec<f64> = self
+                .layers
+                .iter()
+                .filter_map(|l| match l {
+                    Layer::Line { pts, .. } => Some(pts),
+                    _ => None,
+                })
+                .flatten()
+                .filter(|p| self.finite_pt(p))
+                .map(|p| self.ty(p.1))
+                .collect();
+            if v.len() > 10 {
+                v.sort_by(f64::total_cmp);
+                let q = |f: f64| v[((v.len() - 1) as f64 * f).round() as usize];
+                let (lo, hi) = (q(0.005), q(0.995));
+                let pad = 0.1 * (hi - lo).max(1e-9);
+                yr = (lo - pad, hi + pad);
             }
         }
         for h in &self.hlines {
@@ -374,7 +398,7 @@ impl Plot {
                 if !d.is_empty() {
                     let _ = write!(
                         s,
-                        r#"<path class="band" data-name="{}" d="{d}" fill="{colour}" fill-opacity="0.16" stroke="none"/>"#,
+                        r#"<path class="band" data-name="{}" d="{d}" fill="{colour}" fill-opacity="0.13" stroke="none"/>"#,
                         esc(name)
                     );
                 }
@@ -520,7 +544,7 @@ impl Plot {
                         kind: if *opacity < 0.6 {
                             LegendKind::Fill(*opacity)
                         } else {
-                            LegendKind::Line(width.max(2.0))
+                            LegendKind::Line(width.clamp(2.0, 3.0))
                         },
                     },
                 ),
@@ -541,18 +565,33 @@ impl Plot {
                         },
                     },
                 ),
-                Layer::Band {
-                    name, colour, x, ..
-                } if !x.is_empty() => push(
-                    &mut v,
-                    LegendItem {
-                        label: name.clone(),
-                        colour: colour.clone(),
-                        kind: LegendKind::Fill(0.25),
-                    },
-                ),
                 _ => {}
             }
+        }
+        // Bands: one entry (each band has its series' colour).
+        let bands: Vec<&Layer> = self
+            .layers
+            .iter()
+            .filter(|l| matches!(l, Layer::Band { x, .. } if !x.is_empty()))
+            .collect();
+        if let Some(Layer::Band { name, colour, .. }) = bands.first() {
+            let label = if bands.len() == 1 {
+                name.clone()
+            } else {
+                "±3σ (series colour)".to_string()
+            };
+            push(
+                &mut v,
+                LegendItem {
+                    label,
+                    colour: if bands.len() == 1 {
+                        colour.clone()
+                    } else {
+                        "#888888".into()
+                    },
+                    kind: LegendKind::Fill(0.3),
+                },
+            );
         }
         for h in &self.hlines {
             push(
@@ -724,8 +763,8 @@ pub fn esc(s: &str) -> String {
 type Column = [(usize, (f64, f64)); 4];
 
 /// Decimate pixel points: runs of finite points (NaN breaks a run).
-/// `x_sorted`: keep first/min/max/last per pixel column; else drop points
-/// closer than 0.5 px to the last kept one.
+/// `x_sorted`: keep the min and max of each pixel column, in time order; else drop points
+/// closer than 1 px to the last kept one.
 pub fn decimate(px: &[(f64, f64)], x_sorted: bool) -> Vec<Vec<(f64, f64)>> {
     let mut runs: Vec<Vec<(f64, f64)>> = Vec::new();
     let mut cur: Vec<(f64, f64)> = Vec::new();
@@ -738,7 +777,8 @@ pub fn decimate(px: &[(f64, f64)], x_sorted: bool) -> Vec<Vec<(f64, f64)>> {
         // Column state: (col, first, min, max, last) with indices for order.
         let mut col: Option<(i64, Column)> = None;
         let emit = |c: &Column, cur: &mut Vec<(f64, f64)>| {
-            let mut v: Vec<(usize, (f64, f64))> = c.to_vec();
+            // Min and max in time order (the column's envelope).
+            let mut v: Vec<(usize, (f64, f64))> = vec![c[1], c[2]];
             v.sort_by_key(|e| e.0);
             v.dedup_by_key(|e| e.0);
             cur.extend(v.into_iter().map(|e| e.1));
@@ -780,7 +820,7 @@ pub fn decimate(px: &[(f64, f64)], x_sorted: bool) -> Vec<Vec<(f64, f64)>> {
                 continue;
             }
             match cur.last() {
-                Some(l) if (l.0 - p.0).hypot(l.1 - p.1) < 0.5 => {}
+                Some(l) if (l.0 - p.0).hypot(l.1 - p.1) < 1.0 => {}
                 _ => cur.push(p),
             }
         }
@@ -789,17 +829,117 @@ pub fn decimate(px: &[(f64, f64)], x_sorted: bool) -> Vec<Vec<(f64, f64)>> {
     runs
 }
 
-fn line_path(px: &[(f64, f64)], x_sorted: bool) -> String {
-    let mut d = String::new();
-    for run in decimate(px, x_sorted) {
-        for (i, p) in run.iter().enumerate() {
-            let _ = write!(d, "{}{:.1},{:.1}", if i == 0 { 'M' } else { 'L' }, p.0, p.1);
-        }
-        if run.len() == 1 {
-            d.push_str("h0.01"); // a lone point still draws (round cap)
+/// Path data in relative moves between coordinates rounded to 0.1 px:
+/// short numbers, no accumulated rounding; consecutive horizontal (or
+/// vertical) steps are merged.
+struct PathEnc {
+    d: String,
+    prev: Option<(i64, i64)>,
+    pending: Option<(i64, i64)>,
+    open: bool,
+}
+
+impl PathEnc {
+    fn new() -> Self {
+        PathEnc {
+            d: String::new(),
+            prev: None,
+            pending: None,
+            open: false,
         }
     }
-    d
+
+    fn num(&mut self, v: i64) {
+        if v < 0 {
+            self.d.push('-');
+        }
+        let a = v.unsigned_abs();
+        let _ = write!(self.d, "{}", a / 10);
+        if a % 10 != 0 {
+            let _ = write!(self.d, ".{}", a % 10);
+        }
+    }
+
+    fn flush(&mut self) {
+        if let Some((dx, dy)) = self.pending.take() {
+            if !self.d.ends_with('l') {
+                self.d.push(' ');
+            }
+            self.num(dx);
+            self.d.push(',');
+            self.num(dy);
+        }
+    }
+
+    fn move_to(&mut self, p: (f64, f64)) {
+        self.end_run();
+        let q = ((p.0 * 10.0).round() as i64, (p.1 * 10.0).round() as i64);
+        self.d.push('M');
+        self.num(q.0);
+        self.d.push(',');
+        self.num(q.1);
+        self.d.push('l');
+        self.prev = Some(q);
+        self.open = true;
+    }
+
+    fn line_to(&mut self, p: (f64, f64)) {
+        let q = ((p.0 * 10.0).round() as i64, (p.1 * 10.0).round() as i64);
+        let Some(o) = self.prev else {
+            return self.move_to(p);
+        };
+        let (dx, dy) = (q.0 - o.0, q.1 - o.1);
+        if dx == 0 && dy == 0 {
+            return;
+        }
+        match &mut self.pending {
+            Some(pd)
+                if (pd.1 == 0 && dy == 0 && pd.0.signum() == dx.signum())
+                    || (pd.0 == 0 && dx == 0 && pd.1.signum() == dy.signum()) =>
+            {
+                pd.0 += dx;
+                pd.1 += dy;
+            }
+            _ => {
+                self.flush();
+                self.pending = Some((dx, dy));
+            }
+        }
+        self.prev = Some(q);
+    }
+
+    fn end_run(&mut self) {
+        self.flush();
+        if self.open && self.d.ends_with('l') {
+            self.d.push_str("0.1,0"); // a lone point still draws (round cap)
+        }
+        self.open = false;
+    }
+
+    fn close(&mut self) {
+        self.flush();
+        self.d.push('Z');
+        self.open = false;
+    }
+
+    fn finish(mut self) -> String {
+        self.end_run();
+        self.d
+    }
+}
+
+fn line_path(px: &[(f64, f64)], x_sorted: bool) -> String {
+    let mut e = PathEnc::new();
+    for run in decimate(px, x_sorted) {
+        for (i, p) in run.iter().enumerate() {
+            if i == 0 {
+                e.move_to(*p);
+            } else {
+                e.line_to(*p);
+            }
+        }
+    }
+    e.finish()
 }
 
 fn marker_path(px: &[(f64, f64)], marker: Marker, size: f64) -> String {
@@ -850,17 +990,18 @@ fn band_path(
     sy: &dyn Fn(f64) -> f64,
     _right: f64,
 ) -> String {
-    let mut d = String::new();
+    let mut d = PathEnc::new();
     let mut run: Vec<(f64, f64, f64)> = Vec::new(); // (px, py_hi, py_lo)
-    let flush = |run: &mut Vec<(f64, f64, f64)>, d: &mut String| {
+    let flush = |run: &mut Vec<(f64, f64, f64)>, d: &mut PathEnc| {
         if run.len() >= 2 {
-            for (i, p) in run.iter().enumerate() {
-                let _ = write!(d, "{}{:.1},{:.1}", if i == 0 { 'M' } else { 'L' }, p.0, p.1);
+            d.move_to((run[0].0, run[0].1));
+            for p in &run[1..] {
+                d.line_to((p.0, p.1));
             }
             for p in run.iter().rev() {
-                let _ = write!(d, "L{:.1},{:.1}", p.0, p.2);
+                d.line_to((p.0, p.2));
             }
-            d.push('Z');
+            d.close();
         }
         run.clear();
     };
@@ -880,7 +1021,7 @@ fn band_path(
         }
     }
     flush(&mut run, &mut d);
-    d
+    d.finish()
 }
 
 #[cfg(test)]
@@ -911,7 +1052,7 @@ mod tests {
         let runs = decimate(&px, true);
         assert_eq!(runs.len(), 1);
         let r = &runs[0];
-        assert!(r.len() <= 4 * 501, "{}", r.len());
+        assert!(r.len() <= 2 * 501, "{}", r.len());
         assert!(r.iter().any(|p| p.1 == -999.0), "spike lost");
         let ymax = px.iter().map(|p| p.1).fold(f64::MIN, f64::max);
         assert!(r.iter().any(|p| p.1 == ymax));

@@ -206,6 +206,54 @@ fn bad_innovations_name_file_line_and_field() {
 }
 
 #[test]
+fn kfgins_output_folder_gives_sigma_and_imu_errors() {
+    let dir = tmp("kfout");
+    let nav =
+        "0 100.0 40.0 -105.0 1600.0 1 0 0 0 0 90\n0 100.5 40.00001 -105.0 1600.0 1 0 0 0 0 90\n";
+    std::fs::write(dir.join("KF_GINS_Navresult.nav"), nav).unwrap();
+    let mut std_txt = String::new();
+    let mut err_txt = String::new();
+    for t in [100.0, 100.5] {
+        std_txt.push_str(&format!("{t} 0.1 0.2 0.3 0.01 0.02 0.03 1 2 3"));
+        for k in 0..12 {
+            std_txt.push_str(&format!(" {}", 10 + k));
+        }
+        std_txt.push('\n');
+        err_txt.push_str(&format!("{t} 5 6 7 100 200 300 1 2 3 4 5 6\n"));
+    }
+    std::fs::write(dir.join("KF_GINS_STD.txt"), &std_txt).unwrap();
+    std::fs::write(dir.join("KF_GINS_IMU_ERR.txt"), &err_txt).unwrap();
+    let inp = load_run_dir(&dir, &LoadOptions::default()).unwrap();
+    assert_eq!(inp.solutions.len(), 1);
+    assert!(inp.ignored.is_empty(), "{:?}", inp.ignored);
+    let e = &inp.solutions[0].epochs[1];
+    assert_eq!(e.std_pos_ned, navfuse_core::Vec3::new(0.1, 0.2, 0.3));
+    assert!((e.std_rpy.z - 3f64.to_radians()).abs() < 1e-12);
+    let st = &inp.states[0];
+    assert_eq!(st.columns.len(), 24);
+    let k = st.columns.iter().position(|c| c == "ba_y_mgal").unwrap();
+    let ks = st
+        .columns
+        .iter()
+        .position(|c| c == "std_ba_y_mgal")
+        .unwrap();
+    assert_eq!((st.values[1][k], st.values[1][ks]), (200.0, 14.0));
+    let r = render(&inp, &mut |_| {}).unwrap();
+    assert!(r.sections.iter().any(|s| s == "states"));
+    // A broken STD line names file, line and column.
+    std::fs::write(
+        dir.join("KF_GINS_STD.txt"),
+        std_txt.replace("0.2 0.3", "0.2 x"),
+    )
+    .unwrap();
+    let e = load_run_dir(&dir, &LoadOptions::default()).unwrap_err();
+    assert!(
+        e.contains("KF_GINS_STD.txt:1") && e.contains("column 4"),
+        "{e}"
+    );
+}
+
+#[test]
 fn empty_directory_is_a_clear_error() {
     let dir = tmp("empty");
     let inp = load_run_dir(&dir, &LoadOptions::default()).unwrap();
@@ -247,7 +295,7 @@ fn drive_0708_kfgins_outage_report() {
             truth: Some(truth),
             fixes: Some(fixes),
             solutions: vec![("KF-GINS".into(), kf)],
-            week: None,
+            ..Default::default()
         },
     )
     .unwrap();
