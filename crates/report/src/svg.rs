@@ -855,7 +855,7 @@ impl PathEnc {
         }
         let a = v.unsigned_abs();
         let _ = write!(self.d, "{}", a / 10);
-        if a % 10 != 0 {
+        if !a.is_multiple_of(10) {
             let _ = write!(self.d, ".{}", a % 10);
         }
     }
