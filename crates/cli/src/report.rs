@@ -2,10 +2,13 @@
 //! of a run directory (layout: `navfuse_report` crate doc).
 
 use clap::Args as ClapArgs;
-use navfuse_eval::{Align, OutageSchedule};
-use navfuse_report::{load_run_dir, write_report_with, LoadOptions, ReportSummary};
+use navfuse_core::NavSolution;
+use navfuse_eval::{Align, EvalConfig, OutageSchedule};
+use navfuse_report::{
+    load_run_dir, write_report_with, Inputs, LoadOptions, ReportSummary, Trajectory,
+};
 use std::io::IsTerminal;
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
 const WEEK_S: f64 = 604_800.0;
 
@@ -189,6 +192,56 @@ pub fn run(args: Args) -> Result<(), String> {
     } else if !args.quiet {
         print!("{}", text_summary(&sum));
     }
+    Ok(())
+}
+
+/// The report of one `navfuse eval` run (`navfuse eval --report DIR`):
+/// the solution and truth as eval read them (weeks harmonised), the fixes
+/// file when given, the outages of the schedule inside the solution's span.
+pub fn from_eval(
+    dir: &Path,
+    solution: (&Path, Vec<NavSolution>),
+    truth: (&Path, Vec<NavSolution>),
+    fixes: Option<&Path>,
+    cfg: EvalConfig,
+    schedule: Option<&OutageSchedule>,
+) -> Result<(), String> {
+    let traj = |name: String, p: &Path, epochs: Vec<NavSolution>| Trajectory {
+        name,
+        path: Some(p.to_path_buf()),
+        epochs,
+        records: None,
+    };
+    let (lo, hi) = (
+        solution.1.first().map_or(0.0, |e| e.t),
+        solution.1.last().map_or(0.0, |e| e.t),
+    );
+    let fixes = match fixes {
+        Some(p) => {
+            let mut f = navfuse_report::read_trajectory(p, "GNSS fixes", true)?;
+            if lo >= WEEK_S && f.epochs.iter().all(|e| e.t < WEEK_S) {
+                let w = (lo / WEEK_S).floor() * WEEK_S;
+                f.epochs.iter_mut().for_each(|e| e.t += w);
+            }
+            Some(f)
+        }
+        None => None,
+    };
+    let name = solution
+        .0
+        .file_stem()
+        .map_or("solution".into(), |s| s.to_string_lossy().into_owned());
+    let inputs = Inputs {
+        title: format!("navfuse eval: {}", solution.0.display()),
+        solutions: vec![traj(name, solution.0, solution.1)],
+        truth: Some(traj("truth".into(), truth.0, truth.1)),
+        fixes,
+        outages: schedule.map_or(Vec::new(), |s| s.intervals(lo, hi)),
+        eval: cfg,
+        ..Default::default()
+    };
+    let sum = navfuse_report::write_report(dir, &inputs)?;
+    println!("  report: {}", sum.html.display());
     Ok(())
 }
 
