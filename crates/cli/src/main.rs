@@ -16,6 +16,7 @@ mod exp_seed002;
 mod exp_seed004;
 mod experiment;
 mod kf_gins;
+mod report;
 mod run;
 mod sim;
 mod smooth_gps;
@@ -56,6 +57,8 @@ enum Command {
     Experiment(experiment::Args),
     /// Compensate GNSS positions with the seed 002 algorithm (or a SIR particle filter).
     SmoothGps(smooth_gps::Args),
+    /// Self-contained HTML report and SVG plots of a run directory.
+    Report(report::Args),
 }
 
 fn main() -> ExitCode {
@@ -73,6 +76,7 @@ fn main() -> ExitCode {
         Command::Baseline(a) => baseline::run(a),
         Command::Experiment(a) => experiment::run(a),
         Command::SmoothGps(a) => smooth_gps::run(a),
+        Command::Report(a) => report::run(a),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
