@@ -9,10 +9,12 @@ pub mod error;
 pub mod imu;
 pub mod kfgins;
 pub mod navcsv;
+pub mod nmea;
 pub mod pos;
 pub mod text;
 pub mod time;
 pub mod trajectory;
+pub mod ubx;
 pub mod writers;
 
 #[cfg(test)]
