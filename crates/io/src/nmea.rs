@@ -236,7 +236,11 @@ fn tod(s: &str) -> Result<f64, NmeaError> {
         num(&s[4..6], "time")?
     };
     if h > 23.0 || m > 59.0 || sec >= 61.0 {
-        return Err(err(REASON_MALFORMED, "time", format!("no such time: {s:?}")));
+        return Err(err(
+            REASON_MALFORMED,
+            "time",
+            format!("no such time: {s:?}"),
+        ));
     }
     Ok(h * 3600.0 + m * 60.0 + sec)
 }
@@ -385,7 +389,11 @@ fn gga_like(f: &[&str], gns: bool) -> Result<Gga, NmeaError> {
 pub fn parse_sentence(line: &[u8]) -> Result<Sentence, NmeaError> {
     let line = line.trim_ascii();
     if line.first() != Some(&b'$') {
-        return Err(err(REASON_NOT_NMEA, "<sentence>", "does not start with `$`"));
+        return Err(err(
+            REASON_NOT_NMEA,
+            "<sentence>",
+            "does not start with `$`",
+        ));
     }
     let Some(star) = line.iter().rposition(|&b| b == b'*') else {
         return Err(err(REASON_NO_CHECKSUM, "checksum", "no `*hh` checksum"));
@@ -396,7 +404,13 @@ pub fn parse_sentence(line: &[u8]) -> Result<Sentence, NmeaError> {
         [a, b] => hexval(*a).zip(hexval(*b)).map(|(a, b)| a * 16 + b),
         _ => None,
     }
-    .ok_or_else(|| err(REASON_NO_CHECKSUM, "checksum", "checksum is not two hex digits"))?;
+    .ok_or_else(|| {
+        err(
+            REASON_NO_CHECKSUM,
+            "checksum",
+            "checksum is not two hex digits",
+        )
+    })?;
     let got = checksum(body);
     if got != want {
         return Err(err(
@@ -405,17 +419,25 @@ pub fn parse_sentence(line: &[u8]) -> Result<Sentence, NmeaError> {
             format!("checksum {want:02X} given, {got:02X} computed"),
         ));
     }
-    let body = std::str::from_utf8(body)
-        .map_err(|_| err(REASON_MALFORMED, "<sentence>", "not ASCII"))?;
+    let body =
+        std::str::from_utf8(body).map_err(|_| err(REASON_MALFORMED, "<sentence>", "not ASCII"))?;
     let mut it = body.split(',');
     let addr = it.next().unwrap_or("");
     let f: Vec<&str> = it.collect();
     if addr.len() != 5 || !addr.is_ascii() {
-        return Err(err(REASON_NOT_NMEA, "<address>", format!("address {addr:?}")));
+        return Err(err(
+            REASON_NOT_NMEA,
+            "<address>",
+            format!("address {addr:?}"),
+        ));
     }
     let (talker, kind) = addr.split_at(2);
     if Talker::parse(talker.as_bytes()).is_none() {
-        return Err(err(REASON_TALKER, "<address>", format!("talker {talker:?}")));
+        return Err(err(
+            REASON_TALKER,
+            "<address>",
+            format!("talker {talker:?}"),
+        ));
     }
     Ok(match kind {
         "GGA" => Sentence::Gga(gga_like(&f, false)?),
@@ -499,7 +521,11 @@ pub fn parse_sentence(line: &[u8]) -> Result<Sentence, NmeaError> {
             let index = int::<u8>(f[1], "index")?;
             let in_view = int::<u16>(f[2], "in_view")?;
             if index == 0 || index > total {
-                return Err(err(REASON_MALFORMED, "index", format!("{index} of {total}")));
+                return Err(err(
+                    REASON_MALFORMED,
+                    "index",
+                    format!("{index} of {total}"),
+                ));
             }
             let rest = &f[3..];
             // 4 fields per satellite, optionally one signal id at the end.
@@ -537,7 +563,11 @@ pub fn parse_sentence(line: &[u8]) -> Result<Sentence, NmeaError> {
             need(&f, 1)?;
             let h = num(f[0], "heading")?;
             if !(0.0..=360.0).contains(&h) {
-                return Err(err(REASON_MALFORMED, "heading", format!("{h} outside [0, 360]")));
+                return Err(err(
+                    REASON_MALFORMED,
+                    "heading",
+                    format!("{h} outside [0, 360]"),
+                ));
             }
             Sentence::Hdt(h.to_radians())
         }
@@ -674,7 +704,11 @@ impl<R: BufRead> NmeaReader<R> {
         // in UTC seconds (no leap second inside a day in practice).
         let t = t0 + ep.gga.sod;
         if t <= self.last_t {
-            self.reject(REASON_TIME_BACK, "time", format!("epoch {t} after {}", self.last_t));
+            self.reject(
+                REASON_TIME_BACK,
+                "time",
+                format!("epoch {t} after {}", self.last_t),
+            );
             return;
         }
         self.last_t = t;
@@ -1017,7 +1051,10 @@ mod tests {
         assert_eq!(g.quality, 4);
         assert!(g.lat < 0.0);
         let bad = "$XXGGA,1*00";
-        assert_eq!(parse_sentence(bad.as_bytes()).unwrap_err().reason, REASON_CHECKSUM);
+        assert_eq!(
+            parse_sentence(bad.as_bytes()).unwrap_err().reason,
+            REASON_CHECKSUM
+        );
     }
 
     #[test]
@@ -1055,7 +1092,11 @@ mod tests {
             assert_eq!((a.quality, a.num_sats), (1, 12));
         }
         // GGA without any date before it and no RMC at all → rejected, counted.
-        let gga_only: String = text.lines().filter(|l| l.contains("GGA")).map(|l| format!("{l}\n")).collect();
+        let gga_only: String = text
+            .lines()
+            .filter(|l| l.contains("GGA"))
+            .map(|l| format!("{l}\n"))
+            .collect();
         let (got, st) = read(&gga_only);
         assert!(got.is_empty());
         assert_eq!(st.rejected_for(REASON_NO_DATE), 10);
@@ -1067,7 +1108,10 @@ mod tests {
         let good = format!("{good}*{:02X}", checksum(&good.as_bytes()[1..]));
         let gga = "GPGGA,201530.00,4807.038,N,01131.000,E,4,08,0.9,545.4,M,46.9,M,,";
         let gga = format!("${gga}*{:02X}", checksum(gga.as_bytes()));
-        let s = format!("{good}\ngarbage\n$GPGGA,1,2*ZZ\n\n{gga}\n$GPXXX,1*{:02X}\n", checksum(b"GPXXX,1"));
+        let s = format!(
+            "{good}\ngarbage\n$GPGGA,1,2*ZZ\n\n{gga}\n$GPXXX,1*{:02X}\n",
+            checksum(b"GPXXX,1")
+        );
         let (got, st) = read(&s);
         assert_eq!(got.len(), 1);
         assert!((got[0].h - (545.4 + 46.9)).abs() < 1e-9);
@@ -1091,6 +1135,10 @@ mod tests {
             .collect();
         let (got, _) = read(&s);
         assert_eq!(got.len(), 2);
-        assert!((got[1].t - got[0].t - 1.0).abs() < 1e-6, "{}", got[1].t - got[0].t);
+        assert!(
+            (got[1].t - got[0].t - 1.0).abs() < 1e-6,
+            "{}",
+            got[1].t - got[0].t
+        );
     }
 }
