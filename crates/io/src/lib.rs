@@ -8,6 +8,7 @@ pub mod data;
 pub mod error;
 pub mod imu;
 pub mod kfgins;
+pub mod live;
 pub mod navcsv;
 pub mod nmea;
 pub mod pos;
