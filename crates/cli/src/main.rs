@@ -14,6 +14,7 @@ mod demo;
 mod eval;
 mod experiment;
 mod kf_gins;
+mod live;
 mod run;
 mod sim;
 
@@ -51,6 +52,8 @@ enum Command {
     Baseline(baseline::Args),
     /// Reproduce a seed paper's experiment and print its table beside ours.
     Experiment(experiment::Args),
+    /// Fuse live GNSS (gpsd, NMEA) and IMU streams; solutions at the IMU rate.
+    Live(live::Args),
 }
 
 fn main() -> ExitCode {
@@ -67,6 +70,7 @@ fn main() -> ExitCode {
         Command::Attitude(a) => attitude::run(a),
         Command::Baseline(a) => baseline::run(a),
         Command::Experiment(a) => experiment::run(a),
+        Command::Live(a) => live::run(a),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

@@ -617,6 +617,8 @@ pub fn nmea_from_rtklib_q(q: u8) -> u8 {
 #[derive(Clone, Copy, Debug)]
 struct Epoch {
     gga: Gga,
+    /// Line of the GGA/GNS sentence.
+    line: u64,
     gst: Option<Gst>,
     date: Option<(i32, u8, u8)>,
 }
@@ -670,6 +672,16 @@ impl<R: BufRead> NmeaReader<R> {
         self.last_reject = Some(self.src.err(field, msg));
     }
 
+    /// Reject the epoch whose GGA (counted used) is at `line`: that line
+    /// moves from used to rejected.
+    fn reject_epoch(&mut self, line: u64, reason: &'static str, field: &'static str, msg: String) {
+        self.src.stats.used -= 1;
+        self.src.stats.reject(reason);
+        let mut e = self.src.err(field, msg);
+        e.line = line;
+        self.last_reject = Some(e);
+    }
+
     /// Close the pending epoch into a fix (or a counted rejection).
     fn close(&mut self) {
         let Some(ep) = self.pending.take() else {
@@ -685,7 +697,12 @@ impl<R: BufRead> NmeaReader<R> {
             })
         });
         let Some((y, m, d)) = date else {
-            self.reject(REASON_NO_DATE, "date", "GGA before any RMC/ZDA date".into());
+            self.reject_epoch(
+                ep.line,
+                REASON_NO_DATE,
+                "date",
+                "GGA before any RMC/ZDA date".into(),
+            );
             return;
         };
         let c = Calendar {
@@ -697,17 +714,18 @@ impl<R: BufRead> NmeaReader<R> {
             second: 0.0,
         };
         let Ok(t0) = gps_from_calendar(&c, TimeSystem::Utc) else {
-            self.reject(REASON_NO_DATE, "date", "invalid date".into());
+            self.reject_epoch(ep.line, REASON_NO_DATE, "date", "invalid date".into());
             return;
         };
         // Leap second at midnight: gps_from_calendar gives midnight; add sod
         // in UTC seconds (no leap second inside a day in practice).
         let t = t0 + ep.gga.sod;
         if t <= self.last_t {
-            self.reject(
+            self.reject_epoch(
+                ep.line,
                 REASON_TIME_BACK,
                 "time",
-                format!("epoch {t} after {}", self.last_t),
+                format!("epoch {t} not after {}", self.last_t),
             );
             return;
         }
@@ -770,15 +788,14 @@ impl<R: BufRead> NmeaReader<R> {
                 self.close();
                 self.pending = Some(Epoch {
                     gga: g,
+                    line: self.src.line_no,
                     gst: None,
                     date: None,
                 });
             }
-            Sentence::Gst(g) => {
-                if self.same_epoch(g.sod) {
-                    if let Some(p) = self.pending.as_mut() {
-                        p.gst = Some(g);
-                    }
+            Sentence::Gst(g) if self.same_epoch(g.sod) => {
+                if let Some(p) = self.pending.as_mut() {
+                    p.gst = Some(g);
                 }
             }
             Sentence::Rmc(Rmc {

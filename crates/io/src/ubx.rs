@@ -368,7 +368,7 @@ pub fn decode(class: u8, id: u8, p: &[u8]) -> Result<Option<UbxMessage>, String>
             })
         }
         (0x10, 0x03) => {
-            if p.len() < 4 || (p.len() - 4) % 8 != 0 {
+            if p.len() < 4 || (p.len() - 4) & 7 != 0 {
                 return Err(bad("4 + 8·N"));
             }
             r.skip(4);
