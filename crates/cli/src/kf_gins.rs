@@ -1,12 +1,548 @@
-//! `navfuse kf-gins`: Run a KF-GINS YAML configuration (drop-in replacement for KF-GINS).
-//! (placeholder: implemented by its issue)
+//! `navfuse kf-gins CONFIG.yaml`: run an unmodified KF-GINS YAML configuration
+//! with navfuse's ESKF in the KF-GINS model (21 states, GNSS position, same
+//! timing of updates), writing KF-GINS's three output files.
+//!
+//! `--enhanced` adds navfuse's land-vehicle aiding (NHC, ZUPT/ZARU, χ² gating);
+//! `--smooth` adds an RTS smoother pass (`KF_GINS_Navresult_smoothed.nav`).
 
+use crate::run::{self as ingest, RunInput};
 use clap::Args as ClapArgs;
+use navfuse_core::estimators::eskf::{
+    rts_smooth, Eskf, EskfConfig, EskfStats, NhcConfig, SmoothedEpoch, ZuptConfig, I_ATT, I_BA,
+    I_BG, I_POS, I_SA, I_SG, I_VEL,
+};
+use navfuse_core::types::{Estimator, Event, GnssFix, NavSolution};
+use navfuse_io::kfgins_yaml::KfGinsConfig;
+use std::path::{Path, PathBuf};
+use std::time::Instant;
 
 /// Run a KF-GINS YAML configuration (drop-in replacement for KF-GINS).
-#[derive(ClapArgs, Debug)]
-pub struct Args {}
+#[derive(ClapArgs, Debug, Clone)]
+pub struct Args {
+    /// KF-GINS YAML configuration (paths inside are relative to it).
+    pub config: PathBuf,
+    /// navfuse's land-vehicle configuration: NHC, ZUPT/ZARU, χ² gating.
+    #[arg(long)]
+    pub enhanced: bool,
+    /// Also run the RTS smoother and write `KF_GINS_Navresult_smoothed.nav`.
+    #[arg(long)]
+    pub smooth: bool,
+    /// Write the outputs here instead of the YAML's `outputpath`.
+    #[arg(long)]
+    pub output: Option<PathBuf>,
+    /// Print a one-line summary with timing and update counts to stderr.
+    #[arg(long, short)]
+    pub verbose: bool,
+    /// Print accuracy against this reference (KF-GINS .nav layout of the
+    /// antenna, e.g. `truth.nav`): horizontal/vertical RMS and, with
+    /// `--outages`, the per-outage maximum horizontal drift and its RMS.
+    #[arg(long)]
+    pub truth: Option<PathBuf>,
+    /// Print the horizontal/vertical RMS difference to another KF-GINS result
+    /// (IMU positions, e.g. KF-GINS's own `KF_GINS_Navresult.nav`), at its epochs.
+    #[arg(long)]
+    pub compare: Option<PathBuf>,
+    /// Outage schedule for `--truth`: `START,LEN,PERIOD,COUNT` [s] (e.g. 243382,30,90,5).
+    #[arg(long)]
+    pub outages: Option<String>,
+}
 
-pub fn run(_args: Args) -> Result<(), String> {
-    Err("`kf-gins` is not implemented yet".into())
+/// Everything a run produced (for the tests and the summary).
+pub struct KfGinsRun {
+    pub solutions: Vec<NavSolution>,
+    pub smoothed: Vec<SmoothedEpoch>,
+    pub stats: EskfStats,
+    pub output_dir: PathBuf,
+    pub config: EskfConfig,
+}
+
+/// navfuse's best land-vehicle configuration on top of a KF-GINS model.
+pub fn enhanced(mut c: EskfConfig) -> EskfConfig {
+    c.gate_probability = Some(0.9999);
+    c.nhc = Some(NhcConfig {
+        std: 0.1,
+        interval: 0.1,
+        min_speed: 0.5,
+    });
+    c.zupt = Some(ZuptConfig {
+        window: 50,
+        max_accel_std: 0.05,
+        max_gyro_std: 0.2f64.to_radians(),
+        vel_std: 0.02,
+        zaru_std: Some(0.01f64.to_radians()),
+        interval: 0.1,
+    });
+    c
+}
+
+pub fn run(args: Args) -> Result<(), String> {
+    let t0 = Instant::now();
+    let r = run_config(&args)?;
+    if let Some(cp) = &args.compare {
+        let other = check::read_nav(cp)?;
+        let a = check::accuracy(&r.solutions, &other, &navfuse_core::Vec3::zeros());
+        eprintln!(
+            "vs {}: horizontal RMS {:.4} m, vertical RMS {:.4} m, max horizontal {:.4} m ({} epochs)",
+            cp.display(), a.h_rms, a.v_rms, a.h_max, a.n
+        );
+    }
+    if let Some(tp) = &args.truth {
+        let truth = check::read_nav(tp)?;
+        let lever = r.config.lever_arm_b;
+        let outages = match &args.outages {
+            Some(s) => Some(check::parse_outages(s)?),
+            None => None,
+        };
+        let fixes = run_fix_times(&args)?;
+        let print = |name: &str, sols: &[NavSolution]| {
+            let a = check::accuracy(sols, &truth, &lever);
+            eprintln!("{name}: horizontal RMS {:.4} m, vertical RMS {:.4} m, max horizontal {:.3} m ({} epochs)", a.h_rms, a.v_rms, a.h_max, a.n);
+            if let Some(o) = &outages {
+                let m = check::outage_drift(sols, &truth, &lever, o, &fixes);
+                let rms = (m.iter().map(|x| x * x).sum::<f64>() / m.len().max(1) as f64).sqrt();
+                eprintln!("{name}: per-outage max horizontal drift {m:.2?} m, RMS {rms:.2} m");
+            }
+        };
+        print("forward", &r.solutions);
+        if !r.smoothed.is_empty() {
+            let sm: Vec<NavSolution> = r.smoothed.iter().map(check::smoothed_solution).collect();
+            print("smoothed", &sm);
+        }
+    }
+    if args.verbose {
+        let s = &r.stats;
+        eprintln!(
+            "navfuse kf-gins: {} IMU samples, GNSS pos used {} (gated {}), vel used {}, NHC {}, ZUPT {}, ZARU {}, {:.3} s -> {}",
+            s.imu_samples,
+            s.gnss_pos_used,
+            s.gnss_pos_rejected_gate,
+            s.gnss_vel_used,
+            s.nhc_used,
+            s.zupt_used,
+            s.zaru_used,
+            t0.elapsed().as_secs_f64(),
+            r.output_dir.display()
+        );
+    }
+    Ok(())
+}
+
+/// Read, filter, write. Returns the solutions too.
+pub fn run_config(args: &Args) -> Result<KfGinsRun, String> {
+    let t_read = Instant::now();
+    let cfg = KfGinsConfig::load(&args.config)?;
+    let input = ingest::read_kfgins(&cfg)?;
+    if args.verbose {
+        eprintln!("read inputs: {:.3} s", t_read.elapsed().as_secs_f64());
+    }
+    let mut ecfg = cfg.eskf_config();
+    if args.enhanced {
+        ecfg = enhanced(ecfg);
+    }
+    if args.smooth {
+        ecfg.smoother_every = 10;
+    }
+    let out_dir = match &args.output {
+        Some(d) => d.clone(),
+        None => cfg.resolve(&cfg.outputpath),
+    };
+    std::fs::create_dir_all(&out_dir)
+        .map_err(|e| format!("{}: cannot create output folder: {e}", out_dir.display()))?;
+    let end = if cfg.endtime < 0.0 {
+        f64::INFINITY
+    } else {
+        cfg.endtime
+    };
+    let mut eskf = Eskf::new(ecfg, cfg.init_nav(), cfg.init_errors(), &cfg.init_std());
+    let t_filter = Instant::now();
+    let r = filter(&mut eskf, &input, cfg.starttime, end, &out_dir, args.smooth)?;
+    if args.verbose {
+        eprintln!("filter + write: {:.3} s", t_filter.elapsed().as_secs_f64());
+    }
+    Ok(KfGinsRun {
+        solutions: r.0,
+        smoothed: r.1,
+        stats: *eskf.stats(),
+        output_dir: out_dir,
+        config: ecfg,
+    })
+}
+
+fn run_fix_times(args: &Args) -> Result<Vec<f64>, String> {
+    let cfg = KfGinsConfig::load(&args.config)?;
+    Ok(ingest::read_kfgins_gnss(&cfg.resolve(&cfg.gnsspath))?
+        .iter()
+        .map(|g| g.t)
+        .collect())
+}
+
+/// KF-GINS's event order: IMU from the first sample at/after `start`, GNSS
+/// fixes after `start`; a fix is handed over before the IMU sample whose
+/// interval contains it.
+fn filter(
+    eskf: &mut Eskf,
+    input: &RunInput,
+    start: f64,
+    end: f64,
+    out_dir: &Path,
+    smooth: bool,
+) -> Result<(Vec<NavSolution>, Vec<SmoothedEpoch>), String> {
+    let imu = &input.imu;
+    let gnss: &[GnssFix] = &input.gnss;
+    let i0 = imu.partition_point(|s| s.t < start);
+    let mut g = gnss.partition_point(|f| f.t <= start);
+    let n = imu.len() - i0;
+    let mut sols = Vec::with_capacity(n);
+    let mut nav = Vec::with_capacity(n * 180);
+    let mut err = Vec::with_capacity(n * 208);
+    let mut std = Vec::with_capacity(n * 350);
+    let mut records = Vec::new();
+    for (k, s) in imu[i0..].iter().enumerate() {
+        if s.t > end {
+            break;
+        }
+        while g < gnss.len() && gnss[g].t <= s.t + 1e-3 {
+            eskf.push(&Event::Gnss(gnss[g]));
+            g += 1;
+        }
+        let sol = eskf.push(&Event::Imu(*s));
+        if let Some(r) = eskf.take_record() {
+            records.push(r);
+        }
+        // KF-GINS writes from the second sample on (the first only initialises).
+        if let (Some(sol), true) = (sol, k > 0) {
+            if !(sol.lat.is_finite() && sol.h.is_finite() && sol.v_n.iter().all(|v| v.is_finite()))
+            {
+                return Err(format!(
+                    "filter diverged (non-finite state) at t = {:.3} s",
+                    s.t
+                ));
+            }
+            write_nav_line(&mut nav, &sol);
+            write_err_line(&mut err, sol.t, eskf);
+            write_std_line(&mut std, sol.t, eskf);
+            sols.push(sol);
+        }
+    }
+    let write = |name: &str, buf: &[u8]| {
+        let p = out_dir.join(name);
+        std::fs::write(&p, buf).map_err(|e| format!("{}: cannot write: {e}", p.display()))
+    };
+    write("KF_GINS_Navresult.nav", &nav)?;
+    write("KF_GINS_IMU_ERR.txt", &err)?;
+    write("KF_GINS_STD.txt", &std)?;
+    let mut smoothed = Vec::new();
+    if smooth {
+        smoothed.reserve(records.len());
+        rts_smooth(&records, |e| smoothed.push(*e));
+        smoothed.reverse();
+        let mut buf = Vec::with_capacity(smoothed.len() * 180);
+        for e in &smoothed {
+            let mut sol = NavSolution::unknown_at(e.t);
+            sol.lat = e.nav.lat;
+            sol.lon = e.nav.lon;
+            sol.h = e.nav.h;
+            sol.v_n = e.nav.v_n;
+            sol.rpy = e.nav.rpy();
+            write_nav_line(&mut buf, &sol);
+        }
+        write("KF_GINS_Navresult_smoothed.nav", &buf)?;
+    }
+    Ok((sols, smoothed))
+}
+
+/// KF-GINS number layout: fixed 9 decimals, left-aligned in 15 columns, then a space.
+pub(crate) fn put(buf: &mut Vec<u8>, x: f64) {
+    let start = buf.len();
+    fixed9(buf, x);
+    while buf.len() - start < 15 {
+        buf.push(b' ');
+    }
+    buf.push(b' ');
+}
+
+/// Fast `{:.9}` for |x| < 9e9 (falls back to `format!` beyond, and for NaN).
+fn fixed9(buf: &mut Vec<u8>, x: f64) {
+    if x.is_nan() || x.abs() >= 9.0e9 {
+        buf.extend_from_slice(format!("{x:.9}").as_bytes());
+        return;
+    }
+    let scaled = (x.abs() * 1e9).round() as u64;
+    if x < 0.0 && scaled != 0 {
+        buf.push(b'-');
+    }
+    let int = scaled / 1_000_000_000;
+    let frac = scaled % 1_000_000_000;
+    let mut tmp = [0u8; 20];
+    let mut i = tmp.len();
+    let mut v = int;
+    loop {
+        i -= 1;
+        tmp[i] = b'0' + (v % 10) as u8;
+        v /= 10;
+        if v == 0 {
+            break;
+        }
+    }
+    buf.extend_from_slice(&tmp[i..]);
+    buf.push(b'.');
+    let mut f = [b'0'; 9];
+    let mut v = frac;
+    for d in f.iter_mut().rev() {
+        *d = b'0' + (v % 10) as u8;
+        v /= 10;
+    }
+    buf.extend_from_slice(&f);
+}
+
+fn write_nav_line(buf: &mut Vec<u8>, s: &NavSolution) {
+    let r2d = 180.0 / std::f64::consts::PI;
+    let yaw = s.rpy.z * r2d;
+    put(buf, 0.0);
+    put(buf, s.t);
+    put(buf, s.lat * r2d);
+    put(buf, s.lon * r2d);
+    put(buf, s.h);
+    for v in s.v_n.iter() {
+        put(buf, *v);
+    }
+    put(buf, s.rpy.x * r2d);
+    put(buf, s.rpy.y * r2d);
+    // KF-GINS writes yaw in [0, 360).
+    put(buf, if yaw < 0.0 { yaw + 360.0 } else { yaw });
+    buf.push(b'\n');
+}
+
+const DEG_H: f64 = 180.0 / std::f64::consts::PI * 3600.0;
+
+fn write_err_line(buf: &mut Vec<u8>, t: f64, eskf: &Eskf) {
+    let e = eskf.imu_errors();
+    put(buf, t);
+    for v in e.bg.iter() {
+        put(buf, v * DEG_H);
+    }
+    for v in e.ba.iter() {
+        put(buf, v * 1e5);
+    }
+    for v in e.sg.iter() {
+        put(buf, v * 1e6);
+    }
+    for v in e.sa.iter() {
+        put(buf, v * 1e6);
+    }
+    buf.push(b'\n');
+}
+
+fn write_std_line(buf: &mut Vec<u8>, t: f64, eskf: &Eskf) {
+    let p = eskf.covariance();
+    let sd = |i: usize| p[(i, i)].max(0.0).sqrt();
+    put(buf, t);
+    for (i0, k) in [
+        (I_POS, 1.0),
+        (I_VEL, 1.0),
+        (I_ATT, 180.0 / std::f64::consts::PI),
+        (I_BG, DEG_H),
+        (I_BA, 1e5),
+        (I_SG, 1e6),
+        (I_SA, 1e6),
+    ] {
+        for i in i0..i0 + 3 {
+            put(buf, sd(i) * k);
+        }
+    }
+    buf.push(b'\n');
+}
+
+/// A small accuracy check against a reference trajectory (the project's
+/// evaluator lives in navfuse-eval; this keeps `kf-gins --truth` and the tests
+/// self-contained).
+pub mod check {
+    use navfuse_core::earth;
+    use navfuse_core::estimators::eskf::SmoothedEpoch;
+    use navfuse_core::ins::mech::q_bn_from_rpy;
+    use navfuse_core::types::NavSolution;
+    use navfuse_core::Vec3;
+    use std::path::Path;
+
+    /// Solution of a smoothed epoch (no covariance).
+    pub fn smoothed_solution(e: &SmoothedEpoch) -> NavSolution {
+        let mut s = NavSolution::unknown_at(e.t);
+        s.lat = e.nav.lat;
+        s.lon = e.nav.lon;
+        s.h = e.nav.h;
+        s.v_n = e.nav.v_n;
+        s.rpy = e.nav.rpy();
+        s
+    }
+
+    /// Read a KF-GINS `.nav` (week tow lat lon h vN vE vD roll pitch yaw; attitude may be nan).
+    pub fn read_nav(path: &Path) -> Result<Vec<NavSolution>, String> {
+        let text = std::fs::read_to_string(path)
+            .map_err(|e| format!("{}: cannot read: {e}", path.display()))?;
+        let mut v = Vec::new();
+        for (i, line) in text.lines().enumerate() {
+            if line.trim().is_empty() {
+                continue;
+            }
+            let f: Vec<f64> = line
+                .split_ascii_whitespace()
+                .map(|s| s.parse::<f64>())
+                .collect::<Result<_, _>>()
+                .map_err(|e| format!("{}:{}: {e}", path.display(), i + 1))?;
+            if f.len() < 11 {
+                return Err(format!(
+                    "{}:{}: expected 11 fields, got {}",
+                    path.display(),
+                    i + 1,
+                    f.len()
+                ));
+            }
+            let mut s = NavSolution::unknown_at(f[1]);
+            s.lat = f[2].to_radians();
+            s.lon = f[3].to_radians();
+            s.h = f[4];
+            s.v_n = Vec3::new(f[5], f[6], f[7]);
+            s.rpy = Vec3::new(f[8], f[9], f[10]).map(f64::to_radians);
+            v.push(s);
+        }
+        Ok(v)
+    }
+
+    /// `START,LEN,PERIOD,COUNT` → outage intervals [start, end).
+    pub fn parse_outages(s: &str) -> Result<Vec<(f64, f64)>, String> {
+        let f: Vec<f64> = s
+            .split(',')
+            .map(|x| x.trim().parse::<f64>())
+            .collect::<Result<_, _>>()
+            .map_err(|e| format!("--outages {s:?}: {e}"))?;
+        if f.len() != 4 || f[1] <= 0.0 || f[2] < f[1] || f[3] < 1.0 {
+            return Err(format!("--outages {s:?}: expected START,LEN,PERIOD,COUNT"));
+        }
+        Ok((0..f[3] as usize)
+            .map(|k| (f[0] + f[2] * k as f64, f[0] + f[2] * k as f64 + f[1]))
+            .collect())
+    }
+
+    /// Antenna position of an IMU solution (lever arm in body FRD).
+    pub fn antenna(s: &NavSolution, lever_b: &Vec3) -> (f64, f64, f64) {
+        let l_n = q_bn_from_rpy(&s.rpy) * lever_b;
+        let (rm, rn) = earth::radii(s.lat);
+        (
+            s.lat + l_n.x / (rm + s.h),
+            s.lon + l_n.y / ((rn + s.h) * s.lat.cos()),
+            s.h - l_n.z,
+        )
+    }
+
+    /// NED error [m] of the solution's antenna (interpolated to `r.t`) against `r`.
+    /// `None` outside the solution's time span.
+    pub fn error_at(sols: &[NavSolution], r: &NavSolution, lever_b: &Vec3) -> Option<Vec3> {
+        let k = sols.partition_point(|s| s.t < r.t);
+        if k == 0 || k >= sols.len() {
+            return (k < sols.len() && (sols[k].t - r.t).abs() < 1e-6).then(|| {
+                let a = antenna(&sols[k], lever_b);
+                ned(r, a)
+            });
+        }
+        let (s0, s1) = (&sols[k - 1], &sols[k]);
+        let w = (r.t - s0.t) / (s1.t - s0.t);
+        let a0 = antenna(s0, lever_b);
+        let a1 = antenna(s1, lever_b);
+        let a = (
+            a0.0 + w * (a1.0 - a0.0),
+            a0.1 + w * (a1.1 - a0.1),
+            a0.2 + w * (a1.2 - a0.2),
+        );
+        Some(ned(r, a))
+    }
+
+    fn ned(r: &NavSolution, a: (f64, f64, f64)) -> Vec3 {
+        let (rm, rn) = earth::radii(r.lat);
+        Vec3::new(
+            (a.0 - r.lat) * (rm + r.h),
+            (a.1 - r.lon) * (rn + r.h) * r.lat.cos(),
+            -(a.2 - r.h),
+        )
+    }
+
+    pub struct Accuracy {
+        pub h_rms: f64,
+        pub v_rms: f64,
+        pub h_max: f64,
+        pub n: usize,
+    }
+
+    /// Horizontal / vertical RMS of the antenna against every reference epoch in span.
+    pub fn accuracy(sols: &[NavSolution], truth: &[NavSolution], lever_b: &Vec3) -> Accuracy {
+        let (mut h2, mut v2, mut hm, mut n) = (0.0, 0.0, 0.0f64, 0usize);
+        for r in truth {
+            if let Some(e) = error_at(sols, r, lever_b) {
+                let h = e.x.hypot(e.y);
+                h2 += h * h;
+                v2 += e.z * e.z;
+                hm = hm.max(h);
+                n += 1;
+            }
+        }
+        let d = n.max(1) as f64;
+        Accuracy {
+            h_rms: (h2 / d).sqrt(),
+            v_rms: (v2 / d).sqrt(),
+            h_max: hm,
+            n,
+        }
+    }
+
+    /// Per outage [s, e): max horizontal error from `s` to the first fix at or after `e`.
+    pub fn outage_drift(
+        sols: &[NavSolution],
+        truth: &[NavSolution],
+        lever_b: &Vec3,
+        outages: &[(f64, f64)],
+        fix_times: &[f64],
+    ) -> Vec<f64> {
+        outages
+            .iter()
+            .map(|&(s, e)| {
+                let k = fix_times.partition_point(|t| *t < e);
+                let stop = fix_times.get(k).copied().unwrap_or(f64::INFINITY);
+                truth
+                    .iter()
+                    .filter(|r| r.t >= s && r.t <= stop)
+                    .filter_map(|r| error_at(sols, r, lever_b))
+                    .map(|e| e.x.hypot(e.y))
+                    .fold(0.0, f64::max)
+            })
+            .collect()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn fixed9_matches_std_formatting() {
+        for x in [
+            0.0,
+            -0.0,
+            1.5,
+            -105.147447742,
+            243262.014636,
+            1e-10,
+            -3.4e-9,
+            357.9999999996,
+        ] {
+            let mut b = Vec::new();
+            fixed9(&mut b, x);
+            let mut want = format!("{x:.9}");
+            if want == "-0.000000000" {
+                want = "0.000000000".into();
+            }
+            assert_eq!(String::from_utf8(b).unwrap(), want, "x = {x}");
+        }
+        let mut b = Vec::new();
+        put(&mut b, 1.0);
+        assert_eq!(b.len(), 16);
+    }
 }

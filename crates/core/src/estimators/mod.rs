@@ -1,1 +1,4 @@
 //! The four estimators: eskf (`SEEDS.md §1`), pf_lc (§2), cp_attitude (§3), accel_dr (§4).
+
+pub mod cp_attitude;
+pub mod eskf;

@@ -1,1 +1,6 @@
 //! Strapdown INS: mechanization, alignment, IMU error model (`SEEDS.md §1`).
+
+pub mod align;
+pub mod mech;
+
+pub use mech::{mechanize, NavState};

@@ -1,0 +1,1246 @@
+//! Seed 001: loosely coupled GNSS/INS error-state Kalman filter with feedback
+//! (`SEEDS.md §1`), extended to the 21-state KF-GINS model and to land-vehicle
+//! aiding.
+//!
+//! **Nominal state** ([`NavState`] + [`ImuErrors`]): IMU position, NED velocity,
+//! attitude `q_bn`, gyro/accel biases and scale factors; propagated by the
+//! strapdown mechanization ([`crate::ins::mech`], `SEEDS.md §1` eq. 5–6) on
+//! compensated increments `Δθ = (Δθ̃ − b_g dt)/(1 + s_g)`, `Δv = (Δṽ − b_a dt)/(1 + s_a)`.
+//!
+//! **Error state** (21, this order): `δr` NED position error [m], `δv` NED
+//! velocity error [m/s], `φ` attitude error in the n-frame (psi angle) [rad],
+//! `δb_g`, `δb_a`, `δs_g`, `δs_a`. Signs: `δr = r̂ − r`, `δv = v̂ − v`,
+//! `C_bn = (I + [φ×]) Ĉ_bn`, `b = b̂ + δb`, `s = ŝ + δs`. With
+//! [`EskfConfig::scale_factors`] off the scale states are held at zero with
+//! zero variance: that is the 15-state filter of `SEEDS.md §1` eq. 9.
+//! The bias and scale states are first-order Gauss–Markov processes with
+//! correlation time `T` (driving PSD 2σ²/T); `T = ∞` gives random walks.
+//!
+//! **Propagation** (every IMU sample): `Φ = I + F dt` with the standard NED
+//! psi-angle error model (`SEEDS.md §1` eq. 11; Titterton & Weston ch. 12;
+//! Groves §14.2), `Q_d = G Q_c Gᵀ dt` and
+//! `P ← Φ P Φᵀ + (Φ Q_d Φᵀ + Q_d)/2`, evaluated as `Φ (P + Q_d/2) Φᵀ + Q_d/2`
+//! with the sparse block structure of `F` (no dense 21×21 product).
+//!
+//! **Updates** (`SEEDS.md §1` eq. 13, in metres): GNSS antenna position
+//! (lever arm applied), GNSS antenna velocity, height only, zero velocity
+//! (ZUPT), zero angular rate (ZARU), non-holonomic constraint (NHC). Joseph-form
+//! covariance update, optional χ² innovation gate (rejections are counted),
+//! feedback and reset after each update (`SEEDS.md §1` eq. 7, 10).
+//!
+//! A GNSS fix between two IMU samples is applied at its own time: the IMU
+//! interval is split at the fix (increments scaled linearly), as KF-GINS does.
+
+use crate::earth;
+use crate::ins::mech::{mechanize_with, quat_from_rotvec, EarthAt, NavState};
+#[allow(unused_imports)]
+use crate::prelude::*;
+use crate::types::{Estimator, Event, GnssFix, ImuSample, NavSolution};
+use crate::{Mat3, Vec3};
+use nalgebra::{SMatrix, SVector};
+
+/// Number of error states.
+pub const NX: usize = 21;
+/// Index of `δr` (NED position error).
+pub const I_POS: usize = 0;
+/// Index of `δv`.
+pub const I_VEL: usize = 3;
+/// Index of `φ` (n-frame attitude error).
+pub const I_ATT: usize = 6;
+/// Index of `δb_g`.
+pub const I_BG: usize = 9;
+/// Index of `δb_a`.
+pub const I_BA: usize = 12;
+/// Index of `δs_g`.
+pub const I_SG: usize = 15;
+/// Index of `δs_a`.
+pub const I_SA: usize = 18;
+
+/// Error-state covariance.
+pub type Cov = SMatrix<f64, NX, NX>;
+/// Error-state vector.
+pub type StateVec = SVector<f64, NX>;
+
+/// IMU sensor errors (the estimated part of the nominal state).
+#[derive(Clone, Copy, Debug, PartialEq, Default)]
+pub struct ImuErrors {
+    /// Gyro bias, body [rad/s].
+    pub bg: Vec3,
+    /// Accelerometer bias, body [m/s²].
+    pub ba: Vec3,
+    /// Gyro scale-factor error [-].
+    pub sg: Vec3,
+    /// Accelerometer scale-factor error [-].
+    pub sa: Vec3,
+}
+
+/// IMU noise model, SI units (per axis).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ImuNoise {
+    /// Angular random walk [rad/√s].
+    pub arw: Vec3,
+    /// Velocity random walk [m/s/√s].
+    pub vrw: Vec3,
+    /// Gyro bias steady-state σ [rad/s] (Gauss–Markov); with `corr_time = ∞`
+    /// the random-walk PSD is `bg_std²` per second.
+    pub bg_std: Vec3,
+    /// Accelerometer bias σ [m/s²].
+    pub ba_std: Vec3,
+    /// Gyro scale-factor σ [-].
+    pub sg_std: Vec3,
+    /// Accelerometer scale-factor σ [-].
+    pub sa_std: Vec3,
+    /// Gauss–Markov correlation time [s]; `f64::INFINITY` for random walks.
+    pub corr_time: f64,
+}
+
+/// Initial 1-σ uncertainties.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct InitStd {
+    /// Position, NED [m].
+    pub pos: Vec3,
+    /// Velocity, NED [m/s].
+    pub vel: Vec3,
+    /// Attitude error φ, NED [rad].
+    pub att: Vec3,
+    /// Gyro bias [rad/s].
+    pub bg: Vec3,
+    /// Accelerometer bias [m/s²].
+    pub ba: Vec3,
+    /// Gyro scale factor [-].
+    pub sg: Vec3,
+    /// Accelerometer scale factor [-].
+    pub sa: Vec3,
+}
+
+/// Non-holonomic constraint: the vehicle does not slip sideways or jump
+/// (body lateral and vertical velocity ≈ 0). Applied at the IMU.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct NhcConfig {
+    /// 1-σ of the lateral (y) and vertical (z) body velocity [m/s].
+    pub std: f64,
+    /// Minimum time between NHC updates [s].
+    pub interval: f64,
+    /// Apply only above this speed [m/s] (at standstill ZUPT does the job).
+    pub min_speed: f64,
+}
+
+/// Standstill detection and zero-velocity / zero-angular-rate updates.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ZuptConfig {
+    /// Detector window [samples], ≤ [`ZUPT_MAX_WINDOW`].
+    pub window: usize,
+    /// Standstill if the std of |f| over the window is below this [m/s²] …
+    pub max_accel_std: f64,
+    /// … and the std of each gyro axis over the window is below this [rad/s].
+    pub max_gyro_std: f64,
+    /// 1-σ of the zero-velocity pseudo-measurement [m/s].
+    pub vel_std: f64,
+    /// 1-σ of the window-mean angular rate for ZARU [rad/s]; `None`: no ZARU.
+    pub zaru_std: Option<f64>,
+    /// Minimum time between updates [s].
+    pub interval: f64,
+}
+
+/// Largest standstill-detector window.
+pub const ZUPT_MAX_WINDOW: usize = 256;
+
+/// Filter configuration (everything that is not the initial state).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct EskfConfig {
+    /// IMU noise and error processes.
+    pub noise: ImuNoise,
+    /// GNSS antenna position in the body frame FRD, from the IMU [m].
+    pub lever_arm_b: Vec3,
+    /// Estimate scale factors (21 states, the KF-GINS model); off: 15 states.
+    pub scale_factors: bool,
+    /// χ² gate probability for GNSS and constraint updates (e.g. 0.9999); `None`: no gate.
+    pub gate_probability: Option<f64>,
+    /// Use the GNSS velocity when a fix carries one.
+    pub use_gnss_velocity: bool,
+    /// After this time [s] the GNSS horizontal position is no longer used: only
+    /// velocity and height aid the INS (`SEEDS.md §1`, the paper's after-370 s mode).
+    pub position_until: Option<f64>,
+    /// Non-holonomic constraint.
+    pub nhc: Option<NhcConfig>,
+    /// Zero-velocity updates.
+    pub zupt: Option<ZuptConfig>,
+    /// Keep a checkpoint every this many IMU samples for the RTS smoother
+    /// (and at every update); 0: no smoother records.
+    pub smoother_every: usize,
+}
+
+impl EskfConfig {
+    /// The seed 001 paper's noise (`SEEDS.md §1` eq. 12) as a preset:
+    /// Q = diag(0, 0.05²·I, 0.01²·I, 0) per second (velocity and attitude random
+    /// walk), constant biases, 15 states, position + velocity aiding.
+    /// The paper's R is in rad² for latitude/longitude; here the GNSS σ of each
+    /// fix is used (the paper's R converts to 0.70 m, 0.21 m, 1.07 m at 35° N).
+    pub fn seed001() -> Self {
+        EskfConfig {
+            noise: ImuNoise {
+                arw: Vec3::repeat(0.01),
+                vrw: Vec3::repeat(0.05),
+                bg_std: Vec3::zeros(),
+                ba_std: Vec3::zeros(),
+                sg_std: Vec3::zeros(),
+                sa_std: Vec3::zeros(),
+                corr_time: f64::INFINITY,
+            },
+            lever_arm_b: Vec3::zeros(),
+            scale_factors: false,
+            gate_probability: None,
+            use_gnss_velocity: true,
+            position_until: None,
+            nhc: None,
+            zupt: None,
+            smoother_every: 0,
+        }
+    }
+}
+
+/// Counters of what the filter did with its inputs.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct EskfStats {
+    pub imu_samples: u64,
+    /// IMU samples with a non-positive or non-finite interval (skipped).
+    pub imu_rejected_bad: u64,
+    pub gnss_pos_used: u64,
+    pub gnss_pos_rejected_gate: u64,
+    /// Fixes dropped because they were older than the filter time or not finite.
+    pub gnss_rejected_bad: u64,
+    pub gnss_vel_used: u64,
+    pub gnss_vel_rejected_gate: u64,
+    pub height_used: u64,
+    pub height_rejected_gate: u64,
+    pub nhc_used: u64,
+    pub nhc_rejected_gate: u64,
+    pub zupt_used: u64,
+    pub zupt_rejected_gate: u64,
+    pub zaru_used: u64,
+    /// Updates skipped because the innovation covariance was not invertible.
+    pub singular: u64,
+}
+
+/// One checkpoint of the forward filter for the RTS smoother (Rauch, Tung &
+/// Striebel 1965; Groves §3.4.2), in error-state form with feedback.
+#[derive(Clone, Copy, Debug)]
+pub struct SmootherRecord {
+    /// Time [s].
+    pub t: f64,
+    /// Nominal state after all updates at this checkpoint.
+    pub nav: NavState,
+    /// IMU errors after all updates.
+    pub errors: ImuErrors,
+    /// Sum of the error estimates fed back at this checkpoint (error of the
+    /// prior nominal state).
+    pub dx_fed_back: StateVec,
+    /// Smoother gain from the previous checkpoint to this one:
+    /// `A = P⁺_{k−1} Φᵀ (P⁻_k)⁻¹` (zero for the first record).
+    pub gain_prev: Cov,
+    /// Covariance after the updates (for the smoothed uncertainty).
+    pub p_post_diag: StateVec,
+}
+
+/// Output of the RTS backward pass at one checkpoint.
+#[derive(Clone, Copy, Debug)]
+pub struct SmoothedEpoch {
+    pub t: f64,
+    pub nav: NavState,
+    pub errors: ImuErrors,
+}
+
+/// Backward RTS pass over the forward filter's checkpoints (oldest first).
+/// `δs_k = A_{k+1} (δx_fb,k+1 + δs_{k+1})`, smoothed state = filtered ⊕ δs_k.
+/// Calls `out` newest first (no allocation).
+pub fn rts_smooth(records: &[SmootherRecord], mut out: impl FnMut(&SmoothedEpoch)) {
+    let n = records.len();
+    if n == 0 {
+        return;
+    }
+    let mut ds = StateVec::zeros();
+    let last = &records[n - 1];
+    out(&SmoothedEpoch {
+        t: last.t,
+        nav: last.nav,
+        errors: last.errors,
+    });
+    for k in (0..n - 1).rev() {
+        let next = &records[k + 1];
+        let e = next.dx_fed_back + ds;
+        ds = next.gain_prev * e;
+        let mut nav = records[k].nav;
+        let mut errors = records[k].errors;
+        apply_correction(&mut nav, &mut errors, &ds);
+        out(&SmoothedEpoch {
+            t: records[k].t,
+            nav,
+            errors,
+        });
+    }
+}
+
+/// Feed back an error estimate into the nominal state (`SEEDS.md §1` eq. 7, 10).
+pub fn apply_correction(nav: &mut NavState, errors: &mut ImuErrors, dx: &StateVec) {
+    let (rm, rn) = earth::radii(nav.lat);
+    let dr = dx.fixed_rows::<3>(I_POS);
+    nav.lat -= dr[0] / (rm + nav.h);
+    nav.lon -= dr[1] / ((rn + nav.h) * nav.lat.cos());
+    nav.h += dr[2];
+    nav.v_n -= dx.fixed_rows::<3>(I_VEL);
+    let phi: Vec3 = dx.fixed_rows::<3>(I_ATT).into();
+    nav.q_bn = quat_from_rotvec(&phi) * nav.q_bn;
+    nav.q_bn.renormalize_fast();
+    errors.bg += dx.fixed_rows::<3>(I_BG);
+    errors.ba += dx.fixed_rows::<3>(I_BA);
+    errors.sg += dx.fixed_rows::<3>(I_SG);
+    errors.sa += dx.fixed_rows::<3>(I_SA);
+}
+
+/// χ² quantiles for the gate (dof 1–6 at p = 0.99, 0.999, 0.9999); the
+/// nearest tabulated probability is used. (Private until `kalman::chi2_quantile`
+/// lands.)
+fn chi2_gate(dof: usize, p: f64) -> f64 {
+    const T: [[f64; 6]; 3] = [
+        [6.635, 9.210, 11.345, 13.277, 15.086, 16.812],
+        [10.828, 13.816, 16.266, 18.467, 20.515, 22.458],
+        [15.137, 18.421, 21.108, 23.513, 25.745, 27.856],
+    ];
+    let row = if p < 0.995 {
+        0
+    } else if p < 0.9995 {
+        1
+    } else {
+        2
+    };
+    T[row][dof.clamp(1, 6) - 1]
+}
+
+/// Non-zero 3×3 blocks of the continuous error model `F` at one epoch.
+#[derive(Clone, Copy, Debug, Default)]
+struct FBlocks {
+    pp: Mat3,
+    vp: Mat3,
+    vv: Mat3,
+    va: Mat3,
+    c_bn: Mat3,
+    vsa: Mat3,
+    ap: Mat3,
+    av: Mat3,
+    aa: Mat3,
+    asg: Mat3,
+    /// −1/T of the Gauss–Markov states.
+    beta: f64,
+    scale: bool,
+}
+
+/// Largest number of non-zero entries of `F`.
+const F_MAX_NNZ: usize = 128;
+
+/// `F` in compressed-row form: row `i` has the entries
+/// `(col[j], val[j])` for `j` in `start[i]..start[i+1]`. Rebuilt in place
+/// every sample (no zero-fill of the buffers).
+#[derive(Clone, Debug)]
+struct FSparse {
+    start: [usize; NX + 1],
+    col: [usize; F_MAX_NNZ],
+    val: [f64; F_MAX_NNZ],
+}
+
+impl FSparse {
+    fn new() -> Self {
+        FSparse {
+            start: [0; NX + 1],
+            col: [0; F_MAX_NNZ],
+            val: [0.0; F_MAX_NNZ],
+        }
+    }
+
+    /// Fill from blocks: `rows[b]` lists the `(column offset, block)` pairs of
+    /// block-row `b` (position, velocity, attitude); bias/scale rows are `β` on
+    /// the diagonal for indices below `diag_end`.
+    #[inline(always)]
+    fn fill(&mut self, rows: [&[(usize, &Mat3)]; 3], beta: f64, diag_end: usize) {
+        let mut n = 0;
+        for (b, blocks) in rows.iter().enumerate() {
+            for r in 0..3 {
+                self.start[3 * b + r] = n;
+                for (c0, m) in blocks.iter() {
+                    for k in 0..3 {
+                        let v = m[(r, k)];
+                        if v != 0.0 {
+                            self.col[n] = c0 + k;
+                            self.val[n] = v;
+                            n += 1;
+                        }
+                    }
+                }
+            }
+        }
+        for i in I_BG..NX {
+            self.start[i] = n;
+            if beta != 0.0 && i < diag_end {
+                self.col[n] = i;
+                self.val[n] = beta;
+                n += 1;
+            }
+        }
+        self.start[NX] = n;
+    }
+
+    /// All of `F`.
+    fn set_full(&mut self, b: &FBlocks) {
+        let id = Mat3::identity();
+        let nc = -b.c_bn;
+        let z = Mat3::zeros();
+        let (vsa, asg) = if b.scale { (&b.vsa, &b.asg) } else { (&z, &z) };
+        self.fill(
+            [
+                &[(I_POS, &b.pp), (I_VEL, &id)],
+                &[
+                    (I_POS, &b.vp),
+                    (I_VEL, &b.vv),
+                    (I_ATT, &b.va),
+                    (I_BA, &b.c_bn),
+                    (I_SA, vsa),
+                ],
+                &[
+                    (I_POS, &b.ap),
+                    (I_VEL, &b.av),
+                    (I_ATT, &b.aa),
+                    (I_BG, &nc),
+                    (I_SG, asg),
+                ],
+            ],
+            b.beta,
+            if b.scale { NX } else { I_SG },
+        );
+    }
+
+    /// The O(1) blocks of `F` only (I, [f×], ±C_bn, scale) for the dt² term.
+    fn set_dominant(&mut self, b: &FBlocks) {
+        let id = Mat3::identity();
+        let nc = -b.c_bn;
+        let z = Mat3::zeros();
+        let (vsa, asg) = if b.scale { (&b.vsa, &b.asg) } else { (&z, &z) };
+        self.fill(
+            [
+                &[(I_VEL, &id)],
+                &[(I_ATT, &b.va), (I_BA, &b.c_bn), (I_SA, vsa)],
+                &[(I_BG, &nc), (I_SG, asg)],
+            ],
+            0.0,
+            0,
+        );
+    }
+
+    /// `out.col(i)[..L] = Σ_k F[i,k] · x.col(k)[..L]` for `i < rows`, i.e. the
+    /// first `L` rows of `out = x Fᵀ` (column-major; each output column is
+    /// accumulated in registers).
+    #[inline(always)]
+    fn x_ft<const L: usize>(&self, x: &Cov, out: &mut Cov, rows: usize) {
+        let xs = x.as_slice();
+        let os = out.as_mut_slice();
+        for i in 0..rows {
+            let mut acc = [0.0f64; L];
+            for j in self.start[i]..self.start[i + 1] {
+                let k = self.col[j];
+                let v = self.val[j];
+                let src: &[f64; L] = xs[NX * k..NX * k + L].try_into().unwrap_or(&[0.0; L]);
+                for r in 0..L {
+                    acc[r] += v * src[r];
+                }
+            }
+            os[NX * i..NX * i + L].copy_from_slice(&acc);
+        }
+    }
+}
+
+/// Standstill detector over a ring buffer of the last samples (no allocation).
+#[derive(Clone, Copy, Debug)]
+struct StandstillDetector {
+    f_norm: [f64; ZUPT_MAX_WINDOW],
+    w: [Vec3; ZUPT_MAX_WINDOW],
+    len: usize,
+    head: usize,
+}
+
+impl StandstillDetector {
+    fn new() -> Self {
+        StandstillDetector {
+            f_norm: [0.0; ZUPT_MAX_WINDOW],
+            w: [Vec3::zeros(); ZUPT_MAX_WINDOW],
+            len: 0,
+            head: 0,
+        }
+    }
+    fn push(&mut self, f_norm: f64, w: Vec3, window: usize) {
+        let window = window.clamp(2, ZUPT_MAX_WINDOW);
+        self.f_norm[self.head] = f_norm;
+        self.w[self.head] = w;
+        self.head = (self.head + 1) % window;
+        self.len = (self.len + 1).min(window);
+    }
+    /// (std |f|, max per-axis gyro std, mean gyro) when the window is full.
+    fn stats(&self, window: usize) -> Option<(f64, f64, Vec3)> {
+        let window = window.clamp(2, ZUPT_MAX_WINDOW);
+        if self.len < window {
+            return None;
+        }
+        let n = window as f64;
+        let (mut sf, mut sf2) = (0.0, 0.0);
+        let (mut sw, mut sw2) = (Vec3::zeros(), Vec3::zeros());
+        for i in 0..window {
+            sf += self.f_norm[i];
+            sf2 += self.f_norm[i] * self.f_norm[i];
+            sw += self.w[i];
+            sw2 += self.w[i].component_mul(&self.w[i]);
+        }
+        let mf = sf / n;
+        let vf = (sf2 / n - mf * mf).max(0.0);
+        let mw = sw / n;
+        let vw = (sw2 / n - mw.component_mul(&mw)).map(|v| v.max(0.0));
+        Some((vf.sqrt(), vw.max().sqrt(), mw))
+    }
+}
+
+/// The seed 001 / KF-GINS error-state filter. See the module documentation.
+#[derive(Clone, Debug)]
+pub struct Eskf {
+    cfg: EskfConfig,
+    nav: NavState,
+    err: ImuErrors,
+    p: Cov,
+    /// Process noise PSD per axis: vrw², arw², and the Gauss–Markov drivers.
+    q_vrw: Vec3,
+    q_arw: Vec3,
+    q_bias: [Vec3; 4],
+    /// Previous (compensated) IMU increments and time.
+    t: f64,
+    dtheta_pre: Vec3,
+    dvel_pre: Vec3,
+    started: bool,
+    pending: Option<GnssFix>,
+    last_nhc: f64,
+    last_zupt: f64,
+    last_zaru: f64,
+    last_dt: f64,
+    standstill: bool,
+    detector: StandstillDetector,
+    stats: EskfStats,
+    // Smoother bookkeeping.
+    /// Transpose of the transition matrix accumulated since the last checkpoint.
+    rec_phi_t: Cov,
+    rec_p_post: Cov,
+    rec_dx: StateVec,
+    rec_p_prior: Option<Cov>,
+    rec_count: usize,
+    rec_updated: bool,
+    rec_have_prev: bool,
+    record: Option<SmootherRecord>,
+    f_sparse: FSparse,
+    scratch_t: Cov,
+    scratch_m: Cov,
+    scratch_n: Cov,
+    /// Last compensated angular rate [rad/s] and specific force [m/s²], body.
+    w_ib_b: Vec3,
+    f_b: Vec3,
+}
+
+/// Which GNSS fix timing case applies to an IMU interval (KF-GINS `isToUpdate`).
+const TIME_ALIGN: f64 = 1e-3;
+
+impl Eskf {
+    /// A filter at `nav` with sensor errors `errors` and initial σ `std`.
+    pub fn new(cfg: EskfConfig, nav: NavState, errors: ImuErrors, std: &InitStd) -> Self {
+        let mut p = Cov::zeros();
+        let blocks = [
+            (I_POS, std.pos),
+            (I_VEL, std.vel),
+            (I_ATT, std.att),
+            (I_BG, std.bg),
+            (I_BA, std.ba),
+            (
+                I_SG,
+                if cfg.scale_factors {
+                    std.sg
+                } else {
+                    Vec3::zeros()
+                },
+            ),
+            (
+                I_SA,
+                if cfg.scale_factors {
+                    std.sa
+                } else {
+                    Vec3::zeros()
+                },
+            ),
+        ];
+        for (i, s) in blocks {
+            for k in 0..3 {
+                p[(i + k, i + k)] = s[k] * s[k];
+            }
+        }
+        let n = &cfg.noise;
+        let gm = |s: Vec3| {
+            if n.corr_time.is_finite() && n.corr_time > 0.0 {
+                s.component_mul(&s) * (2.0 / n.corr_time)
+            } else {
+                s.component_mul(&s)
+            }
+        };
+        let (sg_q, sa_q) = if cfg.scale_factors {
+            (gm(n.sg_std), gm(n.sa_std))
+        } else {
+            (Vec3::zeros(), Vec3::zeros())
+        };
+        Eskf {
+            nav,
+            err: errors,
+            p,
+            q_vrw: n.vrw.component_mul(&n.vrw),
+            q_arw: n.arw.component_mul(&n.arw),
+            q_bias: [gm(n.bg_std), gm(n.ba_std), sg_q, sa_q],
+            t: f64::NAN,
+            dtheta_pre: Vec3::zeros(),
+            dvel_pre: Vec3::zeros(),
+            started: false,
+            pending: None,
+            last_nhc: f64::NEG_INFINITY,
+            last_zupt: f64::NEG_INFINITY,
+            last_zaru: f64::NEG_INFINITY,
+            last_dt: 0.01,
+            standstill: false,
+            detector: StandstillDetector::new(),
+            stats: EskfStats::default(),
+            rec_phi_t: Cov::identity(),
+            rec_p_post: p,
+            rec_dx: StateVec::zeros(),
+            rec_p_prior: None,
+            rec_count: 0,
+            rec_updated: false,
+            rec_have_prev: false,
+            record: None,
+            w_ib_b: Vec3::zeros(),
+            f_b: Vec3::zeros(),
+            f_sparse: FSparse::new(),
+            scratch_t: Cov::zeros(),
+            scratch_m: Cov::zeros(),
+            scratch_n: Cov::zeros(),
+            cfg,
+        }
+    }
+
+    /// Configuration in use.
+    pub fn config(&self) -> &EskfConfig {
+        &self.cfg
+    }
+    /// Current nominal navigation state (IMU).
+    pub fn nav(&self) -> &NavState {
+        &self.nav
+    }
+    /// Current IMU error estimates.
+    pub fn imu_errors(&self) -> &ImuErrors {
+        &self.err
+    }
+    /// Current error-state covariance.
+    pub fn covariance(&self) -> &Cov {
+        &self.p
+    }
+    /// What happened to the inputs so far.
+    pub fn stats(&self) -> &EskfStats {
+        &self.stats
+    }
+    /// Time of the current state [s] (NaN before the first IMU sample).
+    pub fn time(&self) -> f64 {
+        self.t
+    }
+    /// Whether the standstill detector currently reports standstill.
+    pub fn is_standstill(&self) -> bool {
+        self.standstill
+    }
+    /// The smoother checkpoint made by the last `push`, if any.
+    pub fn take_record(&mut self) -> Option<SmootherRecord> {
+        self.record.take()
+    }
+
+    /// Solution at the current time with 1-σ from the covariance.
+    pub fn solution(&self) -> NavSolution {
+        let d = |i: usize| {
+            Vec3::new(
+                self.p[(i, i)].max(0.0).sqrt(),
+                self.p[(i + 1, i + 1)].max(0.0).sqrt(),
+                self.p[(i + 2, i + 2)].max(0.0).sqrt(),
+            )
+        };
+        NavSolution {
+            t: self.t,
+            lat: self.nav.lat,
+            lon: self.nav.lon,
+            h: self.nav.h,
+            v_n: self.nav.v_n,
+            rpy: self.nav.rpy(),
+            std_pos_ned: d(I_POS),
+            std_v_n: d(I_VEL),
+            std_rpy: d(I_ATT),
+        }
+    }
+
+    /// Antenna position (lat, lon, h) of the current state.
+    pub fn antenna_position(&self) -> (f64, f64, f64) {
+        let (rm, rn) = earth::radii(self.nav.lat);
+        let l_n = self.nav.c_bn() * self.cfg.lever_arm_b;
+        (
+            self.nav.lat + l_n.x / (rm + self.nav.h),
+            self.nav.lon + l_n.y / ((rn + self.nav.h) * self.nav.lat.cos()),
+            self.nav.h - l_n.z,
+        )
+    }
+
+    fn compensate(&self, dtheta: &Vec3, dvel: &Vec3, dt: f64) -> (Vec3, Vec3) {
+        let e = &self.err;
+        let dth = (dtheta - e.bg * dt).component_div(&(Vec3::repeat(1.0) + e.sg));
+        let dv = (dvel - e.ba * dt).component_div(&(Vec3::repeat(1.0) + e.sa));
+        (dth, dv)
+    }
+
+    /// Mechanize over one (part of an) IMU interval and propagate `P`.
+    fn propagate(&mut self, dtheta_raw: &Vec3, dvel_raw: &Vec3, dt: f64) {
+        let (dth, dv) = self.compensate(dtheta_raw, dvel_raw, dt);
+        let pre = self.nav;
+        let c_bn = pre.c_bn();
+        let e0 = EarthAt::new(pre.lat, pre.h);
+        self.nav = mechanize_with(
+            &pre,
+            &c_bn,
+            &e0,
+            &self.dtheta_pre,
+            &self.dvel_pre,
+            &dth,
+            &dv,
+            dt,
+        );
+        self.dtheta_pre = dth;
+        self.dvel_pre = dv;
+        self.w_ib_b = dth / dt;
+        self.f_b = dv / dt;
+        let fb = self.error_model(&pre, &c_bn, &e0, &self.w_ib_b, &self.f_b);
+        self.propagate_cov(&fb, &c_bn, dt);
+    }
+
+    /// `F` blocks at `s` (the state at the start of the interval), KF-GINS's
+    /// NED model with position error in metres.
+    fn error_model(&self, s: &NavState, c: &Mat3, e: &EarthAt, w_b: &Vec3, f_b: &Vec3) -> FBlocks {
+        let (rm, rn, rmh, rnh) = (e.rm, e.rn, e.rmh, e.rnh);
+        let (sl, cl) = (e.sin_lat, e.cos_lat);
+        let tl = sl / cl;
+        let (vn, ve, vd) = (s.v_n.x, s.v_n.y, s.v_n.z);
+        let wie = earth::OMEGA_IE;
+        let g = e.g;
+        let c = *c;
+        let w_in = e.w_ie() + e.w_en(&s.v_n);
+
+        let pp = Mat3::new(
+            -vd / rmh,
+            0.0,
+            vn / rmh,
+            ve * tl / rnh,
+            -(vd + vn * tl) / rnh,
+            ve / rnh,
+            0.0,
+            0.0,
+            0.0,
+        );
+        let vp = Mat3::new(
+            -2.0 * ve * wie * cl / rmh - ve * ve / (rmh * rnh * cl * cl),
+            0.0,
+            vn * vd / (rmh * rmh) - ve * ve * tl / (rnh * rnh),
+            2.0 * wie * (vn * cl - vd * sl) / rmh + vn * ve / (rmh * rnh * cl * cl),
+            0.0,
+            (ve * vd + vn * ve * tl) / (rnh * rnh),
+            2.0 * wie * ve * sl / rmh,
+            0.0,
+            -ve * ve / (rnh * rnh) - vn * vn / (rmh * rmh) + 2.0 * g / ((rm * rn).sqrt() + s.h),
+        );
+        let vv = Mat3::new(
+            vd / rmh,
+            -2.0 * (wie * sl + ve * tl / rnh),
+            vn / rmh,
+            2.0 * wie * sl + ve * tl / rnh,
+            (vd + vn * tl) / rnh,
+            2.0 * wie * cl + ve / rnh,
+            -2.0 * vn / rmh,
+            -2.0 * (wie * cl + ve / rnh),
+            0.0,
+        );
+        let f_n = c * f_b;
+        let va = skew(&f_n);
+        let ap = Mat3::new(
+            -wie * sl / rmh,
+            0.0,
+            ve / (rnh * rnh),
+            0.0,
+            0.0,
+            -vn / (rmh * rmh),
+            -wie * cl / rmh - ve / (rmh * rnh * cl * cl),
+            0.0,
+            -ve * tl / (rnh * rnh),
+        );
+        let av = Mat3::new(
+            0.0,
+            1.0 / rnh,
+            0.0,
+            -1.0 / rmh,
+            0.0,
+            0.0,
+            0.0,
+            -tl / rnh,
+            0.0,
+        );
+        let aa = -skew(&w_in);
+        let scale = self.cfg.scale_factors;
+        let (vsa, asg) = if scale {
+            (
+                c * Mat3::from_diagonal(f_b),
+                -(c * Mat3::from_diagonal(w_b)),
+            )
+        } else {
+            (Mat3::zeros(), Mat3::zeros())
+        };
+        let t = self.cfg.noise.corr_time;
+        FBlocks {
+            pp,
+            vp,
+            vv,
+            va,
+            c_bn: c,
+            vsa,
+            ap,
+            av,
+            aa,
+            asg,
+            beta: if t.is_finite() && t > 0.0 {
+                -1.0 / t
+            } else {
+                0.0
+            },
+            scale,
+        }
+    }
+
+    /// `P ← Φ (P + Q_d/2) Φᵀ + Q_d/2`, `Φ = I + F dt`, with `F` sparse.
+    fn propagate_cov(&mut self, fb: &FBlocks, c_bn: &Mat3, dt: f64) {
+        // Q_d = G Q_c Gᵀ dt: G maps velocity and angle noise through C_bn.
+        let c = *c_bn;
+        let qv = c * Mat3::from_diagonal(&self.q_vrw) * c.transpose() * dt;
+        let qa = c * Mat3::from_diagonal(&self.q_arw) * c.transpose() * dt;
+        let p = &mut self.p;
+        for i in 0..3 {
+            for j in 0..3 {
+                p[(I_VEL + i, I_VEL + j)] += 0.5 * qv[(i, j)];
+                p[(I_ATT + i, I_ATT + j)] += 0.5 * qa[(i, j)];
+            }
+        }
+        for (b, q) in self.q_bias.iter().enumerate() {
+            for k in 0..3 {
+                p[(I_BG + 3 * b + k, I_BG + 3 * b + k)] += 0.5 * q[k] * dt;
+            }
+        }
+        // With X symmetric: T = X Fᵀ, M = Tᵀ = F X, N = M Fᵀ = F X Fᵀ, and
+        // Φ X Φᵀ = X + dt (T + M) + dt² N. Only contiguous column axpys.
+        let fs = &mut self.f_sparse;
+        fs.set_full(fb);
+        let t = &mut self.scratch_t;
+        fs.x_ft::<NX>(p, t, NX);
+        let m = &mut self.scratch_m;
+        {
+            // M = Tᵀ (fixed-size loops so the compiler unrolls them).
+            let ts: &[f64; NX * NX] = t.as_slice().try_into().unwrap_or(&[0.0; NX * NX]);
+            let ms = m.as_mut_slice();
+            for c in 0..NX {
+                for r in 0..NX {
+                    ms[NX * r + c] = ts[NX * c + r];
+                }
+            }
+        }
+        // The dt² term with the O(1) blocks of F only (I, [f×], ±C_bn, scale):
+        // the dropped earth-rate/transport blocks are ≤ 1e-4 of these, so
+        // they change Φ X Φᵀ by < 1e-10 relative at 100 Hz. The dominant F
+        // has no rows ≥ 9, so N is zero outside its 9×9 corner.
+        fs.set_dominant(fb);
+        let nmat = &mut self.scratch_n;
+        fs.x_ft::<I_BG>(m, nmat, I_BG);
+        let dt2 = dt * dt;
+        {
+            let ps = p.as_mut_slice();
+            let (ts, ms, ns) = (t.as_slice(), m.as_slice(), nmat.as_slice());
+            for c in 0..NX {
+                let o = NX * c;
+                let pc: &mut [f64; NX] = (&mut ps[o..o + NX])
+                    .try_into()
+                    .unwrap_or_else(|_| unreachable!());
+                let tc: &[f64; NX] = ts[o..o + NX].try_into().unwrap_or(&[0.0; NX]);
+                let mc: &[f64; NX] = ms[o..o + NX].try_into().unwrap_or(&[0.0; NX]);
+                for r in 0..NX {
+                    pc[r] += dt * (tc[r] + mc[r]);
+                }
+                if c < I_BG {
+                    let nc: &[f64; I_BG] = ns[o..o + I_BG].try_into().unwrap_or(&[0.0; I_BG]);
+                    for r in 0..I_BG {
+                        pc[r] += dt2 * nc[r];
+                    }
+                }
+            }
+        }
+        for i in 0..3 {
+            for j in 0..3 {
+                p[(I_VEL + i, I_VEL + j)] += 0.5 * qv[(i, j)];
+                p[(I_ATT + i, I_ATT + j)] += 0.5 * qa[(i, j)];
+            }
+        }
+        for (b, q) in self.q_bias.iter().enumerate() {
+            for k in 0..3 {
+                p[(I_BG + 3 * b + k, I_BG + 3 * b + k)] += 0.5 * q[k] * dt;
+            }
+        }
+        if self.cfg.smoother_every > 0 {
+            // Ψ = Φ_accᵀ; Φ_acc ← Φ Φ_acc ⇔ Ψ ← Ψ + dt Ψ Fᵀ.
+            self.f_sparse.set_full(fb);
+            let d = &mut self.scratch_t;
+            self.f_sparse.x_ft::<NX>(&self.rec_phi_t, d, NX);
+            self.rec_phi_t += *d * dt;
+        }
+    }
+
+    /// Joseph-form update with feedback; `dz = ẑ − z` (predicted minus measured).
+    /// Returns `Some(nis)` if applied, `None` if gated out or singular.
+    fn update<const M: usize>(
+        &mut self,
+        h: &SMatrix<f64, M, NX>,
+        r: &SMatrix<f64, M, M>,
+        dz: &SVector<f64, M>,
+        gate: bool,
+    ) -> Result<f64, UpdateReject> {
+        if !dz.iter().all(|v| v.is_finite()) {
+            return Err(UpdateReject::Singular);
+        }
+        let u: SMatrix<f64, NX, M> = self.p * h.transpose();
+        let s: SMatrix<f64, M, M> = h * u + r;
+        let Some(s_inv) = s.try_inverse() else {
+            self.stats.singular += 1;
+            return Err(UpdateReject::Singular);
+        };
+        let nis = (dz.transpose() * s_inv * dz)[(0, 0)];
+        if !nis.is_finite() {
+            self.stats.singular += 1;
+            return Err(UpdateReject::Singular);
+        }
+        if gate {
+            if let Some(pg) = self.cfg.gate_probability {
+                if nis > chi2_gate(M, pg) {
+                    return Err(UpdateReject::Gate);
+                }
+            }
+        }
+        if self.cfg.smoother_every > 0 && self.rec_p_prior.is_none() {
+            self.rec_p_prior = Some(self.p);
+        }
+        let k: SMatrix<f64, NX, M> = u * s_inv;
+        let dx: StateVec = k * dz;
+        // Joseph form, expanded: (I−KH)P(I−KH)ᵀ + KRKᵀ = P − KUᵀ − UKᵀ + K S Kᵀ.
+        let ks = k * s;
+        let kut = k * u.transpose();
+        self.p += ks * k.transpose() - kut - kut.transpose();
+        self.p = 0.5 * (self.p + self.p.transpose());
+        apply_correction(&mut self.nav, &mut self.err, &dx);
+        self.rec_dx += dx;
+        self.rec_updated = true;
+        Ok(nis)
+    }
+
+    /// GNSS updates for `fix` at the current state time.
+    fn gnss_update(&mut self, fix: &GnssFix) {
+        let c = self.nav.c_bn();
+        let l_n = c * self.cfg.lever_arm_b;
+        let (rm, rn) = earth::radii(self.nav.lat);
+        let (lat_a, lon_a, h_a) = self.antenna_position();
+        let dz_pos = Vec3::new(
+            (lat_a - fix.lat) * (rm + self.nav.h),
+            (lon_a - fix.lon) * (rn + self.nav.h) * self.nav.lat.cos(),
+            -(h_a - fix.h),
+        );
+        let position_allowed = self.cfg.position_until.is_none_or(|t| fix.t <= t);
+        let std = fix.std_ned;
+        if position_allowed {
+            let mut h = SMatrix::<f64, 3, NX>::zeros();
+            h.fixed_view_mut::<3, 3>(0, I_POS)
+                .copy_from(&Mat3::identity());
+            h.fixed_view_mut::<3, 3>(0, I_ATT).copy_from(&skew(&l_n));
+            let r = Mat3::from_diagonal(&std.component_mul(&std));
+            match self.update(&h, &r, &dz_pos, true) {
+                Ok(_) => self.stats.gnss_pos_used += 1,
+                Err(UpdateReject::Gate) => self.stats.gnss_pos_rejected_gate += 1,
+                Err(UpdateReject::Singular) => {}
+            }
+        } else {
+            // Height only.
+            let mut h = SMatrix::<f64, 1, NX>::zeros();
+            h[(0, I_POS + 2)] = 1.0;
+            h.fixed_view_mut::<1, 3>(0, I_ATT)
+                .copy_from(&skew(&l_n).fixed_view::<1, 3>(2, 0));
+            let r = SMatrix::<f64, 1, 1>::new(std.z * std.z);
+            let dz = SVector::<f64, 1>::new(dz_pos.z);
+            match self.update(&h, &r, &dz, true) {
+                Ok(_) => self.stats.height_used += 1,
+                Err(UpdateReject::Gate) => self.stats.height_rejected_gate += 1,
+                Err(UpdateReject::Singular) => {}
+            }
+        }
+        if self.cfg.use_gnss_velocity {
+            if let (Some(v_meas), Some(sv)) = (fix.v_n, fix.std_v_n) {
+                // Antenna velocity: v + C_bn (ω_ib^b × l) (earth-rate term neglected).
+                let c = self.nav.c_bn();
+                let lever_v = c * self.w_ib_b.cross(&self.cfg.lever_arm_b);
+                let dz = self.nav.v_n + lever_v - v_meas;
+                let mut h = SMatrix::<f64, 3, NX>::zeros();
+                h.fixed_view_mut::<3, 3>(0, I_VEL)
+                    .copy_from(&Mat3::identity());
+                h.fixed_view_mut::<3, 3>(0, I_ATT)
+                    .copy_from(&skew(&lever_v));
+                let r = Mat3::from_diagonal(&sv.component_mul(&sv));
+                match self.update(&h, &r, &dz, true) {
+                    Ok(_) => self.stats.gnss_vel_used += 1,
+                    Err(UpdateReject::Gate) => self.stats.gnss_vel_rejected_gate += 1,
+                    Err(UpdateReject::Singular) => {}
+                }
+            }
+        }
+    }
+
+    /// Vehicle constraints after the IMU sample at the current time.
+    fn vehicle_updates(&mut self) {
+        let t = self.t;
+        if let Some(z) = self.cfg.zupt {
+            let f_norm = self.f_b.norm();
+            self.detector.push(f_norm, self.w_ib_b, z.window);
+            self.standstill = match self.detector.stats(z.window) {
+                Some((sf, sw, _)) => sf < z.max_accel_std && sw < z.max_gyro_std,
+                None => false,
+            };
+            if self.standstill && t - self.last_zupt >= z.interval {
+                self.last_zupt = t;
+                let mut h = SMatrix::<f64, 3, NX>::zeros();
+                h.fixed_view_mut::<3, 3>(0, I_VEL)
+                    .copy_from(&Mat3::identity());
+                let r = Mat3::identity() * (z.vel_std * z.vel_std);
+                let dz = self.nav.v_n;
+                match self.update(&h, &r, &dz, true) {
+                    Ok(_) => self.stats.zupt_used += 1,
+                    Err(UpdateReject::Gate) => self.stats.zupt_rejected_gate += 1,
+                    Err(UpdateReject::Singular) => {}
+                }
+                if let (Some(zs), Some((_, _, w_mean))) =
+                    (z.zaru_std, self.detector.stats(z.window))
+                {
+                    // Window-mean compensated rate minus the earth rate = δb_g.
+                    let w_ie_b = self.nav.c_bn().transpose() * earth::omega_ie_n(self.nav.lat);
+                    let dz = w_mean - w_ie_b;
+                    let mut h = SMatrix::<f64, 3, NX>::zeros();
+                    h.fixed_view_mut::<3, 3>(0, I_BG)
+                        .copy_from(&Mat3::identity());
+                    let r = Mat3::identity() * (zs * zs);
+                    // The window mean holds the bias of its samples: one ZARU per window.
+                    let window_s = z.window as f64 * self.last_dt;
+                    if t - self.last_zaru >= window_s && self.update(&h, &r, &dz, false).is_ok() {
+                        self.last_zaru = t;
+                        self.stats.zaru_used += 1;
+                    }
+                }
+                return;
+            }
+        }
+        if let Some(n) = self.cfg.nhc {
+            if self.standstill
+                || t - self.last_nhc < n.interval
+                || self.nav.v_n.norm() < n.min_speed
+            {
+                return;
+            }
+            self.last_nhc = t;
+            let c_nb = self.nav.c_bn().transpose();
+            let v_b = c_nb * self.nav.v_n;
+            let h_v = c_nb;
+            let h_a = -(c_nb * skew(&self.nav.v_n));
+            let mut h = SMatrix::<f64, 2, NX>::zeros();
+            for r in 0..2 {
+                for k in 0..3 {
+                    h[(r, I_VEL + k)] = h_v[(r + 1, k)];
+                    h[(r, I_ATT + k)] = h_a[(r + 1, k)];
+                }
+            }
+            let r = SMatrix::<f64, 2, 2>::identity() * (n.std * n.std);
+            let dz = SVector::<f64, 2>::new(v_b.y, v_b.z);
+            match self.update(&h, &r, &dz, true) {
+                Ok(_) => self.stats.nhc_used += 1,
+                Err(UpdateReject::Gate) => self.stats.nhc_rejected_gate += 1,
+                Err(UpdateReject::Singular) => {}
+            }
+        }
+    }
+
+    /// Smoother checkpoint bookkeeping after a full IMU sample.
+    fn maybe_record(&mut self) {
+        let every = self.cfg.smoother_every;
+        if every == 0 {
+            return;
+        }
+        self.rec_count += 1;
+        if !(self.rec_updated || self.rec_count >= every) {
+            return;
+        }
+        // A = P⁺_{k−1} Φᵀ (P⁻_k)⁻¹, via Cholesky of the symmetric P⁻ (the
+        // covariance before the first update since the last checkpoint).
+        let p_prior = self.rec_p_prior.take().unwrap_or(self.p);
+        let gain = if self.rec_have_prev {
+            let b = self.rec_phi_t.transpose() * self.rec_p_post; // (P⁺Φᵀ)ᵀ = Φ P⁺
+            match p_prior.cholesky() {
+                Some(ch) => ch.solve(&b).transpose(),
+                None => Cov::zeros(),
+            }
+        } else {
+            Cov::zeros()
+        };
+        self.record = Some(SmootherRecord {
+            t: self.t,
+            nav: self.nav,
+            errors: self.err,
+            dx_fed_back: self.rec_dx,
+            gain_prev: gain,
+            p_post_diag: self.p.diagonal(),
+        });
+        self.rec_have_prev = true;
+        self.rec_p_post = self.p;
+        self.rec_phi_t = Cov::identity();
+        self.rec_dx = StateVec::zeros();
+        self.rec_count = 0;
+        self.rec_updated = false;
+    }
+
+    /// Process one IMU sample (KF-GINS `newImuProcess`): propagate, and apply
+    /// a pending GNSS fix at its own time inside or at the ends of the interval.
+    fn push_imu(&mut self, imu: &ImuSample) -> Option<NavSolution> {
+        let finite = imu.dt.is_finite()
+            && imu.t.is_finite()
+            && imu
+                .dtheta_b
+                .iter()
+                .chain(imu.dvel_b.iter())
+                .all(|v| v.is_finite());
+        if !finite || imu.dt <= 0.0 || (self.started && imu.t <= self.t) {
+            self.stats.imu_rejected_bad += 1;
+            return None;
+        }
+        self.stats.imu_samples += 1;
+        if !self.started {
+            // The initial state holds at the end of the first interval.
+            let (dth, dv) = self.compensate(&imu.dtheta_b, &imu.dvel_b, imu.dt);
+            self.dtheta_pre = dth;
+            self.dvel_pre = dv;
+            self.w_ib_b = dth / imu.dt;
+            self.f_b = dv / imu.dt;
+            self.t = imu.t;
+            self.started = true;
+            self.pending = self.pending.filter(|g| g.t > imu.t);
+            return Some(self.solution());
+        }
+        let t0 = self.t;
+        let t1 = imu.t;
+        self.last_dt = imu.dt;
+        let mut fix = None;
+        if let Some(g) = self.pending {
+            if g.t <= t1 + TIME_ALIGN {
+                fix = Some(g);
+                self.pending = None;
+            }
+        }
+        match fix {
+            Some(g) if (g.t - t0).abs() < TIME_ALIGN => {
+                self.gnss_update(&g);
+                self.propagate(&imu.dtheta_b, &imu.dvel_b, imu.dt);
+            }
+            Some(g) if (t1 - g.t).abs() <= TIME_ALIGN => {
+                self.propagate(&imu.dtheta_b, &imu.dvel_b, imu.dt);
+                self.t = t1;
+                self.gnss_update(&g);
+            }
+            Some(g) if g.t > t0 && g.t < t1 => {
+                let lambda = (g.t - t0) / (t1 - t0);
+                let dt1 = g.t - t0;
+                self.propagate(&(imu.dtheta_b * lambda), &(imu.dvel_b * lambda), dt1);
+                self.t = g.t;
+                self.gnss_update(&g);
+                self.propagate(
+                    &(imu.dtheta_b * (1.0 - lambda)),
+                    &(imu.dvel_b * (1.0 - lambda)),
+                    imu.dt - dt1,
+                );
+            }
+            Some(_) => {
+                // Older than the current state: cannot be applied.
+                self.stats.gnss_rejected_bad += 1;
+                self.propagate(&imu.dtheta_b, &imu.dvel_b, imu.dt);
+            }
+            None => self.propagate(&imu.dtheta_b, &imu.dvel_b, imu.dt),
+        }
+        self.t = t1;
+        if self.cfg.nhc.is_some() || self.cfg.zupt.is_some() {
+            self.vehicle_updates();
+        }
+        self.maybe_record();
+        Some(self.solution())
+    }
+
+    fn push_gnss(&mut self, g: &GnssFix) {
+        let ok = g.t.is_finite()
+            && g.lat.is_finite()
+            && g.lon.is_finite()
+            && g.h.is_finite()
+            && g.std_ned.iter().all(|s| s.is_finite() && *s > 0.0);
+        if !ok || (self.started && g.t < self.t - TIME_ALIGN) {
+            self.stats.gnss_rejected_bad += 1;
+            return;
+        }
+        if let Some(old) = self.pending.replace(*g) {
+            // Two fixes inside one IMU interval: the older one is superseded.
+            let _ = old;
+            self.stats.gnss_rejected_bad += 1;
+        }
+    }
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum UpdateReject {
+    Gate,
+    Singular,
+}
+
+#[inline]
+fn skew(a: &Vec3) -> Mat3 {
+    Mat3::new(0.0, -a.z, a.y, a.z, 0.0, -a.x, -a.y, a.x, 0.0)
+}
+
+impl Estimator for Eskf {
+    fn name(&self) -> &'static str {
+        "eskf"
+    }
+    fn push(&mut self, ev: &Event) -> Option<NavSolution> {
+        match ev {
+            Event::Imu(s) => self.push_imu(s),
+            Event::Gnss(g) => {
+                self.push_gnss(g);
+                None
+            }
+        }
+    }
+}

@@ -1,0 +1,204 @@
+//! Initial alignment: static window detection, levelling and static sensor
+//! calibration (`SEEDS.md §1` eq. 1–2), heading from the GNSS course.
+//!
+//! Body FRD; a level IMU at rest measures f_b ≈ (0, 0, −g).
+
+use crate::earth;
+#[allow(unused_imports)]
+use crate::prelude::*;
+use crate::types::ImuSample;
+use crate::Vec3;
+
+/// Roll and pitch [rad] from the mean specific force at rest (levelling;
+/// Groves eq. 5.101): f_b = g (sin θ, −sin φ cos θ, −cos φ cos θ).
+pub fn level(f_b_mean: &Vec3) -> (f64, f64) {
+    let roll = (-f_b_mean.y).atan2(-f_b_mean.z);
+    let pitch = f_b_mean
+        .x
+        .atan2((f_b_mean.y * f_b_mean.y + f_b_mean.z * f_b_mean.z).sqrt());
+    (roll, pitch)
+}
+
+/// Result of the static calibration over a window at rest.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct StaticCalibration {
+    /// Roll, pitch [rad] by levelling.
+    pub roll: f64,
+    pub pitch: f64,
+    /// Mean angular rate over the window [rad/s] (gyro bias + earth rate).
+    pub w_mean_b: Vec3,
+    /// Mean specific force [m/s²].
+    pub f_mean_b: Vec3,
+    /// Accelerometer bias of `SEEDS.md §1` eq. 1 for the given attitude: f̄ − f_expected.
+    /// With the levelled attitude only the magnitude part survives (along f̄).
+    pub accel_bias_b: Vec3,
+    /// Accelerometer scale s_a = g/|f̄| (`SEEDS.md §1` eq. 2).
+    pub accel_scale: f64,
+    /// Std of |f| and the largest per-axis gyro std over the window.
+    pub f_norm_std: f64,
+    pub w_std_max: f64,
+    /// Samples used.
+    pub n: usize,
+}
+
+/// Static calibration (`SEEDS.md §1` eq. 1–2) over `samples` at latitude
+/// `lat` and height `h`. The gyro bias is `w_mean_b − C_nb ω_ie^n`; the earth
+/// rate needs the heading, so it is left to the caller ([`gyro_bias`]).
+pub fn static_calibration(samples: &[ImuSample], lat: f64, h: f64) -> Option<StaticCalibration> {
+    if samples.len() < 2 {
+        return None;
+    }
+    let mut sf = Vec3::zeros();
+    let mut sw = Vec3::zeros();
+    let mut sw2 = Vec3::zeros();
+    let (mut sn, mut sn2) = (0.0, 0.0);
+    let mut ttot = 0.0;
+    for s in samples {
+        if s.dt.is_nan() || s.dt <= 0.0 {
+            continue;
+        }
+        let f = s.dvel_b / s.dt;
+        let w = s.dtheta_b / s.dt;
+        sf += s.dvel_b;
+        sw += s.dtheta_b;
+        sw2 += w.component_mul(&w);
+        sn += f.norm();
+        sn2 += f.norm_squared();
+        ttot += s.dt;
+    }
+    if ttot <= 0.0 {
+        return None;
+    }
+    let n = samples.len() as f64;
+    let f_mean = sf / ttot;
+    let w_mean = sw / ttot;
+    let mn = sn / n;
+    let w_var = sw2 / n - w_mean.component_mul(&w_mean);
+    let (roll, pitch) = level(&f_mean);
+    let g = earth::gravity(lat, h);
+    // Expected f at the levelled attitude is −g along f̄'s direction (eq. 1).
+    let f_exp = f_mean.normalize() * g;
+    Some(StaticCalibration {
+        roll,
+        pitch,
+        w_mean_b: w_mean,
+        f_mean_b: f_mean,
+        accel_bias_b: f_mean - f_exp,
+        accel_scale: g / f_mean.norm(),
+        f_norm_std: (sn2 / n - mn * mn).max(0.0).sqrt(),
+        w_std_max: w_var.map(|v| v.max(0.0).sqrt()).max(),
+        n: samples.len(),
+    })
+}
+
+/// Gyro bias [rad/s] = mean rate − earth rate in the body frame, for the attitude (roll, pitch, yaw).
+pub fn gyro_bias(cal: &StaticCalibration, yaw: f64, lat: f64) -> Vec3 {
+    let q = crate::ins::mech::q_bn_from_rpy(&Vec3::new(cal.roll, cal.pitch, yaw));
+    let c_nb = q.to_rotation_matrix().into_inner().transpose();
+    cal.w_mean_b - c_nb * earth::omega_ie_n(lat)
+}
+
+/// Length (samples) of the static window at the start of `samples`: the
+/// longest prefix whose sliding `window`-sample std of |f| stays below
+/// `max_f_std` [m/s²] and of each gyro axis below `max_w_std` [rad/s].
+pub fn initial_static_len(
+    samples: &[ImuSample],
+    window: usize,
+    max_f_std: f64,
+    max_w_std: f64,
+) -> usize {
+    let window = window.max(2);
+    if samples.len() < window {
+        return 0;
+    }
+    let mut end = 0;
+    let mut i = 0;
+    while i + window <= samples.len() {
+        let w = &samples[i..i + window];
+        let (mut sn, mut sn2, mut sw, mut sw2) = (0.0, 0.0, Vec3::zeros(), Vec3::zeros());
+        for s in w {
+            let dt = if s.dt > 0.0 { s.dt } else { return end };
+            let f = (s.dvel_b / dt).norm();
+            let r = s.dtheta_b / dt;
+            sn += f;
+            sn2 += f * f;
+            sw += r;
+            sw2 += r.component_mul(&r);
+        }
+        let n = window as f64;
+        let fstd = (sn2 / n - (sn / n).powi(2)).max(0.0).sqrt();
+        let wm = sw / n;
+        let wstd = (sw2 / n - wm.component_mul(&wm))
+            .map(|v| v.max(0.0).sqrt())
+            .max();
+        if fstd > max_f_std || wstd > max_w_std {
+            break;
+        }
+        end = i + window;
+        i += window / 2;
+    }
+    end
+}
+
+/// Heading (course over ground) [rad] from a NED velocity, if the horizontal
+/// speed exceeds `min_speed` [m/s]. For a car without side slip the course is
+/// the yaw of the body.
+pub fn heading_from_velocity(v_n: &Vec3, min_speed: f64) -> Option<f64> {
+    let s = (v_n.x * v_n.x + v_n.y * v_n.y).sqrt();
+    (s >= min_speed).then(|| v_n.y.atan2(v_n.x))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn at_rest(roll: f64, pitch: f64, n: usize) -> ImuSample {
+        let g = earth::gravity(0.7, 100.0);
+        let f = Vec3::new(
+            g * pitch.sin(),
+            -g * roll.sin() * pitch.cos(),
+            -g * roll.cos() * pitch.cos(),
+        );
+        ImuSample {
+            t: n as f64 * 0.01,
+            dt: 0.01,
+            dtheta_b: Vec3::new(1e-5, -2e-5, 3e-5),
+            dvel_b: f * 0.01,
+        }
+    }
+
+    #[test]
+    fn levelling_recovers_roll_and_pitch() {
+        for (r, p) in [(0.1, -0.2), (-0.5, 0.3), (0.0, 0.0), (3.0, 0.1)] {
+            let s = at_rest(r, p, 0);
+            let (rr, pp) = level(&(s.dvel_b / s.dt));
+            assert!(
+                (rr - r).abs() < 1e-12 && (pp - p).abs() < 1e-12,
+                "{r} {p} -> {rr} {pp}"
+            );
+        }
+    }
+
+    #[test]
+    fn static_calibration_and_window() {
+        let mut v: [ImuSample; 400] = core::array::from_fn(|i| at_rest(0.05, -0.02, i));
+        // Start moving after 300 samples.
+        for (i, s) in v.iter_mut().enumerate().skip(300) {
+            s.dvel_b.x += 0.02 * ((i as f64) * 0.7).sin();
+            s.dtheta_b.z += 0.01 * ((i as f64) * 0.3).cos();
+        }
+        let n = initial_static_len(&v, 50, 0.05, 0.01);
+        assert!((275..=300).contains(&n), "static len {n}");
+        let cal = static_calibration(&v[..n], 0.7, 100.0).unwrap();
+        assert!((cal.roll - 0.05).abs() < 1e-9 && (cal.pitch + 0.02).abs() < 1e-9);
+        assert!((cal.w_mean_b - Vec3::new(1e-3, -2e-3, 3e-3)).norm() < 1e-12);
+        assert!((cal.accel_scale - 1.0).abs() < 1e-9);
+    }
+
+    #[test]
+    fn heading_needs_speed() {
+        assert!(heading_from_velocity(&Vec3::new(0.1, 0.1, 0.0), 1.0).is_none());
+        let h = heading_from_velocity(&Vec3::new(0.0, -5.0, 0.0), 1.0).unwrap();
+        assert!((h + core::f64::consts::FRAC_PI_2).abs() < 1e-12);
+    }
+}
