@@ -1,6 +1,7 @@
 #!/usr/bin/env python3
-"""Compare two navfuse JSON-lines solution files epoch by epoch (matched on
-t to 1 µs): count matched / only-in-one, max horizontal and vertical
+"""Compare two solution files epoch by epoch (matched on t to 1 µs): navfuse
+JSON lines (`navfuse live`), or KF-GINS .nav (`navfuse kf-gins`, time of
+week in column 2): count matched / only-in-one, max horizontal and vertical
 position difference [m]. Exit 1 if any matched epoch differs by more than
 the tolerance or if the live file misses epochs of the reference."""
 import json, math, sys
@@ -11,7 +12,11 @@ def load(p):
     d = {}
     with open(p) as f:
         for line in f:
-            o = json.loads(line)
+            if p.endswith(".nav"):
+                c = line.split()
+                o = {"t": float(c[1]), "lat": float(c[2]), "lon": float(c[3]), "h": float(c[4])}
+            else:
+                o = json.loads(line)
             d[round(o["t"] * 1e6)] = o
     return d
 

@@ -59,9 +59,19 @@ pub struct Args {
     #[arg(long, default_value_t = 100.0)]
     pub imu_rate: f64,
     /// Estimator: `hold` (test estimator: last GNSS position at every IMU
-    /// sample; not a navigation filter).
+    /// sample; not a navigation filter) or `eskf` (needs `--kfgins-config`).
     #[arg(long, default_value = "hold")]
     pub estimator: String,
+    /// KF-GINS YAML configuration for `--estimator eskf`: the ESKF is built
+    /// exactly as `navfuse kf-gins` builds it (model, initial state, its
+    /// start/end time window; times are handed to it as time of week, and the
+    /// first solution is not written, as there) so both give the same
+    /// solutions on the same data. The YAML's input paths are not read.
+    #[arg(long)]
+    pub kfgins_config: Option<PathBuf>,
+    /// With `--kfgins-config`: navfuse's land-vehicle additions (as `kf-gins --enhanced`).
+    #[arg(long)]
+    pub enhanced: bool,
     /// Output file (default stdout).
     #[arg(long)]
     pub out: Option<PathBuf>,
@@ -130,7 +140,74 @@ impl Estimator for HoldLastFix {
 pub fn make_estimator(name: &str) -> Result<Box<dyn Estimator>, String> {
     match name {
         "hold" => Ok(Box::new(HoldLastFix { last: None })),
-        other => Err(format!("unknown estimator {other:?} (available: hold)")),
+        "eskf" => Err("--estimator eskf needs --kfgins-config YAML".into()),
+        other => Err(format!(
+            "unknown estimator {other:?} (available: hold, eskf)"
+        )),
+    }
+}
+
+/// How `navfuse kf-gins` presents events to its ESKF: times as time of week,
+/// IMU from `start` (inclusive), fixes after `start`, up to `end`; the first
+/// solution only initialises.
+#[derive(Clone, Copy, Debug)]
+struct KfGinsFrame {
+    week_s: f64,
+    start: f64,
+    end: f64,
+}
+
+/// The ESKF of `navfuse kf-gins` from a KF-GINS YAML.
+fn kfgins_eskf(
+    path: &std::path::Path,
+    enhanced: bool,
+    week: u32,
+) -> Result<(Box<dyn Estimator>, KfGinsFrame), String> {
+    use navfuse_core::estimators::eskf::Eskf;
+    let cfg = navfuse_io::kfgins_yaml::KfGinsConfig::load(path)?;
+    let mut ecfg = cfg.eskf_config();
+    if enhanced {
+        ecfg = crate::kf_gins::enhanced(ecfg);
+    }
+    let eskf = Eskf::new(ecfg, cfg.init_nav(), cfg.init_errors(), &cfg.init_std());
+    let end = if cfg.endtime < 0.0 {
+        f64::INFINITY
+    } else {
+        cfg.endtime
+    };
+    Ok((
+        Box::new(eskf),
+        KfGinsFrame {
+            week_s: f64::from(week) * navfuse_io::time::SECONDS_PER_WEEK,
+            start: cfg.starttime,
+            end,
+        },
+    ))
+}
+
+impl KfGinsFrame {
+    /// The event as kf-gins hands it over, or the reason it does not.
+    fn map(&self, ev: &Event) -> Result<Event, &'static str> {
+        match *ev {
+            Event::Imu(mut s) => {
+                s.t -= self.week_s;
+                if s.t < self.start {
+                    Err("IMU before the configured start time")
+                } else if s.t > self.end {
+                    Err("IMU after the configured end time")
+                } else {
+                    Ok(Event::Imu(s))
+                }
+            }
+            Event::Gnss(mut f) => {
+                f.t -= self.week_s;
+                if f.t <= self.start {
+                    Err("GNSS at/before the configured start time")
+                } else {
+                    Ok(Event::Gnss(f))
+                }
+            }
+        }
     }
 }
 
@@ -373,7 +450,20 @@ pub fn run(args: Args) -> Result<(), String> {
     if !(args.max_wait.is_finite() && args.max_wait >= 0.0) {
         return Err(format!("--max-wait {}: must be ≥ 0", args.max_wait));
     }
-    let mut est = make_estimator(&args.estimator)?;
+    let (mut est, frame) = match (&args.kfgins_config, args.estimator.as_str()) {
+        (Some(p), "eskf") => {
+            let (e, f) = kfgins_eskf(p, args.enhanced, args.gps_week)?;
+            (e, Some(f))
+        }
+        (Some(_), other) => {
+            return Err(format!(
+                "--kfgins-config goes with --estimator eskf, not {other:?}"
+            ))
+        }
+        (None, name) => (make_estimator(name)?, None),
+    };
+    let mut outside: Vec<(&'static str, u64)> = Vec::new();
+    let mut first_pending = frame.is_some();
     let sink: Box<dyn Write> = match &args.out {
         Some(p) => Box::new(io::BufWriter::new(
             std::fs::File::create(p).map_err(|e| format!("{}: cannot create: {e}", p.display()))?,
@@ -490,7 +580,25 @@ pub fn run(args: Args) -> Result<(), String> {
         // Release whatever may go now.
         let nows = secs(Instant::now());
         while let Some((ev, arr)) = seq.pop(nows) {
-            match est.push(&ev) {
+            let ev = match frame.map(|f| f.map(&ev)) {
+                None => ev,
+                Some(Ok(e)) => e,
+                Some(Err(why)) => {
+                    match outside.iter_mut().find(|o| o.0 == why) {
+                        Some(o) => o.1 += 1,
+                        None => outside.push((why, 1)),
+                    }
+                    continue;
+                }
+            };
+            let sol = est.push(&ev);
+            if sol.is_some() && first_pending && matches!(ev, Event::Imu(_)) {
+                // kf-gins: the first sample only initialises (not written).
+                first_pending = false;
+                n_imu_nosol += 1;
+                continue;
+            }
+            match sol {
                 Some(sol) => {
                     out.write(&sol).map_err(|e| format!("output: {e}"))?;
                     n_sol += 1;
@@ -510,6 +618,10 @@ pub fn run(args: Args) -> Result<(), String> {
             // Remaining GNSS fixes (if any) go to the estimator too, then stop.
             seq.end_gnss();
             while let Some((ev, _)) = seq.pop(f64::INFINITY) {
+                if frame.is_some() {
+                    // kf-gins hands no fix over after the last IMU sample.
+                    continue;
+                }
                 if let Some(sol) = est.push(&ev) {
                     out.write(&sol).map_err(|e| format!("output: {e}"))?;
                     n_sol += 1;
@@ -564,6 +676,12 @@ pub fn run(args: Args) -> Result<(), String> {
     );
     if !reconnects.is_empty() {
         let _ = writeln!(e, "  reconnects: {reconnects:?}");
+    }
+    if !outside.is_empty() {
+        let _ = writeln!(
+            e,
+            "  not handed to the estimator (kf-gins time window): {outside:?}"
+        );
     }
     for n in &notes {
         let _ = writeln!(e, "  note: {n}");

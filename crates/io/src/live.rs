@@ -6,9 +6,10 @@
 //! written ([`FollowReader`]).
 //!
 //! **Ordering contract.** The estimator must see exactly the event sequence a
-//! batch run over the same data sees: events sorted by time, an IMU sample
-//! before a GNSS fix of the same time (the sample closes the interval
-//! `(t−dt, t]`; the fix is applied at its end). The live streams arrive
+//! batch run over the same data sees (`navfuse kf-gins`, KF-GINS's
+//! `gi_engine`): events in time order, a GNSS fix handed over before the IMU
+//! sample whose interval contains it, with [`GNSS_LEAD`] of tolerance — fix
+//! `g` goes before IMU sample `s` iff `g.t ≤ s.t + GNSS_LEAD`. The live streams arrive
 //! asynchronously, so the [`Sequencer`] holds an event until the other
 //! stream has shown that nothing earlier can still come (its latest received
 //! time has reached the event's time, or it has ended), or until the event
@@ -346,6 +347,11 @@ impl ImuLineParser {
 
 // ---------------------------------------------------------------- sequencer
 
+/// A fix goes before an IMU sample stamped up to this much [s] earlier
+/// (the batch order of `navfuse kf-gins`, which hands a fix over before the
+/// IMU sample whose interval contains it, with 1 ms of tolerance).
+pub const GNSS_LEAD: f64 = 1e-3;
+
 /// Counters of the [`Sequencer`].
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct SequencerStats {
@@ -373,7 +379,8 @@ pub struct Sequencer {
     gnss_last: f64,
     imu_ended: bool,
     gnss_ended: bool,
-    last_out: f64,
+    last_imu_out: f64,
+    last_gnss_out: f64,
     max_wait: f64,
     bound: usize,
     pub stats: SequencerStats,
@@ -391,7 +398,8 @@ impl Sequencer {
             gnss_last: f64::NEG_INFINITY,
             imu_ended: false,
             gnss_ended: false,
-            last_out: f64::NEG_INFINITY,
+            last_imu_out: f64::NEG_INFINITY,
+            last_gnss_out: f64::NEG_INFINITY,
             max_wait,
             bound: bound.max(1),
             stats: SequencerStats::default(),
@@ -402,7 +410,8 @@ impl Sequencer {
     /// (counted, not queued).
     pub fn push_imu(&mut self, s: ImuSample, now: f64) -> bool {
         self.stats.imu_in += 1;
-        if s.t < self.last_out || s.t < self.imu_horizon {
+        // Late: a released fix should have come after it.
+        if s.t + GNSS_LEAD < self.last_gnss_out || s.t < self.imu_horizon {
             self.stats.imu_late += 1;
             return false;
         }
@@ -412,10 +421,10 @@ impl Sequencer {
     }
 
     /// A new GNSS fix. Returns false when it is late (counted, not queued).
-    /// A fix at exactly the time of a released IMU sample is still in order.
     pub fn push_gnss(&mut self, f: GnssFix, now: f64) -> bool {
         self.stats.gnss_in += 1;
-        if f.t < self.last_out || f.t <= self.gnss_last {
+        // Late: it should have gone before an IMU sample already released.
+        if f.t <= self.last_imu_out + GNSS_LEAD || f.t <= self.gnss_last {
             self.stats.gnss_late += 1;
             return false;
         }
@@ -456,11 +465,15 @@ impl Sequencer {
             (None, None) => return None,
             (Some(_), None) => true,
             (None, Some(_)) => false,
-            (Some((i, _)), Some((g, _))) => i.t <= g.t,
+            (Some((i, _)), Some((g, _))) => i.t + GNSS_LEAD < g.t,
         };
         if imu_first {
             let (s, arr) = *self.imu.front().expect("checked");
-            let ok = self.gnss_ended || self.gnss_horizon >= s.t || !self.gnss.is_empty();
+            // No fix with g.t ≤ s.t + lead may still come.
+            let ok = self.gnss_ended
+                || !self.gnss.is_empty()
+                || self.gnss_last >= s.t + GNSS_LEAD
+                || self.gnss_horizon > s.t + GNSS_LEAD;
             let timeout = now - arr >= self.max_wait;
             let bound = self.imu.len() >= self.bound;
             if !(ok || timeout || bound) {
@@ -475,12 +488,12 @@ impl Sequencer {
             }
             self.imu.pop_front();
             self.stats.imu_out += 1;
-            self.last_out = s.t;
+            self.last_imu_out = s.t;
             Some((Event::Imu(s), arr))
         } else {
             let (f, arr) = *self.gnss.front().expect("checked");
-            // IMU before GNSS at equal time: wait until an IMU sample at ≥ t is known.
-            let ok = self.imu_ended || self.imu_horizon >= f.t || !self.imu.is_empty();
+            // No IMU sample with s.t + lead < f.t may still come.
+            let ok = self.imu_ended || !self.imu.is_empty() || self.imu_horizon + GNSS_LEAD >= f.t;
             let timeout = now - arr >= self.max_wait;
             let bound = self.gnss.len() >= self.bound;
             if !(ok || timeout || bound) {
@@ -495,7 +508,7 @@ impl Sequencer {
             }
             self.gnss.pop_front();
             self.stats.gnss_out += 1;
-            self.last_out = f.t;
+            self.last_gnss_out = f.t;
             Some((Event::Gnss(f), arr))
         }
     }
@@ -631,12 +644,20 @@ mod tests {
 
     #[test]
     fn sequencer_orders_like_a_batch_merge_whatever_the_arrival_order() {
-        // Batch order: sort by time, IMU first at equal times.
+        // Batch order (as `navfuse kf-gins`): a fix before the first IMU
+        // sample with s.t + lead ≥ g.t.
         let imus: Vec<f64> = (1..=20).map(|k| k as f64 * 0.1).collect();
-        let fixes = [0.5, 1.0, 1.25, 2.0];
-        let mut want: Vec<(char, f64)> = imus.iter().map(|&t| ('i', t)).collect();
-        want.extend(fixes.iter().map(|&t| ('g', t)));
-        want.sort_by(|a, b| a.1.total_cmp(&b.1).then(a.0.cmp(&b.0).reverse()));
+        let fixes = [0.5, 1.0, 1.25, 1.4995, 2.0];
+        let mut want: Vec<(char, f64)> = Vec::new();
+        let mut g = 0;
+        for &t in &imus {
+            while g < fixes.len() && fixes[g] <= t + GNSS_LEAD {
+                want.push(('g', fixes[g]));
+                g += 1;
+            }
+            want.push(('i', t));
+        }
+        want.extend(fixes[g..].iter().map(|&t| ('g', t)));
         // Several arrival interleavings: GNSS early, GNSS late, alternating.
         for lag in [0usize, 3, 7, 20] {
             let mut q = Sequencer::new(1e9, 1 << 20);
@@ -673,10 +694,14 @@ mod tests {
         assert!(q.pop(0.6).is_some(), "released after max_wait");
         assert_eq!(q.stats.imu_released_by_timeout, 1);
         assert!(!q.push_gnss(fix(0.9), 0.7), "older than released");
-        assert_eq!(q.stats.gnss_late, 1);
         assert!(
-            q.push_gnss(fix(1.0), 0.7),
-            "same time as released IMU is fine"
+            !q.push_gnss(fix(1.0005), 0.7),
+            "belonged before the released sample"
+        );
+        assert_eq!(q.stats.gnss_late, 2);
+        assert!(
+            q.push_gnss(fix(1.002), 0.7),
+            "after the released sample's lead"
         );
     }
 

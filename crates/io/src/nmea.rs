@@ -877,14 +877,14 @@ fn dm(a_rad: f64, lat: bool) -> (String, char) {
         (false, false) => 'E',
         (false, true) => 'W',
     };
-    // Round to 1e-7 minute first so minutes never print as 60.
-    let total = (deg.abs() * 60.0 * 1e7).round() as u64;
-    let (d, mfrac) = (total / (60 * 10_000_000), total % (60 * 10_000_000));
-    let m = mfrac as f64 / 1e7;
+    // Round to 1e-8 minute first so minutes never print as 60.
+    let total = (deg.abs() * 60.0 * 1e8).round() as u64;
+    let (d, mfrac) = (total / (60 * 100_000_000), total % (60 * 100_000_000));
+    let m = mfrac as f64 / 1e8;
     let s = if lat {
-        format!("{d:02}{m:010.7}")
+        format!("{d:02}{m:011.8}")
     } else {
-        format!("{d:03}{m:010.7}")
+        format!("{d:03}{m:011.8}")
     };
     (s, hemi)
 }
@@ -897,8 +897,8 @@ fn dm(a_rad: f64, lat: bool) -> (String, char) {
 /// Quality from [`nmea_from_rtklib_q`] of `quality` (default 1 = RTK fixed
 /// for fused solutions is *not* claimed: fused solutions use 6, dead
 /// reckoning, unless set with [`NmeaWriter::with_quality`]). Latitude and
-/// longitude with 7 decimals of minutes (≈ 0.2 mm), σ and height with
-/// 3 decimals (1 mm). Positions are rounded to these resolutions.
+/// longitude with 8 decimals of minutes (≈ 0.02 mm; 9-decimal degrees are
+/// kept exactly), height with 4 decimals (0.1 mm), σ with 3 (1 mm).
 pub struct NmeaWriter<W: Write> {
     w: W,
     quality: u8,
@@ -962,7 +962,7 @@ impl<W: Write> NmeaWriter<W> {
         sentence(
             &mut self.w,
             &format!(
-                "GNGGA,{hms},{la},{ns},{lo},{ew},{},{:02},{hdop:.1},{:.3},M,0.000,M,,",
+                "GNGGA,{hms},{la},{ns},{lo},{ew},{},{:02},{hdop:.1},{:.4},M,0.000,M,,",
                 self.quality, self.num_sats, s.h
             ),
         )?;
