@@ -16,6 +16,7 @@ mod exp_seed002;
 mod exp_seed004;
 mod experiment;
 mod kf_gins;
+mod live;
 mod report;
 mod run;
 mod sim;
@@ -59,6 +60,8 @@ enum Command {
     SmoothGps(smooth_gps::Args),
     /// Self-contained HTML report and SVG plots of a run directory.
     Report(report::Args),
+    /// Fuse live GNSS (gpsd, NMEA) and IMU streams; solutions at the IMU rate.
+    Live(live::Args),
 }
 
 fn main() -> ExitCode {
@@ -77,6 +80,7 @@ fn main() -> ExitCode {
         Command::Experiment(a) => experiment::run(a),
         Command::SmoothGps(a) => smooth_gps::run(a),
         Command::Report(a) => report::run(a),
+        Command::Live(a) => live::run(a),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
