@@ -185,7 +185,7 @@ mod tests {
         for method in [Method::Paper, Method::Sir] {
             run(args(method)).unwrap();
             let text = std::fs::read_to_string(&out).unwrap();
-            let mut src = open_nav_source(&out, InFormat::Csv, 0).unwrap();
+            let mut src = open_nav_source(&out, navfuse_io::trajectory::InFormat::Csv, 0).unwrap();
             let mut err = 0.0;
             let mut n = 0;
             for s in src.by_ref() {
