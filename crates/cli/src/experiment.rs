@@ -18,8 +18,12 @@ pub struct Args {
 
 #[derive(Subcommand, Debug)]
 pub enum Which {
+    /// Seed 002 (PF-LC): PF GPS compensation + loosely coupled GPS/INS (sim + drive_0708).
+    Seed002(crate::exp_seed002::Args),
     /// Seed 003 (CP-ATT): Table 1, LAMBDA vs the paper, GEONET real baseline.
     Seed003(Seed003Args),
+    /// Seed 004 (GPS-ACC): Tables 3 and 4, GPS + accelerometer dead reckoning.
+    Seed004(crate::exp_seed004::Args),
 }
 
 #[derive(ClapArgs, Debug)]
@@ -55,7 +59,9 @@ pub struct Seed003Args {
 
 pub fn run(args: Args) -> Result<(), String> {
     match args.which {
+        Which::Seed002(a) => crate::exp_seed002::run(a),
         Which::Seed003(a) => seed003(a),
+        Which::Seed004(a) => crate::exp_seed004::run(a),
     }
 }
 
