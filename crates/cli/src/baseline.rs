@@ -574,7 +574,7 @@ pub fn geonet_part(dir: &Path) -> Result<serde_json::Value, String> {
                 "first_fix_epoch": st.first_fix_epoch,
                 "first_correct_fix_epoch": st.first_correct_fix_epoch,
                 "fix_rate": st.fixed as f64 / st.n.max(1) as f64,
-                "wrong_fixed_epochs": st.wrong_fixed,
+                "fixed_epochs_over_5cm": st.wrong_fixed,
                 "rms_fixed_3d_m": st.rms_fixed_3d,
                 "rms_fixed_3d_pdop_le_10_m": st.rms_fixed_3d_pdop10,
                 "fixed_epochs_pdop_le_10": st.n_fixed_pdop10,
