@@ -1,6 +1,18 @@
 //! `navfuse experiment`: reproduce a seed paper's experiment and print its
 //! table beside ours. One subcommand per seed (`seed003`; others add theirs
 //! as single variants of [`Which`]).
+//!
+//! `seed003` (`SEEDS.md §3`). Choices the paper leaves open, as parameters of
+//! [`SceneConfig`]: master at Seoul (37.5665° N, 126.978° E, 50 m), the real
+//! YUMA almanac (week 2035) from its t_oa, 10° mask, at most 14 satellites;
+//! attitude `A·sin(0.02 t + phase)` with A = 10°/10°/30° (roll/pitch/yaw,
+//! phases 0, 120°, 240°); undifferenced phase noise 2 mm / 0.5 mm (DD noise
+//! 2σ as the paper's R); 500 epochs of 10 s; RMS over epochs after 150,
+//! averaged over seeds 1000…. Angles are the paper's (eq. 1–2: pitch about
+//! x, roll about y). The float filter is the paper's (q = 0.02, R = (2σ)² I);
+//! "fixed" = integer fixing each epoch (LAMBDA on the float filter, else a
+//! single-epoch length-constrained search; ratio ≥ 3; baseline length and
+//! angle integrity) and weighted Wahba with the known body geometry.
 
 use clap::{Args as ClapArgs, Subcommand};
 use std::path::PathBuf;
