@@ -19,9 +19,7 @@ use clap::Args as ClapArgs;
 use nalgebra::{DMatrix, DVector};
 use std::path::{Path, PathBuf};
 
-use navfuse_core::gnss::{
-    c_e_enu, ecef_to_llh, KeplerOrbit, C_LIGHT, LAMBDA_L1, LAMBDA_L2, OMEGA_E_DOT,
-};
+use navfuse_core::gnss::{c_e_enu, KeplerOrbit, C_LIGHT, LAMBDA_L1, LAMBDA_L2, OMEGA_E_DOT};
 use navfuse_core::Vec3;
 use navfuse_io::rinex::{read_nav, read_obs, select_ephemeris, ObsFile};
 
@@ -174,7 +172,8 @@ pub fn process(
         p[(i, i)] = 100.0;
     }
     let mut active = vec![false; nf * NPRN];
-    let (lat, lon, _) = ecef_to_llh(&base_pos);
+    let navfuse_core::geodesy::Geodetic { lat, lon, .. } =
+        navfuse_core::geodesy::ecef_to_geodetic(&base_pos);
     let c_enu = c_e_enu(lat, lon);
     let mut out = Summary::default();
     let mut j = 0usize;
@@ -402,11 +401,9 @@ pub fn process(
 
 /// ENU components of an ECEF baseline error at the base.
 fn enu_at(base: &ObsFile, d: &Vec3) -> Vec3 {
-    let (lat, lon, _) = ecef_to_llh(&Vec3::new(
-        base.approx_pos[0],
-        base.approx_pos[1],
-        base.approx_pos[2],
-    ));
+    let navfuse_core::geodesy::Geodetic { lat, lon, .. } = navfuse_core::geodesy::ecef_to_geodetic(
+        &Vec3::new(base.approx_pos[0], base.approx_pos[1], base.approx_pos[2]),
+    );
     c_e_enu(lat, lon) * d
 }
 

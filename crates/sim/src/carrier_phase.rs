@@ -16,7 +16,7 @@
 use navfuse_core::estimators::cp_attitude::{paper_dcm_nb, CpEpoch, MAX_BASELINES};
 use navfuse_core::gnss::dd::MAX_SATS;
 use navfuse_core::gnss::{
-    c_e_enu, llh_to_ecef, visible_by_elevation, KeplerOrbit, Look, MU_GPS, SECONDS_PER_WEEK,
+    c_e_enu, visible_by_elevation, KeplerOrbit, Look, MU_GPS, SECONDS_PER_WEEK,
 };
 use navfuse_core::{Mat3, Vec3};
 use rand::{Rng, SeedableRng};
@@ -179,7 +179,11 @@ pub fn simulate(cfg: &SceneConfig, orbits: &[KeplerOrbit]) -> Vec<SceneEpoch> {
     let mut rng = ChaCha8Rng::seed_from_u64(cfg.seed);
     let std = Normal::new(0.0, 1.0).expect("unit normal");
     let nb = cfg.b_b.len().min(MAX_BASELINES);
-    let master_e = llh_to_ecef(cfg.lat, cfg.lon, cfg.h);
+    let master_e = navfuse_core::geodesy::geodetic_to_ecef(&navfuse_core::geodesy::Geodetic {
+        lat: cfg.lat,
+        lon: cfg.lon,
+        h: cfg.h,
+    });
     let c_e_n = c_e_enu(cfg.lat, cfg.lon);
     let c_n_e = c_e_n.transpose();
     // Per (antenna 0 = master, 1.. slaves) and PRN (index prn): ambiguity, multipath.

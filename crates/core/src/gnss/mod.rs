@@ -16,6 +16,8 @@
 
 #![allow(clippy::needless_range_loop)] // index loops mirror the matrix equations
 
+pub use crate::geodesy::c_e_enu;
+use crate::geodesy::ecef_to_geodetic;
 #[allow(unused_imports)]
 use crate::prelude::*;
 use crate::{Mat3, Vec3};
@@ -169,50 +171,6 @@ pub fn sat_at_receive(orbit: &KeplerOrbit, rx_e: &Vec3, t_rx: f64) -> SatAtRecei
     out
 }
 
-/// WGS84 semi-major axis [m] and first eccentricity squared.
-const WGS84_A: f64 = 6_378_137.0;
-const WGS84_E2: f64 = 6.694_379_990_141_316e-3;
-
-/// Geodetic (lat, lon [rad], h [m]) → ECEF [m]. Private to GNSS geometry
-/// (the `geodesy` module is the project's general one; Groves eq. 2.112).
-pub fn llh_to_ecef(lat: f64, lon: f64, h: f64) -> Vec3 {
-    let (sl, cl) = (lat.sin(), lat.cos());
-    let rn = WGS84_A / (1.0 - WGS84_E2 * sl * sl).sqrt();
-    Vec3::new(
-        (rn + h) * cl * lon.cos(),
-        (rn + h) * cl * lon.sin(),
-        (rn * (1.0 - WGS84_E2) + h) * sl,
-    )
-}
-
-/// ECEF [m] → geodetic (lat, lon [rad], h [m]) by fixed-point iteration
-/// (converges to < 1e-9 m near the earth's surface; Groves §2.4.2).
-pub fn ecef_to_llh(r_e: &Vec3) -> (f64, f64, f64) {
-    let p = (r_e.x * r_e.x + r_e.y * r_e.y).sqrt();
-    let lon = r_e.y.atan2(r_e.x);
-    let mut lat = r_e.z.atan2(p * (1.0 - WGS84_E2));
-    let mut h = 0.0;
-    for _ in 0..10 {
-        let sl = lat.sin();
-        let rn = WGS84_A / (1.0 - WGS84_E2 * sl * sl).sqrt();
-        h = if lat.cos().abs() > 1e-9 {
-            p / lat.cos() - rn
-        } else {
-            r_e.z.abs() - rn * (1.0 - WGS84_E2)
-        };
-        lat = r_e.z.atan2(p * (1.0 - WGS84_E2 * rn / (rn + h)));
-    }
-    (lat, lon, h)
-}
-
-/// DCM from ECEF to local ENU at (lat, lon): `v_enu = c_e_enu · v_e`
-/// (the ENU rows of Groves eq. 2.150, permuted from NED).
-pub fn c_e_enu(lat: f64, lon: f64) -> Mat3 {
-    let (sl, cl) = (lat.sin(), lat.cos());
-    let (so, co) = (lon.sin(), lon.cos());
-    Mat3::new(-so, co, 0.0, -sl * co, -sl * so, cl, cl * co, cl * so, sl)
-}
-
 /// How a satellite looks from a receiver.
 #[derive(Clone, Copy, Debug, PartialEq, Default)]
 pub struct Look {
@@ -259,8 +217,8 @@ pub fn visible_by_elevation(
     mask: f64,
     out: &mut [Look],
 ) -> usize {
-    let (lat, lon, _) = ecef_to_llh(rx_e);
-    let c = c_e_enu(lat, lon);
+    let g = ecef_to_geodetic(rx_e);
+    let c = c_e_enu(g.lat, g.lon);
     let mut n = 0usize;
     for o in orbits.iter().filter(|o| o.health == 0) {
         let l = look(o, rx_e, &c, t_rx);
@@ -299,7 +257,7 @@ pub fn elevation_rate(orbit: &KeplerOrbit, rx_e: &Vec3, c_e_enu: &Mat3, t: f64, 
 #[cfg(test)]
 mod tests {
     use super::*;
-    use proptest::prelude::*;
+    use crate::geodesy::{geodetic_to_ecef, Geodetic};
 
     /// A GPS-like circular orbit.
     fn orbit() -> KeplerOrbit {
@@ -336,7 +294,11 @@ mod tests {
     #[test]
     fn light_time_consistent() {
         let o = orbit();
-        let rx = llh_to_ecef(0.6, 2.2, 50.0);
+        let rx = geodetic_to_ecef(&Geodetic {
+            lat: 0.6,
+            lon: 2.2,
+            h: 50.0,
+        });
         let t = o.t_oe + 1000.0;
         let s = sat_at_receive(&o, &rx, t);
         // Absolute GPS seconds near 1.2e9 carry ~2e-7 s of rounding.
@@ -352,7 +314,11 @@ mod tests {
             o.m0 = k as f64 * 0.8;
             o.omega0 = k as f64 * 0.7;
         }
-        let rx = llh_to_ecef(0.6, 2.2, 50.0);
+        let rx = geodetic_to_ecef(&Geodetic {
+            lat: 0.6,
+            lon: 2.2,
+            h: 50.0,
+        });
         let mut out = [Look::default(); 8];
         let n = visible_by_elevation(&orbits, &rx, orbits[0].t_oe, 0.1, &mut out);
         for w in out[..n].windows(2) {
@@ -370,26 +336,6 @@ mod tests {
         if m == 2 {
             assert_eq!(small[0].prn, out[0].prn);
             assert_eq!(small[1].prn, out[1].prn);
-        }
-    }
-
-    proptest! {
-        #[test]
-        fn llh_ecef_round_trip(lat in -1.5f64..1.5, lon in -3.1f64..3.1, h in -500.0f64..20000.0) {
-            let r = llh_to_ecef(lat, lon, h);
-            let (la, lo, hh) = ecef_to_llh(&r);
-            prop_assert!((la - lat).abs() < 1e-11);
-            prop_assert!((lo - lon).abs() < 1e-11);
-            prop_assert!((hh - h).abs() < 1e-5);
-        }
-
-        #[test]
-        fn enu_is_rotation(lat in -1.5f64..1.5, lon in -3.1f64..3.1) {
-            let c = c_e_enu(lat, lon);
-            prop_assert!((c * c.transpose() - Mat3::identity()).norm() < 1e-12);
-            // Up is the ellipsoid normal: ECEF of a point 1 m higher.
-            let d = llh_to_ecef(lat, lon, 1.0) - llh_to_ecef(lat, lon, 0.0);
-            prop_assert!(((c * d) - Vec3::new(0.0, 0.0, 1.0)).norm() < 1e-6);
         }
     }
 }
