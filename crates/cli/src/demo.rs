@@ -87,6 +87,7 @@ fn eskf_for(run: &SimRun) -> Option<Eskf> {
         }),
         zupt: None,
         smoother_every: 0,
+        ..EskfConfig::seed001()
     };
     let t = &run.traj.truth[0];
     let nav = NavState {
