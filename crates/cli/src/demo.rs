@@ -237,6 +237,24 @@ fn run_estimator(
     })
 }
 
+/// Simulate, write the sensor files, run and score every estimator.
+fn simulate_and_score(
+    sc: &Scenario,
+    seed: u64,
+    out: &Path,
+) -> Result<(SimRun, Vec<Score>, f64), String> {
+    let t0 = Instant::now();
+    let run = simulate(sc, seed, None, None).map_err(|e| e.to_string())?;
+    let t_sim = t0.elapsed().as_secs_f64();
+    output::write_run(&run, out).map_err(|e| e.to_string())?;
+    let events = run.events();
+    let mut scores = Vec::new();
+    for mut est in estimators(&run) {
+        scores.push(run_estimator(est.as_mut(), &events, &run, out)?);
+    }
+    Ok((run, scores, t_sim))
+}
+
 pub fn run(args: Args) -> Result<(), String> {
     let t0 = Instant::now();
     let sc = match &args.scenario {
@@ -244,14 +262,7 @@ pub fn run(args: Args) -> Result<(), String> {
         None => Scenario::from_toml(DEMO_SCENARIO, "embedded demo_drive.toml")
             .map_err(|e| e.to_string())?,
     };
-    let run = simulate(&sc, args.seed, None, None).map_err(|e| e.to_string())?;
-    let t_sim = t0.elapsed().as_secs_f64();
-    output::write_run(&run, &args.out).map_err(|e| e.to_string())?;
-    let events = run.events();
-    let mut scores = Vec::new();
-    for mut est in estimators(&run) {
-        scores.push(run_estimator(est.as_mut(), &events, &run, &args.out)?);
-    }
+    let (run, scores, t_sim) = simulate_and_score(&sc, args.seed, &args.out)?;
 
     println!("navfuse demo — simulated drive (seed {})", args.seed);
     println!("{}", run.summary());
@@ -313,4 +324,45 @@ pub fn run(args: Args) -> Result<(), String> {
         t0.elapsed().as_secs_f64()
     );
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn embedded_scenario_parses_and_is_a_ten_minute_drive_with_outages() {
+        let sc = Scenario::from_toml(DEMO_SCENARIO, "demo").unwrap();
+        assert_eq!(sc.gnss.outages.len(), 2);
+        let spec = sc.imu_spec().unwrap();
+        assert!(spec.gyro.is_some());
+        let tr = navfuse_sim::trajectory::generate(&sc.start, &sc.segment, 10.0, 1).unwrap();
+        assert!((540.0..660.0).contains(&tr.duration()), "{}", tr.duration());
+    }
+
+    #[test]
+    fn short_drive_runs_every_estimator_and_scores_them() {
+        // The embedded drive cut to its first ~290 s (first outage 210–240 s).
+        let mut sc = Scenario::from_toml(DEMO_SCENARIO, "demo").unwrap();
+        sc.segment.truncate(13);
+        let out = std::env::temp_dir().join(format!("navfuse-demo-{}", std::process::id()));
+        let (run, scores, _) = simulate_and_score(&sc, 2, &out).unwrap();
+        assert!(run.traj.duration() > 240.0, "{}", run.traj.duration());
+        let names: Vec<&str> = scores.iter().map(|s| s.name).collect();
+        assert_eq!(names, ["gnss-hold", "eskf"]);
+        for s in &scores {
+            assert!(s.epochs > 20_000 && s.h_rms.is_finite(), "{}", s.name);
+            assert!(out.join(format!("{}.nav", s.name)).exists());
+        }
+        // The fused solution must beat holding the last fix through an outage.
+        let (hold, eskf) = (&scores[0], &scores[1]);
+        assert!(
+            eskf.outage_max[0] < 0.2 * hold.outage_max[0],
+            "{:?} vs {:?}",
+            eskf.outage_max,
+            hold.outage_max
+        );
+        assert!(eskf.h_rms < 5.0, "eskf h rms {}", eskf.h_rms);
+        let _ = std::fs::remove_dir_all(&out);
+    }
 }

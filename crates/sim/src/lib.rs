@@ -231,6 +231,8 @@ fn gnss_fixes(
         }
         let tr = traj.at(t_meas);
         // Antenna = IMU + C_bn·l_b (NED offset → geodetic with the local radii).
+        // The velocity is the IMU's: the lever-arm term C_bn(ω_nb^b × l_b) is
+        // not added (≤ a few cm/s for a car and a 1 m lever arm).
         let c_bn = rot::dcm_from_euler(&tr.rpy);
         let d_n = c_bn * lever;
         let (rm, rn) = earth::radii(tr.lat);

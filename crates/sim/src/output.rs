@@ -1,5 +1,7 @@
-//! Writers for a simulated run (private until navfuse-io's writers land on
-//! `main`; the formats follow KF-GINS' text files so KF-GINS and navfuse read them).
+//! Writers for a simulated run. The truth `.nav` goes through navfuse-io's
+//! [`KfGinsNavWriter`]; navfuse-io has no IMU/GNSS *writers* yet, so the
+//! KF-GINS IMU and GNSS text files are written here in the formats its
+//! readers (and KF-GINS) read.
 //!
 //! Files in the output folder:
 //! - `imu.txt` KF-GINS IMU: `tow  dθx dθy dθz [rad]  dvx dvy dvz [m/s]` (FRD)
@@ -15,16 +17,14 @@
 //! the values (same scenario + seed → identical files).
 
 use crate::{SimError, SimRun};
+use navfuse_core::NavSolution;
+use navfuse_io::time::week_tow;
+use navfuse_io::writers::{KfGinsNavWriter, TrajectoryWriter};
 use std::fmt::Write as _;
 use std::io::Write;
 use std::path::Path;
 
 const R2D: f64 = 180.0 / core::f64::consts::PI;
-
-fn week_tow(t: f64) -> (u32, f64) {
-    let w = (t / 604_800.0).floor();
-    (w as u32, t - w * 604_800.0)
-}
 
 fn write(dir: &Path, name: &str, text: &str) -> Result<(), SimError> {
     let p = dir.join(name);
@@ -107,25 +107,25 @@ pub fn write_run(run: &SimRun, dir: &Path) -> Result<(), SimError> {
     write(dir, "gnss.txt", &txt)?;
     write(dir, "gnss.csv", &csv)?;
 
-    let mut nav = String::new();
+    let nav_path = dir.join("truth.nav");
+    let nav_err = |e: std::io::Error| SimError::Io(format!("{}: {e}", nav_path.display()));
+    let mut nav = KfGinsNavWriter::new(std::io::BufWriter::new(
+        std::fs::File::create(&nav_path).map_err(nav_err)?,
+    ));
     let mut csv = String::from(
         "t_gps_s,lat_deg,lon_deg,h_m,vn_m_s,ve_m_s,vd_m_s,roll_deg,pitch_deg,yaw_deg,w_ib_x_rad_s,w_ib_y_rad_s,w_ib_z_rad_s,f_x_m_s2,f_y_m_s2,f_z_m_s2\n",
     );
     for x in &run.traj.truth {
-        let (w, tow) = week_tow(x.t);
-        let _ = writeln!(
-            nav,
-            "{w} {tow:.6} {:.11} {:.11} {:.5} {:.6} {:.6} {:.6} {:.8} {:.8} {:.8}",
-            x.lat * R2D,
-            x.lon * R2D,
-            x.h,
-            x.v_n.x,
-            x.v_n.y,
-            x.v_n.z,
-            x.rpy.x * R2D,
-            x.rpy.y * R2D,
-            x.rpy.z * R2D
-        );
+        nav.write(&NavSolution {
+            t: x.t,
+            lat: x.lat,
+            lon: x.lon,
+            h: x.h,
+            v_n: x.v_n,
+            rpy: x.rpy,
+            ..NavSolution::unknown_at(x.t)
+        })
+        .map_err(nav_err)?;
         let _ = writeln!(
             csv,
             "{:.6},{:.11},{:.11},{:.5},{:.6},{:.6},{:.6},{:.8},{:.8},{:.8},{:.12e},{:.12e},{:.12e},{:.12e},{:.12e},{:.12e}",
@@ -134,7 +134,7 @@ pub fn write_run(run: &SimRun, dir: &Path) -> Result<(), SimError> {
             x.w_ib_b.x, x.w_ib_b.y, x.w_ib_b.z, x.f_b.x, x.f_b.y, x.f_b.z
         );
     }
-    write(dir, "truth.nav", &nav)?;
+    nav.finish().map_err(nav_err)?;
     write(dir, "truth.csv", &csv)?;
 
     #[derive(serde::Serialize)]

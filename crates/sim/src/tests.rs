@@ -398,3 +398,49 @@ fn campus_loop_closes() {
     assert!(de.abs() < 0.05 && dn > 0.0 && dn < 300.0, "dn {dn} de {de}");
     assert!(b.rpy.z.abs() < 1e-9);
 }
+
+#[test]
+fn written_files_read_back_with_navfuse_io() {
+    use navfuse_io::kfgins::{
+        KfGinsGnssReader, KfGinsImuOptions, KfGinsImuReader, KfGinsNavReader,
+    };
+    let sc = small_scenario();
+    let run = simulate(&sc, 3, None, None).unwrap();
+    let dir = std::env::temp_dir().join(format!("navfuse-sim-rt-{}", std::process::id()));
+    output::write_run(&run, &dir).unwrap();
+    let week = sc.start.gps_week;
+    let open = |n: &str| navfuse_io::open(&dir.join(n)).unwrap();
+    let (r, name) = open("imu.txt");
+    let opt = KfGinsImuOptions {
+        week,
+        nominal_rate_hz: Some(sc.imu.rate_hz),
+        ..Default::default()
+    };
+    let imu: Vec<ImuSample> = KfGinsImuReader::new(r, &name, opt)
+        .collect::<Result<_, _>>()
+        .unwrap();
+    assert_eq!(imu.len(), run.imu.len());
+    for (a, b) in imu.iter().zip(&run.imu) {
+        assert!((a.t - b.t).abs() < 1e-6 && (a.dt - b.dt).abs() < 1e-6);
+        assert!((a.dtheta_b - b.dtheta_b).norm() < 1e-15 + 1e-11 * b.dtheta_b.norm());
+        assert!((a.dvel_b - b.dvel_b).norm() < 1e-15 + 1e-11 * b.dvel_b.norm());
+    }
+    let (r, name) = open("gnss.txt");
+    let fixes: Vec<GnssFix> = KfGinsGnssReader::new(r, &name, week)
+        .collect::<Result<_, _>>()
+        .unwrap();
+    assert_eq!(fixes.len(), run.gnss.len());
+    for (a, b) in fixes.iter().zip(&run.gnss) {
+        assert!((a.t - b.t).abs() < 1e-6);
+        assert!((a.lat - b.lat).abs() < 1e-12 && (a.lon - b.lon).abs() < 1e-12);
+        assert!((a.h - b.h).abs() < 1e-4 && (a.std_ned - b.std_ned).norm() < 1e-4);
+    }
+    let (r, name) = open("truth.nav");
+    let nav: Vec<navfuse_core::NavSolution> = KfGinsNavReader::new(r, &name, week)
+        .collect::<Result<_, _>>()
+        .unwrap();
+    assert_eq!(nav.len(), run.traj.truth.len());
+    let last = (nav.last().unwrap(), run.traj.truth.last().unwrap());
+    assert!((last.0.lat - last.1.lat).abs() < 1e-10 && (last.0.rpy.z - last.1.rpy.z).abs() < 1e-6);
+    let _ = std::fs::remove_dir_all(&dir);
+}
