@@ -7,6 +7,7 @@
 //! source, so the same scenario and seed give byte-identical files.
 
 pub mod allan;
+pub mod carrier_phase;
 pub mod gnss_model;
 pub mod imu_model;
 pub mod motion_csv;
