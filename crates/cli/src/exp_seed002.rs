@@ -41,6 +41,9 @@ use navfuse_io::kfgins::{KfGinsImuOptions, KfGinsImuReader, KfGinsNavReader};
 use serde_json::{json, Value};
 use std::path::PathBuf;
 
+/// The ESKF starts once the attitude KF has had this many course updates
+/// (its yaw then comes from a settled course, not the first one at 3 m/s).
+const ESKF_START_COURSES: u64 = 20;
 /// Particles of the SIR comparator.
 const N_PARTICLES: usize = 1000;
 /// Fix epochs in the first `WARMUP_S` seconds after the first fix are not scored.
@@ -359,7 +362,9 @@ fn run_methods(ds: &DataSet, cfg: &PfLcConfig, sir_seed: u64) -> Scores {
                 }
                 if let Some(so) = so {
                     e[3] = ned_err(&frame, &to_geo(&so), &truth);
-                    if eskf.is_none() && lc_o.attitude().yaw_valid() {
+                    if eskf.is_none()
+                        && lc_o.attitude().stats().course_updates >= ESKF_START_COURSES
+                    {
                         eskf = Some(start_eskf(&lc_o, &so));
                     }
                 }
@@ -410,7 +415,8 @@ fn run_methods(ds: &DataSet, cfg: &PfLcConfig, sir_seed: u64) -> Scores {
             .iter()
             .zip(cn.iter())
             .map(|(s, &c)| {
-                let c = c.max(1) as f64;
+                // A corner with no scored epoch (before every method started) is NaN.
+                let c = if c == 0 { f64::NAN } else { c as f64 };
                 [s[0] / c, s[1] / c, s[2] / c]
             })
             .collect(),
@@ -441,10 +447,20 @@ fn average(runs: &[Scores]) -> Scores {
         out.comp_reanchored += r.comp_reanchored;
         out.course_resets += r.course_resets;
         out.sir_reinits += r.sir_reinits;
-        for (o, c) in out.corners.iter_mut().zip(r.corners.iter()) {
-            for j in 0..3 {
-                o[j] += c[j] / n;
-            }
+    }
+    // Corners: mean over the runs in which the corner was scored.
+    for (i, o) in out.corners.iter_mut().enumerate() {
+        let ok: Vec<&[f64; 3]> = runs
+            .iter()
+            .filter_map(|r| r.corners.get(i))
+            .filter(|c| c.iter().all(|x| x.is_finite()))
+            .collect();
+        for j in 0..3 {
+            o[j] = if ok.is_empty() {
+                f64::NAN
+            } else {
+                ok.iter().map(|c| c[j]).sum::<f64>() / ok.len() as f64
+            };
         }
     }
     out
@@ -879,11 +895,9 @@ fn print_corners(title: &str, s: &Scores, paper: bool) {
         }
         println!("{line}");
     }
+    let scored = s.corners.iter().filter(|c| c[1].is_finite()).count();
     let better = s.corners.iter().filter(|c| c[2] < c[1]).count();
-    println!(
-        "  proposed better than original at {better} of {} corners",
-        s.corners.len()
-    );
+    println!("  proposed better than original at {better} of {scored} scored corners");
 }
 
 fn corners_json(set: &str, s: &Scores, paper: bool) -> Vec<Value> {
@@ -1037,7 +1051,7 @@ pub fn run(args: Args) -> Result<(), String> {
         corners.extend(corners_json("real", &real_avg, false));
     }
     println!(
-        "\nESKF: navfuse_core::estimators::eskf (15 states, ADIS16365 noise, NHC, no gate), started from the original LC's state once the yaw is known; epochs before that are excluded for every method."
+        "\nESKF: navfuse_core::estimators::eskf (15 states, ADIS16365 noise, NHC, no gate), started from the original LC's state after {ESKF_START_COURSES} course updates of its yaw; epochs before that are excluded for every method."
     );
 
     if let Some(path) = &args.json {
