@@ -36,9 +36,9 @@
 #[allow(unused_imports)]
 use crate::prelude::*;
 
-use super::kf;
 use crate::attitude::{dcm_from_euler, dcm_from_rotvec, euler_from_dcm, orthonormalize, skew};
 use crate::geodesy::wrap_pi;
+use crate::kalman;
 use crate::types::{ImuSample, Mat3, Vec3};
 use nalgebra::{SMatrix, SVector};
 
@@ -261,7 +261,7 @@ impl AttitudeKf {
             q[(i, i)] = qa;
             q[(i + 3, i + 3)] = qb;
         }
-        kf::predict(&mut self.p, &f, &q);
+        kalman::predict(&mut self.p, &f, &q);
         let dv_n = self.c_bn * (s.dvel_b * self.accel_scale);
         if self.acc_n >= self.cfg.tilt_avg_samples {
             self.window_update();
@@ -324,7 +324,8 @@ impl AttitudeKf {
             let nu = SVector::<f64, 2>::new(-f_n.x, -f_n.y);
             let r = SMatrix::<f64, 2, 2>::identity() * self.cfg.tilt_sigma_m_s2.powi(2);
             let mut x = SVector::<f64, 6>::zeros();
-            let u = kf::update(&mut x, &mut self.p, &h, &r, &nu, self.cfg.gate_nis);
+            let u =
+                kalman::update_joseph(&mut x, &mut self.p, &h, &r, &nu, Some(self.cfg.gate_nis));
             if u.accepted {
                 self.feedback(&x);
                 self.stats.tilt_updates += 1;
@@ -372,7 +373,7 @@ impl AttitudeKf {
         let nu = SVector::<f64, 1>::new(wrap_pi(course - self.rpy().z));
         let r = SMatrix::<f64, 1, 1>::new(self.cfg.course_sigma_rad.powi(2));
         let mut x = SVector::<f64, 6>::zeros();
-        let u = kf::update(&mut x, &mut self.p, &h, &r, &nu, self.cfg.gate_nis);
+        let u = kalman::update_joseph(&mut x, &mut self.p, &h, &r, &nu, Some(self.cfg.gate_nis));
         if u.accepted {
             self.feedback(&x);
             self.stats.course_updates += 1;

@@ -20,7 +20,6 @@ use crate::prelude::*;
 
 pub mod attitude_kf;
 pub mod compensation;
-mod kf;
 pub mod pv_kf;
 pub mod rng;
 pub mod sir;

@@ -12,7 +12,7 @@
 #[allow(unused_imports)]
 use crate::prelude::*;
 
-use super::kf;
+use crate::kalman;
 use nalgebra::{SMatrix, SVector};
 
 type M4 = SMatrix<f64, 4, 4>;
@@ -136,7 +136,7 @@ impl PvKf {
             qm[(i + 2, i)] = q12;
             qm[(i + 2, i + 2)] = q22;
         }
-        kf::predict(&mut self.p, &f, &qm);
+        kalman::predict(&mut self.p, &f, &qm);
     }
 
     /// Position update (eq. 18–20). Returns whether it was applied.
@@ -150,7 +150,14 @@ impl PvKf {
         h[(1, 1)] = 1.0;
         let r = SMatrix::<f64, 2, 2>::identity() * self.cfg.sigma_gps_m.powi(2);
         let nu = SVector::<f64, 2>::new(north - self.x[0], east - self.x[1]);
-        let u = kf::update(&mut self.x, &mut self.p, &h, &r, &nu, self.cfg.gate_nis);
+        let u = kalman::update_joseph(
+            &mut self.x,
+            &mut self.p,
+            &h,
+            &r,
+            &nu,
+            Some(self.cfg.gate_nis),
+        );
         if u.accepted {
             self.stats.updates += 1;
             self.rejects = 0;
