@@ -10,6 +10,7 @@
 
 use clap::Args as ClapArgs;
 use navfuse_core::estimators::eskf::{Eskf, EskfConfig, ImuErrors, ImuNoise, InitStd, NhcConfig};
+use navfuse_core::estimators::pf_lc::{PfLc, PfLcConfig};
 use navfuse_core::ins::mech::{q_bn_from_rpy, NavState};
 use navfuse_core::Estimator;
 use navfuse_core::{earth, Event, GnssFix, NavSolution, Vec3};
@@ -44,11 +45,12 @@ fn estimators(run: &SimRun) -> Vec<Box<dyn Estimator>> {
     if let Some(e) = eskf_for(run) {
         v.push(Box::new(e));
     }
+    v.push(Box::new(PfLc::new(PfLcConfig::default())));
     v
 }
 
 /// Estimators of the project that do not exist yet (named in the report).
-const NOT_YET: &[&str] = &["pf-lc (seed 002)", "gps-acc (seed 004)"];
+const NOT_YET: &[&str] = &["gps-acc (seed 004)"];
 
 /// Attitude error injected into the ESKF's initial state [rad] (roll, pitch,
 /// yaw): what a levelling + magnetometer start would give (seed 001 starts
