@@ -188,9 +188,9 @@ pub fn run(args: Args) -> Result<(), String> {
     }
     if args.json {
         let js = serde_json::to_string_pretty(&sum).map_err(|e| format!("JSON: {e}"))?;
-        println!("{js}");
+        stdout(&format!("{js}\n"))?;
     } else if !args.quiet {
-        print!("{}", text_summary(&sum));
+        stdout(&text_summary(&sum))?;
     }
     Ok(())
 }
@@ -241,8 +241,18 @@ pub fn from_eval(
         ..Default::default()
     };
     let sum = navfuse_report::write_report(dir, &inputs)?;
-    println!("  report: {}", sum.html.display());
+    stdout(&format!("  report: {}\n", sum.html.display()))?;
     Ok(())
+}
+
+/// Print to stdout; a closed pipe (`| head`) is not an error.
+fn stdout(s: &str) -> Result<(), String> {
+    use std::io::Write;
+    let mut o = std::io::stdout().lock();
+    match o.write_all(s.as_bytes()).and_then(|()| o.flush()) {
+        Err(e) if e.kind() != std::io::ErrorKind::BrokenPipe => Err(format!("stdout: {e}")),
+        _ => Ok(()),
+    }
 }
 
 fn text_summary(sum: &ReportSummary) -> String {

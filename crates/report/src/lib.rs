@@ -709,13 +709,22 @@ pub struct EstimatorResult {
     pub evaluation: Option<Evaluation>,
 }
 
+/// A plot of the page.
+#[derive(Clone, Debug, Serialize)]
+pub struct PlotInfo {
+    /// Element id in the page and SVG file stem.
+    pub id: String,
+    /// Number of data series drawn (`data-series` of its `<svg>`).
+    pub series: usize,
+}
+
 /// What [`write_report`] produced.
 #[derive(Clone, Debug, Serialize)]
 pub struct ReportSummary {
     pub html: PathBuf,
     pub svgs: Vec<PathBuf>,
-    /// Plot id → number of series drawn (what the browser check compares).
-    pub plots: Vec<(String, usize)>,
+    /// Each plot and the number of series it draws (what the browser check compares).
+    pub plots: Vec<PlotInfo>,
     pub sections: Vec<String>,
     #[serde(serialize_with = "ser_results")]
     pub estimators: Vec<EstimatorResult>,
@@ -784,7 +793,11 @@ pub fn write_report_with(
     Ok(ReportSummary {
         html,
         svgs,
-        plots: r.plots,
+        plots: r
+            .plots
+            .into_iter()
+            .map(|(id, series)| PlotInfo { id, series })
+            .collect(),
         sections: r.sections,
         estimators: r.estimators,
         outages: r.outages,

@@ -64,6 +64,9 @@ fn fixture_report_has_every_section_and_consistent_plots() {
     let html = std::fs::read_to_string(&sum.html).unwrap();
     let counts = svg_counts(&html);
     assert_eq!(counts.len(), sum.plots.len());
+    for (c, p) in counts.iter().zip(&sum.plots) {
+        assert_eq!((&c.0, c.1), (&p.id, p.series));
+    }
     assert_eq!(counts.len(), sum.svgs.len());
     assert!(html.contains(&format!(
         "<meta name=\"navfuse-plots\" content=\"{}\">",
