@@ -467,12 +467,20 @@ pub(crate) fn render(inp: &Inputs, progress: &mut dyn FnMut(&str)) -> Result<Ren
         .iter()
         .any(|r| r.evaluation.as_ref().is_some_and(|e| e.outages.is_some()))
     {
-        sections.push(Section {
-            id: "outages",
-            title: "GNSS outages: maximum horizontal drift".into(),
-            html: outage_table(&results, t0),
-            plots: Vec::new(),
-        });
+        // Right after the summary: the drift table is what outage runs are judged by.
+        let at = sections
+            .iter()
+            .position(|s| s.id == "summary")
+            .map_or(0, |i| i + 1);
+        sections.insert(
+            at,
+            Section {
+                id: "outages",
+                title: "GNSS outages: maximum horizontal drift".into(),
+                html: outage_table(&results, t0),
+                plots: Vec::new(),
+            },
+        );
     }
 
     // --- Inputs and configuration.
