@@ -245,6 +245,19 @@ pub fn from_eval(
     Ok(())
 }
 
+/// The report of a `navfuse demo` output folder (`navfuse demo --report`):
+/// the folder read as a RUN_DIR, the scenario's outages `(start, end)` [GPS s].
+pub fn from_demo(out: &Path, outages: Vec<(f64, f64)>) -> Result<(), String> {
+    let mut inp = load_run_dir(out, &LoadOptions::default())?;
+    inp.title = format!("navfuse demo — {}", out.display());
+    inp.outages = outages
+        .into_iter()
+        .map(|(start, end)| navfuse_eval::Outage { start, end })
+        .collect();
+    let sum = navfuse_report::write_report(&out.join("report"), &inp)?;
+    stdout(&format!("report: {}\n", sum.html.display()))
+}
+
 /// Print to stdout; a closed pipe (`| head`) is not an error.
 fn stdout(s: &str) -> Result<(), String> {
     use std::io::Write;
