@@ -8,7 +8,8 @@
 #   1. the synthetic fixture run (navfuse report --fixture), always;
 #   2. the demo's report, once `navfuse demo` has a --report flag
 #      (navfuse demo --out DIR --report writes DIR/report/index.html);
-#   3. the drive_0708 outage run (KF-GINS's result vs truth), from $NAVFUSE_DATA
+#   3. the drive_0708 outage run (navfuse kf-gins's ESKF and KF-GINS's result vs
+#      truth), from $NAVFUSE_DATA
 #      (default ../shared/data); required unless NAVFUSE_BROWSER_SKIP_REAL=1.
 # Needs Debian's chromium: apt-get install -y chromium
 set -euo pipefail
@@ -36,12 +37,15 @@ fi
 if [ "${NAVFUSE_BROWSER_SKIP_REAL:-0}" != 1 ]; then
   echo "== browser check: drive_0708 outage report"
   D="${NAVFUSE_DATA:-../shared/data}/drive_0708/kfgins"
-  for f in kfgins_result_outage_10hz.nav truth.nav gnss_outage.txt; do
+  for f in kfgins_result_outage_10hz.nav truth.nav gnss_outage.txt kf-gins_outage.yaml; do
     [ -f "$D/$f" ] || { echo "browser check: missing $D/$f (set NAVFUSE_DATA or NAVFUSE_BROWSER_SKIP_REAL=1)" >&2; exit 1; }
   done
-  mkdir -p "$OUT/drive_0708"
-  $NF report "$OUT/drive_0708" --title "drive_0708 outage run" \
+  mkdir -p "$OUT/drive_0708/eskf"
+  # navfuse's ESKF on KF-GINS's own outage configuration, beside KF-GINS's result.
+  $NF kf-gins "$D/kf-gins_outage.yaml" --output "$OUT/drive_0708/eskf"
+  $NF report "$OUT/drive_0708" --title "drive_0708 outage run: navfuse ESKF vs KF-GINS" \
     --solution "KF-GINS=$D/kfgins_result_outage_10hz.nav" \
+    --kfgins-output "navfuse ESKF=$OUT/drive_0708/eskf" \
     --truth "$D/truth.nav" --fixes "$D/gnss_outage.txt" \
     --lever-arm 0,-0.05,0 --outages 120,90,30,243262 --quiet
   $CHECK "$OUT/drive_0708/report/index.html" --min-plots 8 --screenshot "$OUT/drive_0708.png"

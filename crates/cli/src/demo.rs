@@ -36,6 +36,9 @@ pub struct Args {
     /// Use this scenario instead of the embedded drive.
     #[arg(long)]
     pub scenario: Option<PathBuf>,
+    /// Also write the HTML report (OUT/report/index.html, plots/*.svg).
+    #[arg(long)]
+    pub report: bool,
 }
 
 /// Every estimator the demo runs, fed the same events. Add one line per
@@ -325,6 +328,11 @@ pub fn run(args: Args) -> Result<(), String> {
         t_sim,
         t0.elapsed().as_secs_f64()
     );
+    if args.report {
+        let start = run.traj.truth[0].t;
+        let outages = sc.gnss.outages.iter().map(|o| (start + o[0], start + o[1]));
+        crate::report::from_demo(&args.out, outages.collect())?;
+    }
     Ok(())
 }
 

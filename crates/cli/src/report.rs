@@ -188,9 +188,9 @@ pub fn run(args: Args) -> Result<(), String> {
     }
     if args.json {
         let js = serde_json::to_string_pretty(&sum).map_err(|e| format!("JSON: {e}"))?;
-        println!("{js}");
+        stdout(&format!("{js}\n"))?;
     } else if !args.quiet {
-        print!("{}", text_summary(&sum));
+        stdout(&text_summary(&sum))?;
     }
     Ok(())
 }
@@ -241,8 +241,31 @@ pub fn from_eval(
         ..Default::default()
     };
     let sum = navfuse_report::write_report(dir, &inputs)?;
-    println!("  report: {}", sum.html.display());
+    stdout(&format!("  report: {}\n", sum.html.display()))?;
     Ok(())
+}
+
+/// The report of a `navfuse demo` output folder (`navfuse demo --report`):
+/// the folder read as a RUN_DIR, the scenario's outages `(start, end)` [GPS s].
+pub fn from_demo(out: &Path, outages: Vec<(f64, f64)>) -> Result<(), String> {
+    let mut inp = load_run_dir(out, &LoadOptions::default())?;
+    inp.title = format!("navfuse demo — {}", out.display());
+    inp.outages = outages
+        .into_iter()
+        .map(|(start, end)| navfuse_eval::Outage { start, end })
+        .collect();
+    let sum = navfuse_report::write_report(&out.join("report"), &inp)?;
+    stdout(&format!("report: {}\n", sum.html.display()))
+}
+
+/// Print to stdout; a closed pipe (`| head`) is not an error.
+fn stdout(s: &str) -> Result<(), String> {
+    use std::io::Write;
+    let mut o = std::io::stdout().lock();
+    match o.write_all(s.as_bytes()).and_then(|()| o.flush()) {
+        Err(e) if e.kind() != std::io::ErrorKind::BrokenPipe => Err(format!("stdout: {e}")),
+        _ => Ok(()),
+    }
 }
 
 fn text_summary(sum: &ReportSummary) -> String {
@@ -331,5 +354,89 @@ mod tests {
         a.fixture = false;
         a.outages = Some("5000,100,10".into());
         assert!(run(a).unwrap_err().contains("no outage"));
+    }
+
+    /// The drive_0708 outage run: navfuse's ESKF (`navfuse kf-gins` on the
+    /// KF-GINS outage configuration) and KF-GINS's own result side by side
+    /// against the RTK truth.
+    #[test]
+    #[ignore = "real data: run with `cargo test --release -- --ignored`"]
+    fn drive_0708_eskf_and_kfgins_side_by_side() {
+        use clap::Parser;
+        use navfuse_io::data::require;
+        #[derive(Parser)]
+        struct KfGinsCmd {
+            #[command(flatten)]
+            a: crate::kf_gins::Args,
+        }
+        let yaml = require("drive_0708/kfgins/kf-gins_outage.yaml");
+        let d = require("drive_0708/kfgins");
+        let dir = std::env::temp_dir().join(format!("navfuse-drive-report-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&dir);
+        let eskf = dir.join("eskf");
+        std::fs::create_dir_all(&eskf).unwrap();
+        let cmd = KfGinsCmd::try_parse_from([
+            "kf-gins".as_ref(),
+            yaml.as_os_str(),
+            "--output".as_ref(),
+            eskf.as_os_str(),
+        ])
+        .unwrap();
+        crate::kf_gins::run(cmd.a).unwrap();
+
+        let mut inp = load_run_dir(
+            &dir,
+            &LoadOptions {
+                truth: Some(d.join("truth.nav")),
+                fixes: Some(d.join("gnss_outage.txt")),
+                solutions: vec![("KF-GINS".into(), d.join("kfgins_result_outage_10hz.nav"))],
+                kfgins_outputs: vec![("navfuse ESKF".into(), eskf)],
+                week: None,
+            },
+        )
+        .unwrap();
+        inp.eval.lever_arm_b = Some([0.0, -0.05, 0.0]);
+        let t0 = (inp.truth.as_ref().unwrap().epochs[0].t / WEEK_S).floor() * WEEK_S + 243_262.0;
+        inp.outages = (0..5)
+            .map(|k| navfuse_eval::Outage {
+                start: t0 + 120.0 + 90.0 * f64::from(k),
+                end: t0 + 150.0 + 90.0 * f64::from(k),
+            })
+            .collect();
+        let sum = navfuse_report::write_report(&dir.join("report"), &inp).unwrap();
+        assert_eq!(sum.estimators.len(), 2);
+        for r in &sum.estimators {
+            let ev = r.evaluation.as_ref().unwrap();
+            let o = ev.outages.as_ref().unwrap();
+            assert_eq!(o.outages.len(), 5, "{}", r.name);
+            let rms = o.rms_of_max.unwrap();
+            eprintln!(
+                "{}: outage drift RMS of maxima {rms:.2} m, horizontal RMS {:.3} m",
+                r.name,
+                ev.summary.horizontal.unwrap().rms
+            );
+            assert!(
+                rms.is_finite() && rms > 0.0 && rms < 200.0,
+                "{}: {rms}",
+                r.name
+            );
+        }
+        // KF-GINS's own result: the README's 44.85 m.
+        let kf = sum.estimators.iter().find(|r| r.name == "KF-GINS").unwrap();
+        let rms = kf
+            .evaluation
+            .as_ref()
+            .unwrap()
+            .outages
+            .as_ref()
+            .unwrap()
+            .rms_of_max
+            .unwrap();
+        assert!((rms - 44.85).abs() <= 0.01, "{rms}");
+        // The ESKF brings its σ (bands) and IMU error states.
+        assert!(sum.sections.iter().any(|s| s == "states"));
+        let html = std::fs::read_to_string(&sum.html).unwrap();
+        assert!(html.contains("class=\"band\" data-name=\"navfuse ESKF ±3σ\""));
+        assert!(html.contains("<th colspan=\"3\">KF-GINS</th><th colspan=\"3\">navfuse ESKF</th>"));
     }
 }

@@ -101,6 +101,8 @@ pub struct Inputs {
     pub states: Vec<StateSet>,
     /// `summary.json` as it is.
     pub summary: Option<serde_json::Value>,
+    /// Configuration files of the run (`*.toml`, `*.yaml` in RUN_DIR): (name, text).
+    pub config_files: Vec<(String, String)>,
     /// GNSS outage intervals (GPS s); empty: from `summary.json` or fix gaps.
     pub outages: Vec<Outage>,
     /// Evaluation settings (lever arm solution → truth point, max gap).
@@ -513,6 +515,7 @@ pub fn load_run_dir(dir: &Path, opt: &LoadOptions) -> Result<Inputs, String> {
     let mut fixes_path = opt.fixes.clone();
     let mut sol_paths: Vec<(String, PathBuf)> = Vec::new();
     let mut kfgins_dirs: Vec<(String, PathBuf)> = Vec::new();
+    let mut truth_cands: Vec<PathBuf> = Vec::new();
     for p in &files {
         let n = lower_name(p);
         let ext = n.rsplit('.').next().unwrap_or("").to_string();
@@ -545,9 +548,7 @@ pub fn load_run_dir(dir: &Path, opt: &LoadOptions) -> Result<Inputs, String> {
         } else if (st == "truth" || st == "reference")
             && ["nav", "csv", "pos"].contains(&ext.as_str())
         {
-            if truth_path.is_none() {
-                truth_path = Some(p.clone());
-            }
+            truth_cands.push(p.clone());
         } else if (st == "gnss" || st == "fixes")
             && ["nav", "csv", "pos", "txt"].contains(&ext.as_str())
         {
@@ -568,11 +569,52 @@ pub fn load_run_dir(dir: &Path, opt: &LoadOptions) -> Result<Inputs, String> {
                 inp.ignored
                     .push(format!("{} (CSV without a trajectory header)", p.display()));
             }
+        } else if ext == "toml" || ext == "yaml" || ext == "yml" {
+            let text = std::fs::read_to_string(p).map_err(|e| format!("{}: {e}", p.display()))?;
+            let mut text: String = text.chars().take(20_000).collect();
+            if text.len() >= 20_000 {
+                text.push_str("\n…");
+            }
+            inp.config_files.push((
+                p.file_name().unwrap_or_default().to_string_lossy().into(),
+                text,
+            ));
         } else {
             inp.ignored
                 .push(format!("{} (not a report input)", p.display()));
         }
     }
+    // Truth: KF-GINS .nav first (it carries velocity and attitude), then .csv, .pos.
+    if truth_path.is_none() {
+        for want in ["nav", "csv", "pos"] {
+            if let Some(p) = truth_cands.iter().find(|p| lower_name(p).ends_with(want)) {
+                truth_path = Some(p.clone());
+                break;
+            }
+        }
+    }
+    for p in &truth_cands {
+        if Some(p) != truth_path.as_ref() {
+            inp.ignored
+                .push(format!("{} (another truth file)", p.display()));
+        }
+    }
+    // The same solution as .csv (with σ) and .nav: keep the .csv.
+    let csv_stems: Vec<String> = sol_paths
+        .iter()
+        .filter(|(_, p)| lower_name(p).ends_with(".csv"))
+        .map(|(n, _)| n.clone())
+        .collect();
+    sol_paths.retain(|(n, p)| {
+        let dup = lower_name(p).ends_with(".nav") && csv_stems.contains(n);
+        if dup {
+            inp.ignored.push(format!(
+                "{} (same solution as {n}.csv, which has σ)",
+                p.display()
+            ));
+        }
+        !dup
+    });
     sol_paths.extend(opt.solutions.iter().cloned());
     for (name, p) in &sol_paths {
         inp.solutions.push(read_trajectory(p, name, false)?);
@@ -709,13 +751,22 @@ pub struct EstimatorResult {
     pub evaluation: Option<Evaluation>,
 }
 
+/// A plot of the page.
+#[derive(Clone, Debug, Serialize)]
+pub struct PlotInfo {
+    /// Element id in the page and SVG file stem.
+    pub id: String,
+    /// Number of data series drawn (`data-series` of its `<svg>`).
+    pub series: usize,
+}
+
 /// What [`write_report`] produced.
 #[derive(Clone, Debug, Serialize)]
 pub struct ReportSummary {
     pub html: PathBuf,
     pub svgs: Vec<PathBuf>,
-    /// Plot id → number of series drawn (what the browser check compares).
-    pub plots: Vec<(String, usize)>,
+    /// Each plot and the number of series it draws (what the browser check compares).
+    pub plots: Vec<PlotInfo>,
     pub sections: Vec<String>,
     #[serde(serialize_with = "ser_results")]
     pub estimators: Vec<EstimatorResult>,
@@ -784,7 +835,11 @@ pub fn write_report_with(
     Ok(ReportSummary {
         html,
         svgs,
-        plots: r.plots,
+        plots: r
+            .plots
+            .into_iter()
+            .map(|(id, series)| PlotInfo { id, series })
+            .collect(),
         sections: r.sections,
         estimators: r.estimators,
         outages: r.outages,

@@ -467,12 +467,20 @@ pub(crate) fn render(inp: &Inputs, progress: &mut dyn FnMut(&str)) -> Result<Ren
         .iter()
         .any(|r| r.evaluation.as_ref().is_some_and(|e| e.outages.is_some()))
     {
-        sections.push(Section {
-            id: "outages",
-            title: "GNSS outages: maximum horizontal drift".into(),
-            html: outage_table(&results, t0),
-            plots: Vec::new(),
-        });
+        // Right after the summary: the drift table is what outage runs are judged by.
+        let at = sections
+            .iter()
+            .position(|s| s.id == "summary")
+            .map_or(0, |i| i + 1);
+        sections.insert(
+            at,
+            Section {
+                id: "outages",
+                title: "GNSS outages: maximum horizontal drift".into(),
+                html: outage_table(&results, t0),
+                plots: Vec::new(),
+            },
+        );
     }
 
     // --- Inputs and configuration.
@@ -1069,6 +1077,14 @@ fn inputs_html(inp: &Inputs, results: &[EstimatorResult], notes: &[String]) -> S
         h.push_str(&esc(&inp.ignored.join("; ")));
         h.push_str("</p>");
     }
+    for (name, text) in &inp.config_files {
+        let _ = write!(
+            h,
+            "<h3>{}</h3><pre class=\"cfg\">{}</pre>",
+            esc(name),
+            esc(text)
+        );
+    }
     if let Some(s) = &inp.summary {
         let mut kv = Vec::new();
         flatten_json("", s, &mut kv);
@@ -1103,6 +1119,7 @@ th{background:#f0f2f4}
 td:first-child{text-align:left}
 table.kv td{text-align:left}
 .note{font-size:12px;color:#555}
+pre.cfg{font-size:12px;background:#f7f7f7;border:1px solid #ddd;padding:6px;max-height:420px;overflow:auto}
 svg.plot{display:block;width:100%;height:auto;margin:8px 0}
 .legend{cursor:pointer}
 .legend.off{opacity:.35}

@@ -64,6 +64,9 @@ fn fixture_report_has_every_section_and_consistent_plots() {
     let html = std::fs::read_to_string(&sum.html).unwrap();
     let counts = svg_counts(&html);
     assert_eq!(counts.len(), sum.plots.len());
+    for (c, p) in counts.iter().zip(&sum.plots) {
+        assert_eq!((&c.0, c.1), (&p.id, p.series));
+    }
     assert_eq!(counts.len(), sum.svgs.len());
     assert!(html.contains(&format!(
         "<meta name=\"navfuse-plots\" content=\"{}\">",
@@ -334,4 +337,42 @@ fn drive_0708_kfgins_outage_report() {
         assert_eq!(declared, drawn, "{id}");
         assert!(declared > 0, "{id}");
     }
+}
+
+#[test]
+fn demo_layout_nav_and_csv_of_one_solution_and_two_truths() {
+    // `navfuse demo` writes every solution as .nav and .csv, the truth as
+    // .nav and .csv, and a run.toml.
+    let dir = tmp("demo-layout");
+    write_fixture(&dir).unwrap();
+    std::fs::copy(dir.join("kfgins.nav"), dir.join("eskf.nav")).unwrap();
+    std::fs::copy(dir.join("kfgins.nav"), dir.join("truth.nav")).unwrap();
+    std::fs::write(dir.join("run.toml"), "seed = 1\n").unwrap();
+    let inp = load_run_dir(&dir, &LoadOptions::default()).unwrap();
+    let names: Vec<&str> = inp.solutions.iter().map(|s| s.name.as_str()).collect();
+    assert_eq!(names, vec!["eskf", "kfgins"]);
+    assert!(inp.solutions[0]
+        .path
+        .as_ref()
+        .unwrap()
+        .ends_with("eskf.csv"));
+    assert!(inp
+        .ignored
+        .iter()
+        .any(|s| s.contains("eskf.nav") && s.contains("same solution")));
+    assert!(inp
+        .truth
+        .as_ref()
+        .unwrap()
+        .path
+        .as_ref()
+        .unwrap()
+        .ends_with("truth.nav"));
+    assert!(inp.ignored.iter().any(|s| s.contains("truth.csv")));
+    assert_eq!(
+        inp.config_files,
+        vec![("run.toml".to_string(), "seed = 1\n".to_string())]
+    );
+    let r = render(&inp, &mut |_| {}).unwrap();
+    assert!(r.html.contains("<h3>run.toml</h3>"));
 }
