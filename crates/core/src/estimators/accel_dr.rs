@@ -36,6 +36,32 @@
 //!   where the previous prediction ended (continuity) and reaches the
 //!   anchored track at the expected next fix ([`spread_weight`]).
 //! * Speed is a magnitude (eq. 15); the predicted speed is clamped at 0.
+//!
+//! # navfuse extensions (config options; [`AccelDrConfig::paper_literal`]
+//! switches them off)
+//! The literal method was measured on the seed 004 simulation (`navfuse
+//! experiment seed004`) and its errors traced to the following causes; each
+//! fix is an option of [`AccelDrConfig`]:
+//! * `aligned_reference`: a^GPS (eq. 16) is a difference of chord mean
+//!   speeds, i.e. a triangle-weighted mean acceleration about one interval
+//!   old; the literal a^REF subtracts the car's acceleration *change* for the
+//!   whole next interval. The aligned reference applies the same operator to
+//!   a^H (means of ∫a^H over the same two intervals, from ∫∫a^H at the
+//!   fixes), which is exact for a constant bias / slope / lag term.
+//! * `chord`: the chord speed and direction are interval means; `Midpoint`
+//!   moves them to the fix with the second half of the dead-reckoned
+//!   change, `Displacement` (default) corrects speed and heading by comparing
+//!   the dead-reckoned displacement over the interval with the GNSS chord.
+//! * Rest and heading tests use chord *lengths* (`rest_distance`,
+//!   `min_heading_distance`), so a long interval that contains a start from
+//!   rest is neither "at rest" nor "without heading"; until a first GNSS
+//!   heading exists the position is held (moving along an unknown heading is
+//!   worse than not moving) while the speed is integrated.
+//! * `kf_q_psd`: the paper's Q is per sample, so its filter's time constant
+//!   is ~1.7 s at its car's 59 Hz but ~10 s at its simulation's 10 Hz;
+//!   [`AccelDrConfig::rate_scaled`] uses Q = 0.01 G²/s · dt instead.
+//! * The tilt is learned from the filtered readings averaged over the rest
+//!   interval (the paper: "the filtered reading at rest").
 
 use crate::earth;
 #[allow(unused_imports)]
@@ -1176,6 +1202,80 @@ mod tests {
         }
         assert!(worst < 0.01, "aligned reference off by {worst}");
         assert!(worst_lit > 0.3, "literal reference off by only {worst_lit}");
+    }
+
+    #[test]
+    fn displacement_chord_mode_corrects_turns_literal_does_not() {
+        // Circle-ish drive (long turns) at 15 m/s, fixes every 4 s, perfect
+        // accelerometer: the chord direction lags the heading by half an
+        // interval's turn; the displacement mode removes it.
+        let segs = [
+            (6.0, 0.0, 0.0),
+            (16.0, 0.0, 0.12),
+            (6.0, 0.0, 0.0),
+            (16.0, 0.0, -0.1),
+        ];
+        let tr = generate(&segs, 15.0, 0.0, 50.0, Vec3::zeros());
+        let run = |chord| {
+            let cfg = AccelDrConfig {
+                kf_q: 1.0,
+                chord,
+                ..Default::default()
+            };
+            let (en, ee, _) = run_track(&mut AccelDr::new(cfg), &tr, 4);
+            en + ee
+        };
+        let (lit, mid, disp) = (
+            run(ChordMode::Literal),
+            run(ChordMode::Midpoint),
+            run(ChordMode::Displacement),
+        );
+        assert!(disp < 0.3 * lit, "displacement {disp} vs literal {lit}");
+        assert!(mid < 0.5 * lit, "midpoint {mid} vs literal {lit}");
+    }
+
+    #[test]
+    fn position_held_until_a_gnss_heading_exists() {
+        // Start from rest, first fixes at rest: the output does not move
+        // although the accelerometer says the car accelerates, until a
+        // chord long enough for a heading arrives.
+        let tr = generate(
+            &[(3.0, 0.0, 0.0), (3.0, 2.0, 0.0)],
+            0.0,
+            1.0,
+            10.0,
+            Vec3::zeros(),
+        );
+        let mut dr = AccelDr::new(AccelDrConfig::rate_scaled());
+        let lat0 = 35f64.to_radians();
+        for ev in &tr.events {
+            // fixes only at t = 0 and t = 3 (at rest)
+            if let Event::Gnss(f) = ev {
+                if f.t > 3.5 {
+                    continue;
+                }
+            }
+            if let Some(s) = dr.push(ev) {
+                assert_eq!(s.lat, lat0, "moved at t = {}", s.t);
+                if s.t > 5.5 {
+                    assert!(dr.speed_heading().0 > 3.0); // speed integrates
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn history_interpolates_and_forgets() {
+        let mut h = History::new();
+        for k in 0..2000 {
+            let t = k as f64 * 0.01; // 100 Hz, stored every 0.05 s
+            h.push(t, 2.0 * t, -t);
+        }
+        let (i, l) = h.at(19.0125).unwrap();
+        assert!(close(i, 38.025, 1e-9) && close(l, -19.0125, 1e-9));
+        // 512 entries at 0.05 s ≈ 25.6 s: t = 19.99 − 26 is gone.
+        assert!(h.at(-6.0).is_none());
+        assert!(h.at(25.0).is_none()); // future
     }
 
     // ---- eq. 20: heading propagation from the centripetal acceleration ----
