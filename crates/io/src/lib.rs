@@ -22,11 +22,15 @@ pub mod error;
 pub mod imu;
 pub mod kfgins;
 pub mod kfgins_yaml;
+pub mod live;
 pub mod navcsv;
+pub mod nmea;
 pub mod pos;
+pub mod rinex;
 pub mod text;
 pub mod time;
 pub mod trajectory;
+pub mod ubx;
 pub mod writers;
 pub mod yuma;
 

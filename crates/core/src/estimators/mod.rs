@@ -3,3 +3,4 @@
 pub mod accel_dr;
 pub mod cp_attitude;
 pub mod eskf;
+pub mod pf_lc;
