@@ -36,6 +36,32 @@
 //!   where the previous prediction ended (continuity) and reaches the
 //!   anchored track at the expected next fix ([`spread_weight`]).
 //! * Speed is a magnitude (eq. 15); the predicted speed is clamped at 0.
+//!
+//! # navfuse extensions (config options; [`AccelDrConfig::paper_literal`]
+//! switches them off)
+//! The literal method was measured on the seed 004 simulation (`navfuse
+//! experiment seed004`) and its errors traced to the following causes; each
+//! fix is an option of [`AccelDrConfig`]:
+//! * `aligned_reference`: a^GPS (eq. 16) is a difference of chord mean
+//!   speeds, i.e. a triangle-weighted mean acceleration about one interval
+//!   old; the literal a^REF subtracts the car's acceleration *change* for the
+//!   whole next interval. The aligned reference applies the same operator to
+//!   a^H (means of ∫a^H over the same two intervals, from ∫∫a^H at the
+//!   fixes), which is exact for a constant bias / slope / lag term.
+//! * `chord`: the chord speed and direction are interval means; `Midpoint`
+//!   moves them to the fix with the second half of the dead-reckoned
+//!   change, `Displacement` (default) corrects speed and heading by comparing
+//!   the dead-reckoned displacement over the interval with the GNSS chord.
+//! * Rest and heading tests use chord *lengths* (`rest_distance`,
+//!   `min_heading_distance`), so a long interval that contains a start from
+//!   rest is neither "at rest" nor "without heading"; until a first GNSS
+//!   heading exists the position is held (moving along an unknown heading is
+//!   worse than not moving) while the speed is integrated.
+//! * `kf_q_psd`: the paper's Q is per sample, so its filter's time constant
+//!   is ~1.7 s at its car's 59 Hz but ~10 s at its simulation's 10 Hz;
+//!   [`AccelDrConfig::rate_scaled`] uses Q = 0.01 G²/s · dt instead.
+//! * The tilt is learned from the filtered readings averaged over the rest
+//!   interval (the paper: "the filtered reading at rest").
 
 use crate::earth;
 #[allow(unused_imports)]
@@ -90,7 +116,7 @@ pub enum ChordMode {
     /// GNSS chord: heading += angle(GNSS chord) − angle(DR chord), speed +=
     /// (|GNSS chord| − |DR chord|)/Δt (exact for a constant heading/speed
     /// error over the interval whatever the turn shape). Falls back to
-    /// `Midpoint` when either chord is shorter than `min_heading_speed`·Δt/2.
+    /// `Midpoint` when either chord is shorter than `min_heading_distance`/2.
     Displacement,
 }
 
@@ -132,9 +158,10 @@ pub struct AccelDrConfig {
     /// Below this predicted speed no heading change is integrated (eq. 8
     /// divides by v; the paper notes the heading errors near v = 0) [m/s].
     pub min_turn_speed: f64,
-    /// Below this GNSS chord speed the chord heading (eq. 19) is not used
-    /// and the propagated heading is kept [m/s].
-    pub min_heading_speed: f64,
+    /// A GNSS chord shorter than this gives no heading (eq. 19): the
+    /// propagated heading is kept [m]. A length, so that a long interval in
+    /// which the car only starts moving still yields its direction.
+    pub min_heading_distance: f64,
     /// Spread the fix error over the next interval (eq. 21–24). If false the
     /// output jumps to the fix.
     pub spread_error: bool,
@@ -169,7 +196,7 @@ impl Default for AccelDrConfig {
             learn_lateral_offset: false,
             tilt0: 0.0,
             min_turn_speed: 1.0,
-            min_heading_speed: 1.0,
+            min_heading_distance: 1.0,
             spread_error: true,
             max_speed: 70.0,
             chord: ChordMode::Displacement,
@@ -357,8 +384,8 @@ pub fn spread_weight(tau: f64, horizon: f64) -> f64 {
 /// Capacity of [`History`]: 512 entries at ≥ 0.05 s spacing ≥ 25.6 s.
 const HIST_N: usize = 512;
 
-/// Fixed-size ring of the running integrals I(t) = ∫a^H dt and
-/// L(t) = ∫a^C dt [m/s], sampled at ≥ 0.05 s spacing, so their values at a
+/// Fixed-size ring of the running integral I(t) = ∫a^H dt [m/s] and the
+/// cumulative dead-reckoned heading change L(t) = ΣΔh [rad], sampled at ≥ 0.05 s spacing, so their values at a
 /// past chord mid-point can be interpolated without allocation.
 #[derive(Clone, Debug)]
 struct History {
@@ -444,6 +471,11 @@ pub struct AccelDr {
     /// Previous chord speed and the time of its mid-point.
     /// Previous chord: (mean speed, mid-point time, mean of ∫a^H over it).
     prev_chord: Option<(f64, f64, f64)>,
+    /// Distance travelled by the dead reckoning since the last fix [m].
+    dist_dr: f64,
+    /// Sum and count of the filtered readings since the last fix [G].
+    filt_sum: Vec3,
+    filt_n: u32,
     /// ∫∫a^H (running) and its value at the last fix [m].
     jj: f64,
     jj_fix: f64,
@@ -460,7 +492,8 @@ pub struct AccelDr {
     e_lon: f64,
     t_fix: f64,
     horizon: f64,
-    /// Running integrals ∫a^H dt, ∫a^C dt [m/s] and their history.
+    /// Running ∫a^H dt [m/s] and the unwrapped dead-reckoned heading change
+    /// Σ Δh (eq. 20) [rad], and their history.
     int_h: f64,
     int_c: f64,
     hist: History,
@@ -481,6 +514,9 @@ impl AccelDr {
             prev_chord: None,
             jj: 0.0,
             jj_fix: 0.0,
+            dist_dr: 0.0,
+            filt_sum: Vec3::zeros(),
+            filt_n: 0,
             rest_since: None,
             a_ref: 0.0,
             v: 0.0,
@@ -567,22 +603,30 @@ impl AccelDr {
             None => self.kf.step(&z),
         };
         self.a_h = forward_accel(a.x, a.z, self.tilt) * g;
+        self.filt_sum += a;
+        self.filt_n += 1;
         self.a_c = (a.y - self.lat_off) * g;
         let i0 = self.int_h;
         self.int_h += self.a_h * s.dt;
         self.jj += 0.5 * (i0 + self.int_h) * s.dt;
-        self.int_c += self.a_c * s.dt;
-        self.hist.push(s.t, self.int_h, self.int_c);
-        let h = self.last?.h;
+        let Some(last) = self.last else {
+            self.hist.push(s.t, self.int_h, self.int_c);
+            return None;
+        };
+        let h = last.h;
         // eq. 18: speed from GNSS speed + Σ (a^H − a^REF) dt; clamped ≥ 0.
         self.v = (self.v + (self.a_h - self.a_ref) * s.dt).max(0.0);
         // eq. 5–8, 20: heading change from the centripetal acceleration.
         if self.v >= self.cfg.min_turn_speed {
-            self.heading = wrap_pi(self.heading + heading_change(self.v, self.a_c, s.dt));
+            let dh = heading_change(self.v, self.a_c, s.dt);
+            self.heading = wrap_pi(self.heading + dh);
+            self.int_c += dh;
         }
+        self.hist.push(s.t, self.int_h, self.int_c);
         // eq. 23–24 (anchored part): position from speed and heading (held
         // until a GNSS heading exists: moving along an unknown heading is
         // worse than not moving).
+        self.dist_dr += self.v * s.dt;
         if !self.heading_known {
             return Some(self.solution(s.t));
         }
@@ -612,8 +656,16 @@ impl AccelDr {
             self.e_lon = 0.0;
             self.t_fix = f.t;
             self.v = 0.0;
-            self.a_ref = self.a_h;
+            // No GNSS acceleration yet: the aligned mode starts from a^REF = 0,
+            // the literal one from a^H (the car is assumed at rest).
+            self.a_ref = if self.cfg.aligned_reference {
+                0.0
+            } else {
+                self.a_h
+            };
             self.jj_fix = self.jj;
+            self.filt_sum = Vec3::zeros();
+            self.filt_n = 0;
             return Some(self.solution(f.t));
         };
         let dt = f.t - last.t;
@@ -653,7 +705,12 @@ impl AccelDr {
         if at_rest {
             let since = *self.rest_since.get_or_insert(last.t);
             if f.t - since >= self.cfg.rest_min_s {
-                let a = self.kf.x;
+                // The filtered reading, averaged over the rest interval.
+                let a = if self.filt_n > 0 {
+                    self.filt_sum / self.filt_n as f64
+                } else {
+                    self.kf.x
+                };
                 if self.cfg.learn_tilt {
                     self.tilt = tilt_from_rest(a.x);
                 }
@@ -676,7 +733,7 @@ impl AccelDr {
         };
         let (dr_n, dr_e) = chord_ne(&prev, &dr_fix, self.cfg.degree_length);
         let dr_len = (dr_n * dr_n + dr_e * dr_e).sqrt();
-        let min_len = 0.5 * self.cfg.min_heading_speed * dt;
+        let min_len = 0.5 * self.cfg.min_heading_distance;
         let displacement = self.cfg.chord == ChordMode::Displacement
             && self.heading_known
             && dr_len >= min_len
@@ -714,7 +771,9 @@ impl AccelDr {
         };
         if at_rest {
             self.v = 0.0;
-            self.a_ref = if mean_ah.is_some() && self.cfg.aligned_reference {
+            // At rest a^GPS = 0: the aligned reference is the mean a^H over the
+            // chord windows (or kept); the literal one the current a^H.
+            self.a_ref = if self.cfg.aligned_reference {
                 a_ref
             } else {
                 self.a_h
@@ -722,17 +781,25 @@ impl AccelDr {
         } else if displacement {
             self.v = (self.v + (v_gps * dt - dr_len) / dt).max(0.0);
             self.a_ref = a_ref;
+        } else if self.cfg.chord == ChordMode::Displacement && !self.heading_known {
+            // No heading yet (e.g. the first interval after a start from
+            // rest): compare the travelled distances instead.
+            self.v = (self.v + (v_gps * dt - self.dist_dr) / dt).max(0.0);
+            self.a_ref = a_ref;
         } else {
             self.v = (v_gps + dv_mid).max(0.0);
             self.a_ref = a_ref;
         }
         if displacement && !at_rest {
             self.heading = wrap_pi(self.heading + wrap_pi(h_gps - dr_e.atan2(dr_n)));
-        } else if v_gps >= self.cfg.min_heading_speed {
-            // eq. 8 over the half interval: Δh = ∫a^C dt / v.
-            self.heading = wrap_pi(h_gps + dl_mid / v_gps.max(self.cfg.min_turn_speed));
+        } else if v_gps * dt >= self.cfg.min_heading_distance {
+            // eq. 20 over the second half of the interval.
+            self.heading = wrap_pi(h_gps + dl_mid);
             self.heading_known = true;
         }
+        self.dist_dr = 0.0;
+        self.filt_sum = Vec3::zeros();
+        self.filt_n = 0;
         Some(self.solution(f.t))
     }
 }
@@ -1135,6 +1202,80 @@ mod tests {
         }
         assert!(worst < 0.01, "aligned reference off by {worst}");
         assert!(worst_lit > 0.3, "literal reference off by only {worst_lit}");
+    }
+
+    #[test]
+    fn displacement_chord_mode_corrects_turns_literal_does_not() {
+        // Circle-ish drive (long turns) at 15 m/s, fixes every 4 s, perfect
+        // accelerometer: the chord direction lags the heading by half an
+        // interval's turn; the displacement mode removes it.
+        let segs = [
+            (6.0, 0.0, 0.0),
+            (16.0, 0.0, 0.12),
+            (6.0, 0.0, 0.0),
+            (16.0, 0.0, -0.1),
+        ];
+        let tr = generate(&segs, 15.0, 0.0, 50.0, Vec3::zeros());
+        let run = |chord| {
+            let cfg = AccelDrConfig {
+                kf_q: 1.0,
+                chord,
+                ..Default::default()
+            };
+            let (en, ee, _) = run_track(&mut AccelDr::new(cfg), &tr, 4);
+            en + ee
+        };
+        let (lit, mid, disp) = (
+            run(ChordMode::Literal),
+            run(ChordMode::Midpoint),
+            run(ChordMode::Displacement),
+        );
+        assert!(disp < 0.3 * lit, "displacement {disp} vs literal {lit}");
+        assert!(mid < 0.5 * lit, "midpoint {mid} vs literal {lit}");
+    }
+
+    #[test]
+    fn position_held_until_a_gnss_heading_exists() {
+        // Start from rest, first fixes at rest: the output does not move
+        // although the accelerometer says the car accelerates, until a
+        // chord long enough for a heading arrives.
+        let tr = generate(
+            &[(3.0, 0.0, 0.0), (3.0, 2.0, 0.0)],
+            0.0,
+            1.0,
+            10.0,
+            Vec3::zeros(),
+        );
+        let mut dr = AccelDr::new(AccelDrConfig::rate_scaled());
+        let lat0 = 35f64.to_radians();
+        for ev in &tr.events {
+            // fixes only at t = 0 and t = 3 (at rest)
+            if let Event::Gnss(f) = ev {
+                if f.t > 3.5 {
+                    continue;
+                }
+            }
+            if let Some(s) = dr.push(ev) {
+                assert_eq!(s.lat, lat0, "moved at t = {}", s.t);
+                if s.t > 5.5 {
+                    assert!(dr.speed_heading().0 > 3.0); // speed integrates
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn history_interpolates_and_forgets() {
+        let mut h = History::new();
+        for k in 0..2000 {
+            let t = k as f64 * 0.01; // 100 Hz, stored every 0.05 s
+            h.push(t, 2.0 * t, -t);
+        }
+        let (i, l) = h.at(19.0125).unwrap();
+        assert!(close(i, 38.025, 1e-9) && close(l, -19.0125, 1e-9));
+        // 512 entries at 0.05 s ≈ 25.6 s: t = 19.99 − 26 is gone.
+        assert!(h.at(-6.0).is_none());
+        assert!(h.at(25.0).is_none()); // future
     }
 
     // ---- eq. 20: heading propagation from the centripetal acceleration ----
