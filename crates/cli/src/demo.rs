@@ -9,11 +9,12 @@
 //! largest horizontal error inside each GNSS outage (the drift while coasting).
 
 use clap::Args as ClapArgs;
+use navfuse_core::estimators::accel_dr::{AccelDr, AccelDrConfig, GpsHold};
 use navfuse_core::estimators::eskf::{Eskf, EskfConfig, ImuErrors, ImuNoise, InitStd, NhcConfig};
 use navfuse_core::estimators::pf_lc::{PfLc, PfLcConfig};
 use navfuse_core::ins::mech::{q_bn_from_rpy, NavState};
 use navfuse_core::Estimator;
-use navfuse_core::{earth, Event, GnssFix, NavSolution, Vec3};
+use navfuse_core::{earth, Event, NavSolution, Vec3};
 use navfuse_io::writers::{CsvWriter, KfGinsNavWriter, TrajectoryWriter};
 use navfuse_sim::{output, simulate, Scenario, SimRun};
 use std::fs::File;
@@ -44,16 +45,14 @@ pub struct Args {
 /// Every estimator the demo runs, fed the same events. Add one line per
 /// estimator as they land.
 fn estimators(run: &SimRun) -> Vec<Box<dyn Estimator>> {
-    let mut v: Vec<Box<dyn Estimator>> = vec![Box::new(GnssHold::default())];
+    let mut v: Vec<Box<dyn Estimator>> = vec![Box::new(GpsHold::new())];
     if let Some(e) = eskf_for(run) {
         v.push(Box::new(e));
     }
     v.push(Box::new(PfLc::new(PfLcConfig::default())));
+    v.push(Box::new(AccelDr::new(AccelDrConfig::rate_scaled())));
     v
 }
-
-/// Estimators of the project that do not exist yet (named in the report).
-const NOT_YET: &[&str] = &["gps-acc (seed 004)"];
 
 /// Attitude error injected into the ESKF's initial state [rad] (roll, pitch,
 /// yaw): what a levelling + magnetometer start would give (seed 001 starts
@@ -112,37 +111,6 @@ fn eskf_for(run: &SimRun) -> Option<Eskf> {
         sa: floor(a.scale_sigma, 1e-4),
     };
     Some(Eskf::new(cfg, nav, ImuErrors::default(), &std))
-}
-
-/// Baseline, not one of the four systems: holds the last GNSS fix (antenna
-/// position, the receiver's velocity) at every IMU epoch — seed 004's
-/// "GPS-only" comparison. No attitude (NaN).
-#[derive(Default)]
-struct GnssHold {
-    last: Option<GnssFix>,
-}
-
-impl Estimator for GnssHold {
-    fn name(&self) -> &'static str {
-        "gnss-hold"
-    }
-    fn push(&mut self, ev: &Event) -> Option<NavSolution> {
-        match ev {
-            Event::Gnss(g) => {
-                self.last = Some(*g);
-                None
-            }
-            Event::Imu(s) => self.last.map(|g| NavSolution {
-                lat: g.lat,
-                lon: g.lon,
-                h: g.h,
-                v_n: g.v_n.unwrap_or(Vec3::repeat(f64::NAN)),
-                std_pos_ned: g.std_ned,
-                std_v_n: g.std_v_n.unwrap_or(Vec3::repeat(f64::NAN)),
-                ..NavSolution::unknown_at(s.t)
-            }),
-        }
-    }
 }
 
 /// Scores of one estimator against truth.
@@ -290,7 +258,6 @@ pub fn run(args: Args) -> Result<(), String> {
         "estimators run: {}",
         scores.iter().map(|s| s.name).collect::<Vec<_>>().join(", ")
     );
-    println!("not available yet: {}", NOT_YET.join(", "));
     println!(
         "{:<12} {:>8} {:>10} {:>10} {:>10} {:>12}  max h error in each outage [m]",
         "estimator", "epochs", "h rms [m]", "h max [m]", "v rms [m]", "yaw rms [°]",
@@ -314,7 +281,7 @@ pub fn run(args: Args) -> Result<(), String> {
         );
     }
     println!(
-        "(errors of the IMU point vs exact truth; gnss-hold reports the antenna, {} m lever arm; \
+        "(errors of the IMU point vs exact truth; gps-hold reports the antenna, {} m lever arm; \
          eskf starts at the true position/velocity with a {:.1}°/{:.1}°/{:.1}° roll/pitch/yaw error; \
          in brackets: wall time of the estimator loop)",
         Vec3::from(sc.gnss.lever_arm_m).norm(),
@@ -359,7 +326,7 @@ mod tests {
         let (run, scores, _) = simulate_and_score(&sc, 2, &out).unwrap();
         assert!(run.traj.duration() > 240.0, "{}", run.traj.duration());
         let names: Vec<&str> = scores.iter().map(|s| s.name).collect();
-        assert_eq!(names, ["gnss-hold", "eskf"]);
+        assert_eq!(names, ["gps-hold", "eskf", "pf-lc", "gps-acc"]);
         for s in &scores {
             assert!(s.epochs > 20_000 && s.h_rms.is_finite(), "{}", s.name);
             assert!(out.join(format!("{}.nav", s.name)).exists());

@@ -817,7 +817,9 @@ impl Estimator for AccelDr {
 }
 
 /// The paper's "GPS only" comparison (`SEEDS.md §4`, Table 3): hold the last
-/// fix until the next. Outputs at every event once a fix has arrived.
+/// fix (antenna position; its NED velocity and σ when the fix has them, else
+/// NaN) until the next. Outputs at every event once a fix has arrived; no
+/// attitude. Also the demo's baseline.
 #[derive(Clone, Debug, Default)]
 pub struct GpsHold {
     last: Option<GnssFix>,
@@ -833,7 +835,9 @@ impl GpsHold {
         s.lat = f.lat;
         s.lon = f.lon;
         s.h = f.h;
-        s.v_n = Vec3::zeros();
+        s.v_n = f.v_n.unwrap_or(Vec3::repeat(f64::NAN));
+        s.std_pos_ned = f.std_ned;
+        s.std_v_n = f.std_v_n.unwrap_or(Vec3::repeat(f64::NAN));
         Some(s)
     }
 }
