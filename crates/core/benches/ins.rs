@@ -71,7 +71,7 @@ fn benches(c: &mut Criterion) {
         b.iter(|| {
             k += 1;
             // Restart every 10 min of data so P stays in its normal range.
-            if k % 60_000 == 0 {
+            if k.is_multiple_of(60_000) {
                 f = filter();
             }
             black_box(f.push(&Event::Imu(sample(k))))
