@@ -30,6 +30,8 @@ pub enum To {
     Geojson,
     Kml,
     Gpx,
+    /// NMEA 0183 (GGA, RMC, GST); GNSS inputs keep their quality and satellite count
+    Nmea,
 }
 
 /// Convert between trajectory file formats (format from extension or given).
@@ -50,32 +52,46 @@ pub struct Args {
     pub gps_week: u32,
 }
 
-pub fn run(args: Args) -> Result<(), String> {
-    let fin = match args.from {
+/// The input format: as given, else from the file's extension.
+pub fn input_format(from: Option<From>, path: &std::path::Path) -> Result<InFormat, String> {
+    Ok(match from {
         Some(From::Pos) => InFormat::Pos,
         Some(From::Nav) => InFormat::Nav,
         Some(From::Csv) => InFormat::Csv,
         Some(From::KfginsGnss) => InFormat::KfGinsGnss,
-        None => InFormat::from_path(&args.input).ok_or_else(|| {
+        None => InFormat::from_path(path).ok_or_else(|| {
             format!(
                 "{}: cannot tell the input format from the extension; give --from (pos, nav, csv, kfgins-gnss)",
-                args.input.display()
+                path.display()
             )
         })?,
-    };
-    let fout = match args.to {
+    })
+}
+
+/// The output format: as given, else from the file's extension.
+pub fn output_format(to: Option<To>, path: &std::path::Path) -> Result<OutFormat, String> {
+    Ok(match to {
         Some(To::Csv) => OutFormat::Csv,
         Some(To::Nav) => OutFormat::Nav,
         Some(To::Geojson) => OutFormat::GeoJson,
         Some(To::Kml) => OutFormat::Kml,
         Some(To::Gpx) => OutFormat::Gpx,
-        None => OutFormat::from_path(&args.output).ok_or_else(|| {
+        Some(To::Nmea) => OutFormat::Nmea,
+        None => OutFormat::from_path(path).ok_or_else(|| {
             format!(
-                "{}: cannot tell the output format from the extension; give --to (csv, nav, geojson, kml, gpx)",
-                args.output.display()
+                "{}: cannot tell the output format from the extension; give --to (csv, nav, geojson, kml, gpx, nmea)",
+                path.display()
             )
         })?,
-    };
+    })
+}
+
+pub fn run(args: Args) -> Result<(), String> {
+    let fin = input_format(args.from, &args.input)?;
+    let fout = output_format(args.to, &args.output)?;
+    if fout == OutFormat::Nmea && matches!(fin, InFormat::Pos | InFormat::KfGinsGnss) {
+        return fixes_to_nmea(&args, fin);
+    }
     let mut src = open_nav_source(&args.input, fin, args.gps_week).map_err(|e| e.to_string())?;
     let mut out = create_writer(&args.output, fout)
         .map_err(|e| format!("{}: cannot create: {e}", args.output.display()))?;
@@ -99,4 +115,51 @@ pub fn run(args: Args) -> Result<(), String> {
         st
     );
     Ok(())
+}
+
+/// GNSS fixes → NMEA keeping each fix's quality and satellite count (the
+/// trajectory path would lose them).
+fn fixes_to_nmea(args: &Args, fin: InFormat) -> Result<(), String> {
+    use navfuse_io::kfgins::KfGinsGnssReader;
+    use navfuse_io::pos::PosReader;
+    let (rdr, name) = navfuse_io::open(&args.input).map_err(|e| e.to_string())?;
+    let (n, st) = match fin {
+        InFormat::Pos => {
+            let mut r = PosReader::new(rdr, &name);
+            let n = write_nmea(&mut r, args)?;
+            (n, r.stats().clone())
+        }
+        _ => {
+            let mut r = KfGinsGnssReader::new(rdr, &name, args.gps_week);
+            let n = write_nmea(&mut r, args)?;
+            (n, r.stats().clone())
+        }
+    };
+    println!(
+        "convert: {} ({fin:?}) -> {} (Nmea): {} records read, {n} written, {} rejected; {st}",
+        args.input.display(),
+        args.output.display(),
+        st.used,
+        st.rejected_total(),
+    );
+    Ok(())
+}
+
+fn write_nmea(
+    src: &mut dyn Iterator<Item = Result<navfuse_core::types::GnssFix, navfuse_io::ReadError>>,
+    args: &Args,
+) -> Result<u64, String> {
+    use navfuse_io::writers::TrajectoryWriter;
+    let werr = |e: std::io::Error| format!("{}: write failed: {e}", args.output.display());
+    let f = std::fs::File::create(&args.output)
+        .map_err(|e| format!("{}: cannot create: {e}", args.output.display()))?;
+    let mut w = navfuse_io::nmea::NmeaWriter::new(std::io::BufWriter::new(f));
+    let mut n = 0u64;
+    for fix in src {
+        w.write_fix(&fix.map_err(|e| e.to_string())?)
+            .map_err(werr)?;
+        n += 1;
+    }
+    w.finish().map_err(werr)?;
+    Ok(n)
 }

@@ -97,6 +97,9 @@ pub struct CsvImuConfig {
     pub form: ImuForm,
     /// Roll, pitch, yaw [deg] of the sensor axes w.r.t. the vehicle body FRD (None = aligned).
     pub mount_rpy_deg: Option<[f64; 3]>,
+    /// A further small misalignment [deg] applied after the mounting
+    /// rotation: `c_sb = dcm_from_euler(misalign) · dcm_from_euler(mount)`.
+    pub misalign_rpy_deg: Option<[f64; 3]>,
     /// Reject a row whose six values equal the previous row's.
     pub reject_repeated_values: bool,
     /// Nominal rate [Hz] for the first sample's `dt` (None = first interval).
@@ -108,10 +111,14 @@ impl CsvImuConfig {
     /// comment), `gps_week,gps_tow_s,acc_x_g,acc_y_g,acc_z_g,gyro_x_dps,
     /// gyro_y_dps,gyro_z_dps`; rates in g and deg/s; sensor axes rotated
     /// roll 180°, yaw 180° from the vehicle FRD (upstream configuration, see
-    /// `data/README.md`; at rest this turns the +1 g z reading into −1 g).
-    /// The additional ≈ [0, −6.79, 5.35]° misalignment quoted there is an
-    /// installation estimate and is NOT in the preset: add it to
-    /// `mount_rpy_deg` if wanted. ~2 % repeated rows are rejected.
+    /// `data/README.md`; at rest this turns the +1 g z reading into −1 g),
+    /// then the upstream misalignment [0, −6.79, 5.35]° (`misalign_rpy_deg`).
+    /// Checked on the first 3 s at rest: the mean specific force becomes
+    /// (−0.01, 0.30, −9.93) m/s², the same direction as `kfgins/imu.txt`
+    /// (−0.00, 0.20, −10.2), which was prepared with the upstream
+    /// conventions (so this confirms the composition order, not the values).
+    /// Set `misalign_rpy_deg: None` for the pure axis flip. ~2 % repeated
+    /// rows are rejected.
     pub fn drive_0708() -> Self {
         CsvImuConfig {
             delimiter: b',',
@@ -129,6 +136,7 @@ impl CsvImuConfig {
             accel_unit: AccelUnit::G,
             form: ImuForm::RateTrapezoid,
             mount_rpy_deg: Some([180.0, 0.0, 180.0]),
+            misalign_rpy_deg: Some([0.0, -6.79, 5.35]),
             reject_repeated_values: true,
             nominal_rate_hz: None,
         }
@@ -165,6 +173,7 @@ impl CsvImuConfig {
             accel_unit: AccelUnit::Si,
             form: ImuForm::RateTrapezoid,
             mount_rpy_deg: None,
+            misalign_rpy_deg: None,
             reject_repeated_values: false,
             nominal_rate_hz: None,
         }
@@ -197,13 +206,17 @@ const DEFAULT_NAMES: [&str; 8] = [
 
 impl<R: BufRead> CsvImuReader<R> {
     pub fn new(rdr: R, file: &str, cfg: CsvImuConfig) -> Self {
-        let c_sb = cfg.mount_rpy_deg.map(|r| {
+        let dcm = |r: [f64; 3]| {
             navfuse_core::attitude::dcm_from_euler(&Vec3::new(
                 r[0].to_radians(),
                 r[1].to_radians(),
                 r[2].to_radians(),
             ))
-        });
+        };
+        let c_sb = match (cfg.mount_rpy_deg, cfg.misalign_rpy_deg) {
+            (None, None) => None,
+            (m, a) => Some(a.map_or(Mat3::identity(), dcm) * m.map_or(Mat3::identity(), dcm)),
+        };
         CsvImuReader {
             src: LineSource::new(rdr, file),
             asm: Assembler::new(cfg.form, cfg.nominal_rate_hz),
@@ -412,8 +425,40 @@ mod tests {
     fn drive_unmounted() -> CsvImuConfig {
         CsvImuConfig {
             mount_rpy_deg: None,
+            misalign_rpy_deg: None,
             ..CsvImuConfig::drive_0708()
         }
+    }
+
+    #[test]
+    fn mounting_rotates_sensor_vectors_into_body() {
+        // Sensor yawed +90° w.r.t. the body: its x axis points to body right (+y).
+        let data = "0,1,0,0,0.5,0,0\n0.01,1,0,0,0.5,0,0\n";
+        let cfg = CsvImuConfig {
+            columns: None,
+            time: CsvTime::Seconds(Col::Index(0)),
+            gyro: [4.into(), 5.into(), 6.into()],
+            accel: [1.into(), 2.into(), 3.into()],
+            accel_unit: AccelUnit::Si,
+            gyro_unit: GyroUnit::Rad,
+            mount_rpy_deg: Some([0.0, 0.0, 90.0]),
+            misalign_rpy_deg: None,
+            reject_repeated_values: false,
+            ..CsvImuConfig::drive_0708()
+        };
+        let v = read(data.as_bytes(), cfg).unwrap();
+        let (f, w) = (v[1].dvel_b / v[1].dt, v[1].dtheta_b / v[1].dt);
+        assert!((f - Vec3::new(0.0, 1.0, 0.0)).norm() < 1e-12, "{f}");
+        assert!((w - Vec3::new(0.0, 0.5, 0.0)).norm() < 1e-12, "{w}");
+        // drive_0708 preset: roll 180°, yaw 180° flips x and z; +1 g up-reading → −g in FRD.
+        let flip = CsvImuConfig {
+            misalign_rpy_deg: None,
+            ..CsvImuConfig::drive_0708()
+        };
+        let v = read(DRIVE.as_bytes(), flip).unwrap();
+        let f = v[1].dvel_b / v[1].dt;
+        let raw = Vec3::new(0.123, 0.0325, 0.999) * G0; // trapezoid mean of rows 1–2
+        assert!((f - Vec3::new(-raw.x, raw.y, -raw.z)).norm() < 1e-9, "{f}");
     }
     const DRIVE: &str =
         "# gps_week,gps_tow_s,acc_x_g,acc_y_g,acc_z_g,gyro_x_dps,gyro_y_dps,gyro_z_dps\n\
@@ -490,6 +535,7 @@ mod tests {
             "imu.csv",
             CsvImuConfig {
                 mount_rpy_deg: None,
+                misalign_rpy_deg: None,
                 ..cfg
             },
         );
@@ -503,6 +549,42 @@ mod tests {
         assert_eq!(r.stats().rejected_for(crate::imu::REASON_DUP_TIME), 1);
         assert_eq!(r.stats().rejected_for(crate::imu::REASON_BACKWARDS), 1);
         assert!(r.stats().is_balanced());
+    }
+
+    #[test]
+    fn increment_form_by_header_names_with_seconds_column() {
+        let data = "# increments\ntime_s,dax,day,daz,dvx,dvy,dvz\n100.00,0.5,0,0,0.01,0,-0.098\n100.02,0,1.0,0,0.02,0,-0.196\n";
+        let n = |s: &str| Col::Name(s.to_string());
+        let cfg = CsvImuConfig {
+            header: true,
+            columns: None,
+            time: CsvTime::Seconds(n("time_s")),
+            week: 2374,
+            gyro: [n("dax"), n("day"), n("daz")],
+            accel: [n("dvx"), n("dvy"), n("dvz")],
+            gyro_unit: GyroUnit::Deg,
+            accel_unit: AccelUnit::Si,
+            form: ImuForm::Increment,
+            mount_rpy_deg: None,
+            misalign_rpy_deg: None,
+            reject_repeated_values: false,
+            ..CsvImuConfig::drive_0708()
+        };
+        let v = read(data.as_bytes(), cfg.clone()).unwrap();
+        assert_eq!(v.len(), 2);
+        assert_eq!(v[1].t, 2374.0 * 604800.0 + 100.02);
+        assert!(
+            (v[0].dtheta_b.x - 0.5f64.to_radians()).abs() < 1e-15,
+            "deg → rad, passed through"
+        );
+        assert_eq!(v[1].dvel_b.z, -0.196);
+        assert!((v[0].dt - 0.02).abs() < 1e-12);
+        // A name map without a header line is a configuration error at line 1.
+        let no_hdr = CsvImuConfig {
+            header: false,
+            ..cfg
+        };
+        assert_err(read(b"1,2,3,4,5,6,7\n", no_hdr), "imu.csv", 1, "time_s");
     }
 
     const VN_HDR: &str = "Time [s],GpsCycle,GpsWeek,GpsTow [s],IMU::UncompAccel::X [m/s^2],IMU::UncompAccel::Y [m/s^2],\

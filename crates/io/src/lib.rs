@@ -1,7 +1,20 @@
 //! navfuse-io: streaming readers and writers. Units and frame conversions
 //! happen here and nowhere else; errors name file, line and field
-//! ([`ReadError`]), and every reader accounts for every input line
-//! ([`RecordStats`]).
+//! ([`ReadError`]: `FILE:LINE: field `NAME`: what is wrong`), and every
+//! reader accounts for every input line ([`RecordStats`]).
+//!
+//! Readers are iterators over a `BufRead` (one reused line buffer, no
+//! per-line allocation) yielding `Result<Record, ReadError>`; the first
+//! error ends the stream, and no byte input makes them panic (proptested).
+//!
+//! - [`kfgins`]: KF-GINS IMU, GNSS and `.nav` text → `ImuSample`, `GnssFix`, `NavSolution`
+//! - [`pos`]: RTKLIB `.pos` → `GnssFix` (with NED velocity)
+//! - [`csv_imu`]: generic CSV IMU with column map, units, mounting; presets
+//! - [`navcsv`]: navfuse trajectory CSV → `NavSolution`
+//! - [`imu`]: the rules turning stamped records into intervals (`dt`, integration)
+//! - [`writers`]: CSV, KF-GINS `.nav`, GeoJSON, KML, GPX
+//! - [`trajectory`]: formats by name/extension (used by `navfuse convert`)
+//! - [`time`]: GPS week/TOW ↔ GPS seconds ↔ GPST/UTC calendar
 
 pub mod csv_imu;
 pub mod data;
@@ -9,13 +22,20 @@ pub mod error;
 pub mod imu;
 pub mod kfgins;
 pub mod kfgins_yaml;
+pub mod live;
 pub mod navcsv;
+pub mod nmea;
 pub mod pos;
+pub mod rinex;
 pub mod text;
 pub mod time;
 pub mod trajectory;
+pub mod ubx;
 pub mod writers;
+pub mod yuma;
 
+#[cfg(test)]
+mod realdata;
 #[cfg(test)]
 mod testutil;
 

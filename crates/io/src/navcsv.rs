@@ -156,3 +156,77 @@ impl<R: BufRead> Iterator for NavCsvReader<R> {
         }
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::testutil::{assert_err, collect, token_lines};
+    use proptest::prelude::*;
+
+    const CSV: &str = "# comment\nt_gps_s,lat_deg,lon_deg,h_m,yaw_deg\n\
+1436038458.5,40.0966268,-105.1474483,1601.474,nan\n\
+1436038458.75,40.0966269,-105.1474484,1601.475,190.0\n";
+
+    fn read(d: &[u8]) -> Result<Vec<NavSolution>, ReadError> {
+        collect(NavCsvReader::new(d, "traj.csv"))
+    }
+    fn line2(v: &str) -> Vec<u8> {
+        CSV.replace("1436038458.75,40.0966269,-105.1474484,1601.475,190.0", v)
+            .into_bytes()
+    }
+
+    #[test]
+    fn reads_columns_by_name_with_optional_ones_unknown() {
+        let mut r = NavCsvReader::new(CSV.as_bytes(), "traj.csv");
+        let v: Vec<NavSolution> = r.by_ref().map(Result::unwrap).collect();
+        assert_eq!(v.len(), 2);
+        assert!(v[0].rpy.z.is_nan() && v[1].v_n.x.is_nan());
+        assert!((v[1].rpy.z.to_degrees() + 170.0).abs() < 1e-9, "wrapped");
+        assert_eq!((r.stats().skipped, r.stats().used), (2, 2));
+        assert_err(read(b"t_gps_s,lat_deg,h_m\n"), "traj.csv", 1, "lon_deg");
+    }
+
+    #[test]
+    fn corruptions_name_file_line_field() {
+        assert_err(
+            read(&line2("1436038458.75,40.0966269,-105.1")),
+            "traj.csv",
+            4,
+            "h_m",
+        );
+        assert_err(
+            read(&line2("1436038458.75,40.09.66269,-105.1474484,1601.475,1")),
+            "traj.csv",
+            4,
+            "lat_deg",
+        );
+        assert_err(
+            read(&line2("1436038458.75,40.0966269,-105.1474484,1601.475,1,2")),
+            "traj.csv",
+            4,
+            "<column 6>",
+        );
+        assert_err(
+            read(&line2("1436038458.75,40.0966269,nan,1601.475,1")),
+            "traj.csv",
+            4,
+            "lon_deg",
+        );
+        let mut b = line2("1436038458.75,40.0966269,-105.1474484,1601.4\u{1}75,1");
+        let i = b.iter().position(|&c| c == 1).unwrap();
+        b[i] = 0xff;
+        assert_err(read(&b), "traj.csv", 4, "h_m");
+    }
+
+    proptest! {
+        #[test]
+        fn never_panics(data in proptest::collection::vec(any::<u8>(), 0..300), lines in token_lines()) {
+            let _ = read(&data);
+            let d = [b"t_gps_s,lat_deg,lon_deg,h_m\n".as_slice(), &lines].concat();
+            let mut r = NavCsvReader::new(&d[..], "x");
+            if r.by_ref().all(|x| x.is_ok()) {
+                prop_assert!(r.stats().is_balanced());
+            }
+        }
+    }
+}

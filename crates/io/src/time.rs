@@ -315,6 +315,14 @@ mod tests {
         }
 
         #[test]
+        fn never_panics_on_any_time(t in any::<f64>(), d in 0u32..20) {
+            let _ = calendar_from_gps(t, TimeSystem::Utc, d);
+            let _ = iso8601_utc(t);
+            let _ = week_tow(t);
+            let _ = gps_minus_utc(t);
+        }
+
+        #[test]
         fn week_tow_round_trip(w in 0u32..5000, tow in 0.0f64..604_799.999) {
             let (w2, tow2) = week_tow(gps_seconds(w, tow));
             prop_assert_eq!(w2, w);

@@ -35,6 +35,8 @@ pub enum OutFormat {
     GeoJson,
     Kml,
     Gpx,
+    /// NMEA 0183 GGA + RMC + GST ([`crate::nmea::NmeaWriter`]).
+    Nmea,
 }
 
 fn ext(path: &Path) -> String {
@@ -57,7 +59,7 @@ impl InFormat {
 }
 
 impl OutFormat {
-    /// From the extension: `.csv`, `.nav`, `.geojson`/`.json`, `.kml`, `.gpx`.
+    /// From the extension: `.csv`, `.nav`, `.geojson`/`.json`, `.kml`, `.gpx`, `.nmea`.
     pub fn from_path(path: &Path) -> Option<Self> {
         match ext(path).as_str() {
             "csv" => Some(OutFormat::Csv),
@@ -65,6 +67,7 @@ impl OutFormat {
             "geojson" | "json" => Some(OutFormat::GeoJson),
             "kml" => Some(OutFormat::Kml),
             "gpx" => Some(OutFormat::Gpx),
+            "nmea" => Some(OutFormat::Nmea),
             _ => None,
         }
     }
@@ -152,6 +155,7 @@ pub fn writer<W: std::io::Write + 'static>(w: W, fmt: OutFormat) -> Box<dyn Traj
         OutFormat::GeoJson => Box::new(GeoJsonWriter::new(w)),
         OutFormat::Kml => Box::new(KmlWriter::new(w)),
         OutFormat::Gpx => Box::new(GpxWriter::new(w)),
+        OutFormat::Nmea => Box::new(crate::nmea::NmeaWriter::new(w)),
     }
 }
 

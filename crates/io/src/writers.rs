@@ -351,3 +351,249 @@ impl<W: Write> TrajectoryWriter for GpxWriter<W> {
         self.w.flush()
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use navfuse_core::types::Vec3;
+    use proptest::prelude::*;
+    use quick_xml::events::Event;
+
+    fn track() -> Vec<NavSolution> {
+        (0..4)
+            .map(|k| {
+                let mut s = NavSolution::unknown_at(crate::time::gps_seconds(
+                    2374,
+                    243_258.5 + k as f64 * 0.25,
+                ));
+                s.lat = (40.0966268 + k as f64 * 1e-5).to_radians();
+                s.lon = (-105.1474483 - k as f64 * 2e-5).to_radians();
+                s.h = 1601.474 + k as f64;
+                s.v_n = Vec3::new(1.0, -2.0, 0.25);
+                if k > 0 {
+                    s.rpy = Vec3::new(0.01, -0.02, 3.0);
+                    s.std_pos_ned = Vec3::new(0.01, 0.02, 0.03);
+                }
+                s
+            })
+            .collect()
+    }
+
+    fn render(fmt: crate::trajectory::OutFormat, sols: &[NavSolution]) -> String {
+        struct Shared(std::rc::Rc<std::cell::RefCell<Vec<u8>>>);
+        impl Write for Shared {
+            fn write(&mut self, b: &[u8]) -> io::Result<usize> {
+                self.0.borrow_mut().extend_from_slice(b);
+                Ok(b.len())
+            }
+            fn flush(&mut self) -> io::Result<()> {
+                Ok(())
+            }
+        }
+        let buf = std::rc::Rc::new(std::cell::RefCell::new(Vec::new()));
+        let mut w = crate::trajectory::writer(Shared(buf.clone()), fmt);
+        for s in sols {
+            w.write(s).unwrap();
+        }
+        w.finish().unwrap();
+        let out = String::from_utf8(buf.borrow().clone()).unwrap();
+        out
+    }
+
+    #[test]
+    fn geojson_is_a_feature_collection_of_points_and_a_linestring() {
+        use geojson::{GeoJson, GeometryValue as Value};
+        let sols = track();
+        let text = render(crate::trajectory::OutFormat::GeoJson, &sols);
+        let _: serde_json::Value = serde_json::from_str(&text).expect("valid JSON");
+        let GeoJson::FeatureCollection(fc) = text.parse::<GeoJson>().expect("valid GeoJSON") else {
+            panic!("not a FeatureCollection")
+        };
+        assert_eq!(fc.features.len(), sols.len() + 1);
+        let mut points = 0;
+        for f in &fc.features {
+            match &f.geometry.as_ref().unwrap().value {
+                Value::Point { coordinates: c } => {
+                    let s = &sols[points];
+                    assert!(
+                        (c[0] - s.lon.to_degrees()).abs() < 1e-9
+                            && (c[1] - s.lat.to_degrees()).abs() < 1e-9
+                    );
+                    assert!((c[2] - s.h).abs() < 1e-4);
+                    let p = f.properties.as_ref().unwrap();
+                    assert_eq!(p["gps_week"], 2374);
+                    assert!(
+                        (p["gps_tow"].as_f64().unwrap() - (243_258.5 + points as f64 * 0.25)).abs()
+                            < 1e-6
+                    );
+                    assert_eq!(p["v_ned"][1].as_f64(), Some(-2.0));
+                    if points == 0 {
+                        assert!(p["rpy_deg"][0].is_null(), "unknown attitude → null");
+                    } else {
+                        assert!(
+                            (p["rpy_deg"][2].as_f64().unwrap() - 3f64.to_degrees()).abs() < 1e-5
+                        );
+                        assert_eq!(p["std_pos_ned"][2].as_f64(), Some(0.03));
+                    }
+                    points += 1;
+                }
+                Value::LineString { coordinates: cs } => {
+                    assert_eq!(cs.len(), sols.len());
+                    assert!((cs[3][1] - sols[3].lat.to_degrees()).abs() < 1e-9);
+                }
+                v => panic!("unexpected geometry {v:?}"),
+            }
+        }
+        assert_eq!(points, sols.len());
+        // Empty and single-epoch tracks are still valid GeoJSON.
+        for n in [0, 1] {
+            let t = render(crate::trajectory::OutFormat::GeoJson, &sols[..n]);
+            let GeoJson::FeatureCollection(fc) = t.parse::<GeoJson>().unwrap() else {
+                panic!()
+            };
+            assert_eq!(fc.features.len(), n);
+        }
+    }
+
+    type XmlSummary = (Vec<String>, Vec<Vec<(String, String)>>, Vec<String>);
+
+    /// Parse XML fully (well-formedness, matching end tags); return
+    /// (element names in order, attributes of `attr_of` elements, texts of `text_of`).
+    fn xml(text: &str, attr_of: &str, text_of: &str) -> XmlSummary {
+        let mut r = quick_xml::Reader::from_str(text);
+        r.config_mut().trim_text(true);
+        let (mut names, mut attrs, mut texts) = (vec![], vec![], vec![]);
+        let mut cur = String::new();
+        loop {
+            match r.read_event().expect("well-formed XML") {
+                Event::Start(e) | Event::Empty(e) => {
+                    cur = String::from_utf8(e.name().as_ref().to_vec()).unwrap();
+                    if cur == attr_of {
+                        attrs.push(
+                            e.attributes()
+                                .map(|a| {
+                                    let a = a.unwrap();
+                                    (
+                                        String::from_utf8(a.key.as_ref().to_vec()).unwrap(),
+                                        String::from_utf8(a.value.to_vec()).unwrap(),
+                                    )
+                                })
+                                .collect(),
+                        );
+                    }
+                    names.push(cur.clone());
+                }
+                Event::Text(t) if cur == text_of => texts.push(t.unescape().unwrap().into_owned()),
+                Event::Eof => break,
+                _ => {}
+            }
+        }
+        (names, attrs, texts)
+    }
+
+    #[test]
+    fn kml_is_well_formed_with_absolute_linestring() {
+        let sols = track();
+        let text = render(crate::trajectory::OutFormat::Kml, &sols);
+        assert!(text.contains("xmlns=\"http://www.opengis.net/kml/2.2\""));
+        let (names, _, coords) = xml(&text, "", "coordinates");
+        for n in [
+            "kml",
+            "Document",
+            "Placemark",
+            "LineString",
+            "altitudeMode",
+            "coordinates",
+        ] {
+            assert!(names.iter().any(|x| x == n), "{n} missing");
+        }
+        let (_, _, modes) = xml(&text, "", "altitudeMode");
+        assert_eq!(modes, ["absolute"]);
+        let pts: Vec<Vec<f64>> = coords[0]
+            .split_whitespace()
+            .map(|p| p.split(',').map(|x| x.parse().unwrap()).collect())
+            .collect();
+        assert_eq!(pts.len(), sols.len());
+        assert!((pts[2][0] - sols[2].lon.to_degrees()).abs() < 1e-9);
+        assert!((pts[2][1] - sols[2].lat.to_degrees()).abs() < 1e-9);
+        assert!((pts[2][2] - sols[2].h).abs() < 1e-4);
+    }
+
+    #[test]
+    fn gpx_is_well_formed_with_utc_times() {
+        let sols = track();
+        let text = render(crate::trajectory::OutFormat::Gpx, &sols);
+        assert!(
+            text.contains("version=\"1.1\"") && text.contains("http://www.topografix.com/GPX/1/1")
+        );
+        let (names, attrs, times) = xml(&text, "trkpt", "time");
+        for n in ["gpx", "trk", "trkseg", "trkpt", "ele", "time"] {
+            assert!(names.iter().any(|x| x == n), "{n} missing");
+        }
+        assert_eq!(attrs.len(), sols.len());
+        let lat: f64 = attrs[1]
+            .iter()
+            .find(|a| a.0 == "lat")
+            .unwrap()
+            .1
+            .parse()
+            .unwrap();
+        assert!((lat - sols[1].lat.to_degrees()).abs() < 1e-9);
+        assert_eq!(times[0], "2025-07-08T19:34:00.500Z");
+        assert_eq!(times[3], "2025-07-08T19:34:01.250Z");
+        let (_, _, eles) = xml(&text, "", "ele");
+        assert_eq!(eles[1].parse::<f64>().unwrap(), 1602.474);
+    }
+
+    #[test]
+    fn non_finite_position_is_an_error() {
+        let mut s = track()[0];
+        s.lat = f64::NAN;
+        for fmt in [
+            crate::trajectory::OutFormat::GeoJson,
+            crate::trajectory::OutFormat::Kml,
+            crate::trajectory::OutFormat::Gpx,
+        ] {
+            let mut w = crate::trajectory::writer(io::sink(), fmt);
+            assert_eq!(w.write(&s).unwrap_err().kind(), io::ErrorKind::InvalidData);
+        }
+    }
+
+    fn close(a: f64, b: f64, tol: f64) -> bool {
+        (a.is_nan() && b.is_nan()) || (a - b).abs() <= tol
+    }
+
+    proptest! {
+        #[test]
+        fn csv_and_nav_round_trip(
+            tow in 0.0f64..604_799.0, week in 1u32..3000,
+            lat in -89.9f64..89.9, lon in -179.9f64..179.9, h in -500.0f64..9000.0,
+            v in proptest::array::uniform3(-300.0f64..300.0),
+            rpy in proptest::array::uniform3(-179.0f64..179.0),
+            nan_att in any::<bool>(),
+        ) {
+            let mut s = NavSolution::unknown_at(crate::time::gps_seconds(week, tow));
+            s.lat = lat.to_radians();
+            s.lon = lon.to_radians();
+            s.h = h;
+            s.v_n = Vec3::from(v);
+            s.rpy = if nan_att { Vec3::repeat(f64::NAN) } else { Vec3::from(rpy).map(f64::to_radians) };
+            s.std_pos_ned = Vec3::new(0.1, 0.2, 0.3);
+            let csv = render(crate::trajectory::OutFormat::Csv, &[s, s]);
+            let back: Vec<NavSolution> = crate::navcsv::NavCsvReader::new(csv.as_bytes(), "rt.csv").map(Result::unwrap).collect();
+            let nav = render(crate::trajectory::OutFormat::Nav, &[s]);
+            let back2: Vec<NavSolution> = crate::kfgins::KfGinsNavReader::new(nav.as_bytes(), "rt.nav", 0).map(Result::unwrap).collect();
+            prop_assert_eq!(back.len(), 2);
+            for b in [&back[0], &back2[0]] {
+                prop_assert!(close(b.t, s.t, 2e-6));
+                prop_assert!(close(b.lat, s.lat, 1e-11) && close(b.lon, s.lon, 1e-11) && close(b.h, s.h, 1e-4));
+                for k in 0..3 {
+                    prop_assert!(close(b.v_n[k], s.v_n[k], 1e-4));
+                    prop_assert!(close(b.rpy[k], s.rpy[k], 1e-7));
+                }
+            }
+            prop_assert!(close(back[0].std_pos_ned.z, 0.3, 1e-9));
+            prop_assert!(back[0].std_v_n.x.is_nan());
+        }
+    }
+}

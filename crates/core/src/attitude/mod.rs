@@ -4,8 +4,8 @@
 //! `q_bn` the equivalent unit quaternion (Hamilton, scalar first:
 //! `Quaternion::new(w, x, y, z)`, `v_n = q_bn ⊗ v_b ⊗ q_bn*`);
 //! Euler angles `rpy = (roll φ, pitch θ, yaw ψ)` in the ZYX sequence,
-//! `c_bn = Rz(ψ) Ry(θ) Rx(φ)` (`SEEDS.md §1` eq. 3–4; Groves 2nd ed. §2.2.1,
-//! eq. 2.22, 2.23). Yaw is wrapped to (−π, π]. Rotation vectors `phi` [rad]
+//! `c_bn = Rz(ψ) Ry(θ) Rx(φ)` (`SEEDS.md §1` eq. 3–4; Groves 2nd ed. §2.2).
+//! Yaw is wrapped to (−π, π]. Rotation vectors `phi` [rad]
 //! are axis·angle with `c = exp([phi×])` (Groves §2.2.4).
 //!
 //! Gimbal lock: where `cos θ` is below [`GIMBAL_LOCK_COS`], roll and yaw are not
@@ -29,7 +29,7 @@ pub fn skew(a: &Vec3) -> Mat3 {
     Mat3::new(0.0, -a.z, a.y, a.z, 0.0, -a.x, -a.y, a.x, 0.0)
 }
 
-/// DCM `c_bn` from roll, pitch, yaw (ZYX) [rad] (`SEEDS.md §1` eq. 3; Groves eq. 2.22).
+/// DCM `c_bn` from roll, pitch, yaw (ZYX) [rad] (`SEEDS.md §1` eq. 3; Groves 2nd ed. §2.2.2).
 pub fn dcm_from_euler(rpy: &Vec3) -> Mat3 {
     let (sr, cr) = rpy.x.sin_cos();
     let (sp, cp) = rpy.y.sin_cos();
@@ -47,7 +47,7 @@ pub fn dcm_from_euler(rpy: &Vec3) -> Mat3 {
     )
 }
 
-/// Roll, pitch, yaw (ZYX) [rad] from `c_bn` (`SEEDS.md §1` eq. 4; Groves eq. 2.23),
+/// Roll, pitch, yaw (ZYX) [rad] from `c_bn` (`SEEDS.md §1` eq. 4; Groves §2.2.2),
 /// robust near ±90° pitch.
 ///
 /// θ = atan2(−C31, √(C11² + C21²)), ψ = atan2(C21, C11), and roll from the
@@ -71,7 +71,7 @@ pub fn euler_from_dcm(c_bn: &Mat3) -> Vec3 {
 }
 
 /// Quaternion `q_bn` from roll, pitch, yaw [rad]: `q = q_z(ψ) ⊗ q_y(θ) ⊗ q_x(φ)`
-/// (Groves eq. 2.38 for the nav-to-body conjugate).
+/// (Groves §2.2.3).
 pub fn quat_from_euler(rpy: &Vec3) -> Quaternion<f64> {
     let (sr, cr) = (0.5 * rpy.x).sin_cos();
     let (sp, cp) = (0.5 * rpy.y).sin_cos();
@@ -90,7 +90,7 @@ pub fn euler_from_quat(q_bn: &Quaternion<f64>) -> Vec3 {
     euler_from_dcm(&dcm_from_quat(q_bn))
 }
 
-/// DCM from a quaternion (Groves eq. 2.34). Non-unit input is treated as its
+/// DCM from a quaternion (Groves §2.2.3). Non-unit input is treated as its
 /// normalised direction (the formula divides by |q|²).
 pub fn dcm_from_quat(q: &Quaternion<f64>) -> Mat3 {
     let (w, x, y, z) = (q.w, q.i, q.j, q.k);
@@ -175,7 +175,7 @@ pub fn quat_from_dcm(c: &Mat3) -> Quaternion<f64> {
     }
 }
 
-/// Quaternion of the rotation vector `phi` [rad] (exponential map, Groves eq. 5.75):
+/// Quaternion of the rotation vector `phi` [rad] (exponential map, Groves §2.2.4):
 /// `q = (cos(|φ|/2), sin(|φ|/2)/|φ| · φ)`, with a Taylor series for small |φ|.
 pub fn quat_from_rotvec(phi: &Vec3) -> Quaternion<f64> {
     let a2 = phi.norm_squared();
@@ -208,7 +208,7 @@ pub fn rotvec_from_quat(q: &Quaternion<f64>) -> Vec3 {
     v * (theta / s)
 }
 
-/// DCM of the rotation vector `phi` [rad] (Rodrigues, Groves eq. 2.26):
+/// DCM of the rotation vector `phi` [rad] (Rodrigues, Groves §2.2.4):
 /// `C = I + (sin a / a) [φ×] + ((1 − cos a)/a²) [φ×]²`, a = |φ|.
 pub fn dcm_from_rotvec(phi: &Vec3) -> Mat3 {
     let a2 = phi.norm_squared();
@@ -233,7 +233,7 @@ pub fn rotvec_from_dcm(c: &Mat3) -> Vec3 {
     rotvec_from_quat(&quat_from_dcm(c))
 }
 
-/// Hamilton product `p ⊗ q` (Groves eq. 2.32 convention: `q_ac = q_ab ⊗ q_bc`).
+/// Hamilton product `p ⊗ q` (Groves §2.2.3 convention: `q_ac = q_ab ⊗ q_bc`).
 #[inline]
 pub fn quat_mul(p: &Quaternion<f64>, q: &Quaternion<f64>) -> Quaternion<f64> {
     Quaternion::new(
@@ -271,7 +271,7 @@ pub fn quat_is_finite_unit(q: &Quaternion<f64>) -> bool {
 }
 
 /// Body-frame attitude update `q_bn ← q_bn ⊗ q(Δθ_b)`, then renormalised
-/// (Groves eq. 5.75–5.76 without the nav-frame rotation term, which the caller
+/// (Groves ch. 5 attitude update, without the nav-frame rotation term, which the caller
 /// applies as `q_nn ⊗ q_bn` if needed). `dtheta_b` is the body rotation
 /// increment [rad] over the step (coning-corrected by the caller).
 #[inline]

@@ -1,0 +1,744 @@
+//! `navfuse live`: fuse a live GNSS stream (gpsd, NMEA on stdin/TCP/serial
+//! device) with live IMU lines (stdin, a file being written, TCP) and write
+//! solutions at the IMU rate as JSON lines or NMEA.
+//!
+//! The estimator runs through the [`Estimator`] trait, fed by
+//! [`navfuse_io::live::Sequencer`], which reproduces the event order of a
+//! batch run (time order, IMU before GNSS at equal times), so live and batch
+//! solutions agree whenever no event had to be released by timeout (the
+//! summary counts those). Every input line is counted used, skipped or
+//! rejected by reason; the summary is printed to stderr on exit (end of the
+//! IMU input) and, with `--summary-json`, written as JSON.
+//!
+//! Threads: one per input source reading lines (blocking I/O), the main
+//! thread sequencing, estimating and writing. Channels are bounded, so a
+//! slow consumer back-pressures the readers instead of growing memory.
+
+use clap::{Args as ClapArgs, ValueEnum};
+use navfuse_core::types::{Event, GnssFix, NavSolution};
+use navfuse_core::Estimator;
+use navfuse_io::live::{
+    FollowReader, GpsdAssembler, GpsdLine, ImuLineParser, LatencyHistogram, Sequencer,
+};
+use navfuse_io::nmea::{NmeaOptions, NmeaReader, NmeaWriter};
+use navfuse_io::time::week_tow;
+use navfuse_io::writers::TrajectoryWriter;
+use navfuse_io::RecordStats;
+use std::io::{self, BufRead, BufReader, Read, Write};
+use std::net::TcpStream;
+use std::path::PathBuf;
+use std::sync::mpsc::{sync_channel, RecvTimeoutError, SyncSender};
+use std::time::{Duration, Instant};
+
+/// Output formats.
+#[derive(Clone, Copy, Debug, ValueEnum, PartialEq, Eq)]
+pub enum Format {
+    /// One JSON object per solution (full precision).
+    Json,
+    /// NMEA GGA + RMC (+ GST) per solution.
+    Nmea,
+}
+
+/// Fuse live GNSS (gpsd / NMEA) and IMU streams; solutions at the IMU rate.
+#[derive(ClapArgs, Debug)]
+pub struct Args {
+    /// GNSS source: `gpsd` or `gpsd:HOST:PORT` (gpsd JSON, default
+    /// 127.0.0.1:2947); `nmea:-` (stdin); `nmea:PATH` (file or serial device,
+    /// configured beforehand, e.g. with stty); `nmea-tcp:HOST:PORT`; `none`.
+    #[arg(long, default_value = "gpsd")]
+    pub gnss: String,
+    /// IMU source, KF-GINS lines `tow Δθxyz[rad] Δvxyz[m/s]` (body FRD):
+    /// `-` (stdin), a file path (followed while it is being written), or
+    /// `tcp:HOST:PORT`.
+    #[arg(long, default_value = "-")]
+    pub imu: String,
+    /// GPS week of the IMU time-of-week stamps.
+    #[arg(long)]
+    pub gps_week: u32,
+    /// Nominal IMU rate [Hz] (gives the first sample's interval).
+    #[arg(long, default_value_t = 100.0)]
+    pub imu_rate: f64,
+    /// Estimator: `hold` (test estimator: last GNSS position at every IMU
+    /// sample; not a navigation filter) or `eskf` (needs `--kfgins-config`).
+    #[arg(long, default_value = "hold")]
+    pub estimator: String,
+    /// KF-GINS YAML configuration for `--estimator eskf`: the ESKF is built
+    /// exactly as `navfuse kf-gins` builds it (model, initial state, its
+    /// start/end time window; times are handed to it as time of week, and the
+    /// first solution is not written, as there) so both give the same
+    /// solutions on the same data. The YAML's input paths are not read.
+    #[arg(long)]
+    pub kfgins_config: Option<PathBuf>,
+    /// With `--kfgins-config`: navfuse's land-vehicle additions (as `kf-gins --enhanced`).
+    #[arg(long)]
+    pub enhanced: bool,
+    /// Output file (default stdout).
+    #[arg(long)]
+    pub out: Option<PathBuf>,
+    /// Output format.
+    #[arg(long, value_enum, default_value_t = Format::Json)]
+    pub format: Format,
+    /// Longest wall-clock wait [s] of an event for the other stream before it
+    /// is released anyway (counted in the summary).
+    #[arg(long, default_value_t = 1.0)]
+    pub max_wait: f64,
+    /// Seconds without new bytes after which a followed IMU file has ended.
+    #[arg(long, default_value_t = 5.0)]
+    pub idle: f64,
+    /// Seconds to keep retrying a lost TCP IMU/NMEA connection before ending it.
+    #[arg(long, default_value_t = 10.0)]
+    pub reconnect_for: f64,
+    /// Write the run summary as JSON to this file too.
+    #[arg(long)]
+    pub summary_json: Option<PathBuf>,
+}
+
+/// A message from a source thread.
+enum Msg {
+    ImuLine(Vec<u8>, Instant),
+    ImuEnd,
+    ImuNote(String),
+    GpsdLine(Vec<u8>, Instant),
+    Fix(GnssFix, Instant),
+    GnssStats(RecordStats),
+    GnssNote(String),
+    GnssEnd,
+    Reconnect(&'static str),
+}
+
+/// Test estimator: the last GNSS position (and its σ) at every IMU sample.
+/// Its output depends on the event order, which makes it a sharp check of
+/// the sequencing; it is not a navigation filter.
+pub struct HoldLastFix {
+    last: Option<GnssFix>,
+}
+
+impl Estimator for HoldLastFix {
+    fn name(&self) -> &'static str {
+        "hold"
+    }
+    fn push(&mut self, ev: &Event) -> Option<NavSolution> {
+        match ev {
+            Event::Gnss(f) => {
+                self.last = Some(*f);
+                None
+            }
+            Event::Imu(s) => self.last.map(|f| {
+                let mut n = NavSolution::unknown_at(s.t);
+                n.lat = f.lat;
+                n.lon = f.lon;
+                n.h = f.h;
+                n.std_pos_ned = f.std_ned;
+                n.v_n = navfuse_core::types::Vec3::repeat(f64::NAN);
+                n
+            }),
+        }
+    }
+}
+
+/// The estimator named `name`.
+pub fn make_estimator(name: &str) -> Result<Box<dyn Estimator>, String> {
+    match name {
+        "hold" => Ok(Box::new(HoldLastFix { last: None })),
+        "eskf" => Err("--estimator eskf needs --kfgins-config YAML".into()),
+        other => Err(format!(
+            "unknown estimator {other:?} (available: hold, eskf)"
+        )),
+    }
+}
+
+/// How `navfuse kf-gins` presents events to its ESKF: times as time of week,
+/// IMU from `start` (inclusive), fixes after `start`, up to `end`; the first
+/// solution only initialises.
+#[derive(Clone, Copy, Debug)]
+struct KfGinsFrame {
+    week_s: f64,
+    start: f64,
+    end: f64,
+}
+
+/// The ESKF of `navfuse kf-gins` from a KF-GINS YAML.
+fn kfgins_eskf(
+    path: &std::path::Path,
+    enhanced: bool,
+    week: u32,
+) -> Result<(Box<dyn Estimator>, KfGinsFrame), String> {
+    use navfuse_core::estimators::eskf::Eskf;
+    let cfg = navfuse_io::kfgins_yaml::KfGinsConfig::load(path)?;
+    let mut ecfg = cfg.eskf_config();
+    if enhanced {
+        ecfg = crate::kf_gins::enhanced(ecfg);
+    }
+    let eskf = Eskf::new(ecfg, cfg.init_nav(), cfg.init_errors(), &cfg.init_std());
+    let end = if cfg.endtime < 0.0 {
+        f64::INFINITY
+    } else {
+        cfg.endtime
+    };
+    Ok((
+        Box::new(eskf),
+        KfGinsFrame {
+            week_s: f64::from(week) * navfuse_io::time::SECONDS_PER_WEEK,
+            start: cfg.starttime,
+            end,
+        },
+    ))
+}
+
+impl KfGinsFrame {
+    /// The event as kf-gins hands it over, or the reason it does not.
+    fn map(&self, ev: &Event) -> Result<Event, &'static str> {
+        match *ev {
+            Event::Imu(mut s) => {
+                s.t -= self.week_s;
+                if s.t < self.start {
+                    Err("IMU before the configured start time")
+                } else if s.t > self.end {
+                    Err("IMU after the configured end time")
+                } else {
+                    Ok(Event::Imu(s))
+                }
+            }
+            Event::Gnss(mut f) => {
+                f.t -= self.week_s;
+                if f.t <= self.start {
+                    Err("GNSS at/before the configured start time")
+                } else {
+                    Ok(Event::Gnss(f))
+                }
+            }
+        }
+    }
+}
+
+fn connect(addr: &str) -> io::Result<TcpStream> {
+    let s = TcpStream::connect(addr)?;
+    s.set_nodelay(true).ok();
+    Ok(s)
+}
+
+/// Read lines from `r`, sending each with its arrival time. Returns at EOF.
+fn pump_lines(
+    r: impl Read,
+    tx: &SyncSender<Msg>,
+    mk: impl Fn(Vec<u8>, Instant) -> Msg,
+) -> io::Result<()> {
+    let mut r = BufReader::with_capacity(1 << 16, r);
+    let mut buf = Vec::with_capacity(256);
+    loop {
+        buf.clear();
+        // Bound a line's length: a line longer than 64 KiB is cut (and will be rejected).
+        let n = (&mut r).take(1 << 16).read_until(b'\n', &mut buf)?;
+        if n == 0 {
+            return Ok(());
+        }
+        let now = Instant::now();
+        if tx.send(mk(buf.clone(), now)).is_err() {
+            return Ok(());
+        }
+    }
+}
+
+fn spawn_imu(spec: &str, idle: f64, reconnect_for: f64, tx: SyncSender<Msg>) {
+    let spec = spec.to_string();
+    std::thread::spawn(move || {
+        let mk = Msg::ImuLine;
+        let res = if spec == "-" {
+            pump_lines(io::stdin().lock(), &tx, mk)
+        } else if let Some(addr) = spec.strip_prefix("tcp:") {
+            let mut last_ok = Instant::now();
+            loop {
+                match connect(addr) {
+                    Ok(s) => {
+                        let r = pump_lines(s, &tx, mk);
+                        let _ = tx.send(Msg::Reconnect("imu"));
+                        if let Err(e) = r {
+                            let _ = tx.send(Msg::ImuNote(format!("imu {addr}: {e}")));
+                        }
+                        last_ok = Instant::now();
+                    }
+                    Err(e) => {
+                        if last_ok.elapsed().as_secs_f64() > reconnect_for {
+                            let _ = tx.send(Msg::ImuNote(format!("imu {addr}: giving up: {e}")));
+                            break Ok(());
+                        }
+                    }
+                }
+                std::thread::sleep(Duration::from_millis(200));
+            }
+        } else {
+            match std::fs::File::open(&spec) {
+                Ok(f) => pump_lines(FollowReader::new(f, Duration::from_secs_f64(idle)), &tx, mk),
+                Err(e) => Err(io::Error::new(e.kind(), format!("{spec}: {e}"))),
+            }
+        };
+        if let Err(e) = res {
+            let _ = tx.send(Msg::ImuNote(format!("imu: {e}")));
+        }
+        let _ = tx.send(Msg::ImuEnd);
+    });
+}
+
+fn nmea_source(r: impl BufRead, name: &str, tx: &SyncSender<Msg>) {
+    let mut rd = NmeaReader::new(r, name, NmeaOptions::default());
+    for f in rd.by_ref() {
+        match f {
+            Ok(f) => {
+                if tx.send(Msg::Fix(f, Instant::now())).is_err() {
+                    return;
+                }
+            }
+            Err(e) => {
+                let _ = tx.send(Msg::GnssNote(e.to_string()));
+            }
+        }
+    }
+    if let Some(e) = rd.last_rejection() {
+        let _ = tx.send(Msg::GnssNote(format!("last rejected NMEA line: {e}")));
+    }
+    let _ = tx.send(Msg::GnssStats(rd.stats().clone()));
+}
+
+fn spawn_gnss(spec: &str, reconnect_for: f64, tx: SyncSender<Msg>) -> Result<(), String> {
+    let spec = spec.to_string();
+    if spec == "none" {
+        let _ = tx.send(Msg::GnssEnd);
+        return Ok(());
+    }
+    if !(spec == "gpsd"
+        || spec.starts_with("gpsd:")
+        || spec.starts_with("nmea:")
+        || spec.starts_with("nmea-tcp:"))
+    {
+        return Err(format!(
+            "--gnss {spec:?}: expected gpsd[:HOST:PORT], nmea:-, nmea:PATH, nmea-tcp:HOST:PORT or none"
+        ));
+    }
+    std::thread::spawn(move || {
+        if spec == "gpsd" || spec.starts_with("gpsd:") {
+            let addr = spec
+                .strip_prefix("gpsd:")
+                .unwrap_or("127.0.0.1:2947")
+                .to_string();
+            // gpsd: reconnect for as long as the run lasts.
+            loop {
+                match connect(&addr) {
+                    Ok(mut s) => {
+                        let w = s.write_all(b"?WATCH={\"enable\":true,\"json\":true};\n");
+                        if w.is_ok() {
+                            let _ = pump_lines(s, &tx, Msg::GpsdLine);
+                        }
+                        if tx.send(Msg::Reconnect("gpsd")).is_err() {
+                            return;
+                        }
+                    }
+                    Err(e) => {
+                        if tx
+                            .send(Msg::GnssNote(format!("gpsd {addr}: {e}; retrying")))
+                            .is_err()
+                        {
+                            return;
+                        }
+                    }
+                }
+                std::thread::sleep(Duration::from_millis(250));
+            }
+        } else if let Some(addr) = spec.strip_prefix("nmea-tcp:") {
+            let mut last_ok = Instant::now();
+            loop {
+                match connect(addr) {
+                    Ok(s) => {
+                        nmea_source(BufReader::new(s), addr, &tx);
+                        let _ = tx.send(Msg::Reconnect("nmea-tcp"));
+                        last_ok = Instant::now();
+                    }
+                    Err(e) => {
+                        if last_ok.elapsed().as_secs_f64() > reconnect_for {
+                            let _ = tx.send(Msg::GnssNote(format!("{addr}: giving up: {e}")));
+                            break;
+                        }
+                    }
+                }
+                std::thread::sleep(Duration::from_millis(200));
+            }
+        } else {
+            let path = spec.strip_prefix("nmea:").unwrap_or("-");
+            if path == "-" {
+                nmea_source(io::stdin().lock(), "<stdin>", &tx);
+            } else {
+                match std::fs::File::open(path) {
+                    Ok(f) => nmea_source(BufReader::new(f), path, &tx),
+                    Err(e) => {
+                        let _ = tx.send(Msg::GnssNote(format!("{path}: cannot open: {e}")));
+                    }
+                }
+            }
+        }
+        let _ = tx.send(Msg::GnssEnd);
+    });
+    Ok(())
+}
+
+fn jnum(x: f64, d: usize) -> String {
+    if x.is_finite() {
+        format!("{x:.d$}")
+    } else {
+        "null".into()
+    }
+}
+
+fn json_line(s: &NavSolution) -> String {
+    let (w, tow) = week_tow(s.t);
+    format!(
+        "{{\"t\":{},\"week\":{w},\"tow\":{},\"lat\":{},\"lon\":{},\"h\":{},\"vn\":{},\"ve\":{},\"vd\":{},\"roll\":{},\"pitch\":{},\"yaw\":{},\"sn\":{},\"se\":{},\"sd\":{}}}\n",
+        jnum(s.t, 6),
+        jnum(tow, 6),
+        jnum(s.lat.to_degrees(), 11),
+        jnum(s.lon.to_degrees(), 11),
+        jnum(s.h, 5),
+        jnum(s.v_n.x, 5),
+        jnum(s.v_n.y, 5),
+        jnum(s.v_n.z, 5),
+        jnum(s.rpy.x.to_degrees(), 6),
+        jnum(s.rpy.y.to_degrees(), 6),
+        jnum(s.rpy.z.to_degrees(), 6),
+        jnum(s.std_pos_ned.x, 5),
+        jnum(s.std_pos_ned.y, 5),
+        jnum(s.std_pos_ned.z, 5),
+    )
+}
+
+enum Out {
+    Json(Box<dyn Write>),
+    Nmea(NmeaWriter<Box<dyn Write>>),
+}
+
+impl Out {
+    fn write(&mut self, s: &NavSolution) -> io::Result<()> {
+        match self {
+            Out::Json(w) => {
+                w.write_all(json_line(s).as_bytes())?;
+                w.flush()
+            }
+            Out::Nmea(w) => {
+                w.write(s)?;
+                w.finish()
+            }
+        }
+    }
+}
+
+fn stats_json(s: &RecordStats) -> String {
+    let rej: Vec<String> = s
+        .rejected
+        .iter()
+        .map(|(r, n)| format!("{}:{n}", serde_json::to_string(r).unwrap_or_default()))
+        .collect();
+    format!(
+        "{{\"lines\":{},\"used\":{},\"skipped\":{},\"rejected\":{{{}}}}}",
+        s.lines,
+        s.used,
+        s.skipped,
+        rej.join(",")
+    )
+}
+
+pub fn run(args: Args) -> Result<(), String> {
+    if args.gnss == "nmea:-" && args.imu == "-" {
+        return Err("--gnss nmea:- and --imu - cannot both read stdin".into());
+    }
+    if !(args.max_wait.is_finite() && args.max_wait >= 0.0) {
+        return Err(format!("--max-wait {}: must be ≥ 0", args.max_wait));
+    }
+    let (mut est, frame) = match (&args.kfgins_config, args.estimator.as_str()) {
+        (Some(p), "eskf") => {
+            let (e, f) = kfgins_eskf(p, args.enhanced, args.gps_week)?;
+            (e, Some(f))
+        }
+        (Some(_), other) => {
+            return Err(format!(
+                "--kfgins-config goes with --estimator eskf, not {other:?}"
+            ))
+        }
+        (None, name) => (make_estimator(name)?, None),
+    };
+    let mut outside: Vec<(&'static str, u64)> = Vec::new();
+    let mut first_pending = frame.is_some();
+    let sink: Box<dyn Write> = match &args.out {
+        Some(p) => Box::new(io::BufWriter::new(
+            std::fs::File::create(p).map_err(|e| format!("{}: cannot create: {e}", p.display()))?,
+        )),
+        None => Box::new(io::BufWriter::new(io::stdout())),
+    };
+    let mut out = match args.format {
+        Format::Json => Out::Json(sink),
+        Format::Nmea => Out::Nmea(NmeaWriter::new(sink)),
+    };
+
+    let (tx, rx) = sync_channel::<Msg>(4096);
+    spawn_gnss(&args.gnss, args.reconnect_for, tx.clone())?;
+    spawn_imu(&args.imu, args.idle, args.reconnect_for, tx);
+
+    let t0 = Instant::now();
+    let secs = |i: Instant| i.duration_since(t0).as_secs_f64();
+    let mut seq = Sequencer::new(args.max_wait, 1 << 17);
+    let mut imu = ImuLineParser::new(args.gps_week, Some(args.imu_rate));
+    let mut gpsd = GpsdAssembler::new();
+    let mut gpsd_stats = RecordStats::default();
+    let mut nmea_stats = RecordStats::default();
+    let mut notes: Vec<String> = Vec::new();
+    let mut imu_notes = 0u64;
+    let mut reconnects: Vec<(&'static str, u64)> = Vec::new();
+    let mut lat = LatencyHistogram::default();
+    let mut samples = Vec::with_capacity(2);
+    let (mut n_sol, mut n_imu_nosol, mut n_gnss_sol) = (0u64, 0u64, 0u64);
+    let mut gnss_ended = false;
+    let note = |notes: &mut Vec<String>, s: String| {
+        if notes.len() < 20 {
+            notes.push(s);
+        }
+    };
+
+    loop {
+        let msg = rx.recv_timeout(Duration::from_millis(5));
+        let now = Instant::now();
+        match msg {
+            Ok(Msg::ImuLine(b, at)) => {
+                samples.clear();
+                if let Err((_, m)) = imu.push_line(&b, &mut samples) {
+                    imu_notes += 1;
+                    note(&mut notes, format!("imu line {}: {m}", imu.stats.lines));
+                }
+                for s in &samples {
+                    seq.push_imu(*s, secs(at));
+                }
+            }
+            Ok(Msg::ImuEnd) => {
+                imu.finish();
+                seq.end_imu();
+            }
+            Ok(Msg::ImuNote(m)) => note(&mut notes, m),
+            Ok(Msg::GpsdLine(b, at)) => {
+                gpsd_stats.lines += 1;
+                match gpsd.push_line(&b) {
+                    GpsdLine::Ignored => gpsd_stats.skipped += 1,
+                    GpsdLine::Held => gpsd_stats.used += 1,
+                    GpsdLine::Rejected(r, m) => {
+                        gpsd_stats.reject(r);
+                        note(
+                            &mut notes,
+                            format!("gpsd line {}: {r}: {m}", gpsd_stats.lines),
+                        );
+                    }
+                }
+                while let Some(f) = gpsd.pop() {
+                    seq.push_gnss(f, secs(at));
+                }
+                seq.gnss_time_seen(gpsd.horizon());
+            }
+            Ok(Msg::Fix(f, at)) => {
+                seq.push_gnss(f, secs(at));
+            }
+            Ok(Msg::GnssStats(s)) => {
+                nmea_stats.lines += s.lines;
+                nmea_stats.used += s.used;
+                nmea_stats.skipped += s.skipped;
+                for (r, n) in s.rejected {
+                    for _ in 0..n {
+                        nmea_stats.reject(r);
+                    }
+                }
+            }
+            Ok(Msg::GnssNote(m)) => note(&mut notes, m),
+            Ok(Msg::GnssEnd) => {
+                gnss_ended = true;
+                gpsd.flush();
+                while let Some(f) = gpsd.pop() {
+                    seq.push_gnss(f, secs(now));
+                }
+                seq.end_gnss();
+            }
+            Ok(Msg::Reconnect(what)) => {
+                if what == "gpsd" {
+                    // A held epoch will not be completed by the new connection.
+                    gpsd.flush();
+                    while let Some(f) = gpsd.pop() {
+                        seq.push_gnss(f, secs(now));
+                    }
+                }
+                match reconnects.iter_mut().find(|r| r.0 == what) {
+                    Some(r) => r.1 += 1,
+                    None => reconnects.push((what, 1)),
+                }
+            }
+            Err(RecvTimeoutError::Timeout) => {}
+            Err(RecvTimeoutError::Disconnected) => {
+                seq.end_imu();
+                seq.end_gnss();
+            }
+        }
+        // Release whatever may go now.
+        let nows = secs(Instant::now());
+        while let Some((ev, arr)) = seq.pop(nows) {
+            let ev = match frame.map(|f| f.map(&ev)) {
+                None => ev,
+                Some(Ok(e)) => e,
+                Some(Err(why)) => {
+                    match outside.iter_mut().find(|o| o.0 == why) {
+                        Some(o) => o.1 += 1,
+                        None => outside.push((why, 1)),
+                    }
+                    continue;
+                }
+            };
+            let sol = est.push(&ev);
+            if sol.is_some() && first_pending && matches!(ev, Event::Imu(_)) {
+                // kf-gins: the first sample only initialises (not written).
+                first_pending = false;
+                n_imu_nosol += 1;
+                continue;
+            }
+            match sol {
+                Some(sol) => {
+                    out.write(&sol).map_err(|e| format!("output: {e}"))?;
+                    n_sol += 1;
+                    match ev {
+                        Event::Imu(_) => lat.add(secs(Instant::now()) - arr),
+                        Event::Gnss(_) => n_gnss_sol += 1,
+                    }
+                }
+                None => {
+                    if matches!(ev, Event::Imu(_)) {
+                        n_imu_nosol += 1;
+                    }
+                }
+            }
+        }
+        if seq.imu_ended() && seq.queued().0 == 0 {
+            // Remaining GNSS fixes (if any) go to the estimator too, then stop.
+            seq.end_gnss();
+            while let Some((ev, _)) = seq.pop(f64::INFINITY) {
+                if frame.is_some() {
+                    // kf-gins hands no fix over after the last IMU sample.
+                    continue;
+                }
+                if let Some(sol) = est.push(&ev) {
+                    out.write(&sol).map_err(|e| format!("output: {e}"))?;
+                    n_sol += 1;
+                    n_gnss_sol += 1;
+                }
+            }
+            break;
+        }
+    }
+
+    let q = &seq.stats;
+    let gnss_stats = if nmea_stats.lines > 0 {
+        &nmea_stats
+    } else {
+        &gpsd_stats
+    };
+    let gnss_label = if nmea_stats.lines > 0 { "NMEA" } else { "gpsd" };
+    let mut e = io::stderr().lock();
+    let _ = writeln!(
+        e,
+        "live: estimator {} ({:.1} s wall)",
+        est.name(),
+        t0.elapsed().as_secs_f64()
+    );
+    let _ = writeln!(e, "  IMU input: {}", imu.stats);
+    let _ = writeln!(
+        e,
+        "  GNSS input ({gnss_label}): {gnss_stats}{}",
+        if gnss_ended {
+            ""
+        } else {
+            " (source still open)"
+        }
+    );
+    let _ = writeln!(
+        e,
+        "  sequencer: IMU {} in / {} out / {} late, GNSS {} in / {} out / {} late; released by timeout: IMU {}, GNSS {}; by queue bound {}",
+        q.imu_in, q.imu_out, q.imu_late, q.gnss_in, q.gnss_out, q.gnss_late,
+        q.imu_released_by_timeout, q.gnss_released_by_timeout, q.released_by_bound
+    );
+    let _ = writeln!(
+        e,
+        "  solutions: {n_sol} written ({n_gnss_sol} at GNSS events); {n_imu_nosol} IMU samples without a solution (estimator not initialised)"
+    );
+    let _ = writeln!(
+        e,
+        "  latency (IMU line read → solution written): p50 {:.3} ms, p99 {:.3} ms, max {:.3} ms over {} samples",
+        lat.quantile(0.5) * 1e3,
+        lat.quantile(0.99) * 1e3,
+        lat.max() * 1e3,
+        lat.count()
+    );
+    if !reconnects.is_empty() {
+        let _ = writeln!(e, "  reconnects: {reconnects:?}");
+    }
+    if !outside.is_empty() {
+        let _ = writeln!(
+            e,
+            "  not handed to the estimator (kf-gins time window): {outside:?}"
+        );
+    }
+    for n in &notes {
+        let _ = writeln!(e, "  note: {n}");
+    }
+    if imu_notes > notes.len() as u64 {
+        let _ = writeln!(e, "  ({imu_notes} IMU rejections in total)");
+    }
+    if let Some(p) = &args.summary_json {
+        let j = format!(
+            "{{\"estimator\":\"{}\",\"imu\":{},\"gnss\":{},\"gnss_source\":\"{gnss_label}\",\"imu_in\":{},\"imu_out\":{},\"imu_late\":{},\"gnss_in\":{},\"gnss_out\":{},\"gnss_late\":{},\"imu_released_by_timeout\":{},\"gnss_released_by_timeout\":{},\"released_by_bound\":{},\"solutions\":{n_sol},\"imu_without_solution\":{n_imu_nosol},\"latency_p50_ms\":{},\"latency_p99_ms\":{},\"latency_max_ms\":{},\"latency_n\":{}}}\n",
+            est.name(),
+            stats_json(&imu.stats),
+            stats_json(gnss_stats),
+            q.imu_in, q.imu_out, q.imu_late, q.gnss_in, q.gnss_out, q.gnss_late,
+            q.imu_released_by_timeout, q.gnss_released_by_timeout, q.released_by_bound,
+            jnum(lat.quantile(0.5) * 1e3, 4),
+            jnum(lat.quantile(0.99) * 1e3, 4),
+            jnum(lat.max() * 1e3, 4),
+            lat.count()
+        );
+        std::fs::write(p, j).map_err(|e| format!("{}: {e}", p.display()))?;
+    }
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn hold_estimator_follows_event_order() {
+        let mut e = make_estimator("hold").unwrap();
+        let imu = |t| {
+            Event::Imu(navfuse_core::types::ImuSample {
+                t,
+                dt: 0.01,
+                ..Default::default()
+            })
+        };
+        assert!(e.push(&imu(1.0)).is_none());
+        let f = GnssFix {
+            t: 1.0,
+            lat: 0.5,
+            h: 7.0,
+            ..Default::default()
+        };
+        assert!(e.push(&Event::Gnss(f)).is_none());
+        let s = e.push(&imu(1.01)).unwrap();
+        assert_eq!((s.t, s.lat, s.h), (1.01, 0.5, 7.0));
+        assert!(make_estimator("nope").is_err());
+    }
+
+    #[test]
+    fn json_line_is_json() {
+        let s = NavSolution::unknown_at(1_435_000_000.25);
+        let v: serde_json::Value = serde_json::from_str(json_line(&s).trim()).unwrap();
+        assert_eq!(v["week"], 2372);
+        assert!(v["roll"].is_null());
+    }
+}

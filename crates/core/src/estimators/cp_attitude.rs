@@ -1,0 +1,1182 @@
+//! CP-ATT: GPS carrier-phase multi-antenna attitude (seed 003, `SEEDS.md §3`).
+//!
+//! Frames: navigation ENU at the master antenna (x east, y north, z up);
+//! body frame of the paper (its eq. 1: yaw ψ about z, pitch θ about x, roll φ
+//! about y; `b_b = C_nb · b_n`). Baselines are slave − master.
+//!
+//! Per baseline a float Kalman filter (eq. 11–12): state
+//! `X = [x (3), ẋ (3), λ∇ΔN (n−1)]` in metres, `F = [[I, ΔT I, 0],[0, I, 0],[0, 0, I]]`,
+//! `Q = [[qΔT³/3 I, qΔT²/2 I, 0],[qΔT²/2 I, qΔT I, 0],[0, 0, 1e-10 I]]`,
+//! `H = [ΔS, 0, I]`, `R = (2σ)² I` (or the exact DD covariance). The state has
+//! a fixed maximum size ([`NS`]) with an active count, so an epoch allocates
+//! nothing. When the satellite set or its elevation order changes, the
+//! ambiguity states are mapped linearly to the new differences (the map is
+//! integer and unimodular for kept satellites); a rising satellite gets a new
+//! state with a wide prior, a setting one is dropped — the filter never restarts.
+//!
+//! Attitude: the paper's least squares `C_nb = R_b R_nᵀ (R_n R_nᵀ)⁻¹` (eq. 4)
+//! and its angles (eq. 2); or Wahba/SVD with the known body geometry.
+//! Measurement sign: the single difference is `Δφ = φ_master − φ_slave` [m],
+//! so `Δφ − λΔN = sᵀ b` with `s` the ENU unit vector master → satellite.
+
+#![allow(clippy::needless_range_loop)] // index loops mirror the matrix equations
+
+use crate::gnss::dd::{dd_covariance, DdNoise, MAX_DD, MAX_SATS};
+#[allow(unused_imports)]
+use crate::prelude::*;
+use crate::{Mat3, Vec3};
+use nalgebra::{SMatrix, SVector};
+
+/// Filter state size: baseline (3) + rate (3) + up to `MAX_DD` ambiguities.
+pub const NS: usize = 6 + MAX_DD;
+/// Largest number of baselines (slave antennas).
+pub const MAX_BASELINES: usize = 4;
+
+type StateVec = SVector<f64, NS>;
+type StateMat = SMatrix<f64, NS, NS>;
+type DdVec = SVector<f64, MAX_DD>;
+type DdMat = SMatrix<f64, MAX_DD, MAX_DD>;
+
+/// Configuration of the seed 003 float filter (defaults: the paper's values).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct CpAttConfig {
+    /// Spectral density q of the baseline acceleration noise (paper: 0.02).
+    pub q: f64,
+    /// Ambiguity process noise per epoch [m²] (paper: 1e-10).
+    pub q_amb: f64,
+    /// DD covariance model (paper: diagonal (2σ)²).
+    pub dd_noise: DdNoise,
+    /// A-priori σ of each baseline component at start [m].
+    pub sigma_baseline0: f64,
+    /// A-priori σ of the baseline rate at start [m/s].
+    pub sigma_rate0: f64,
+    /// Prior σ of a newly risen satellite's ambiguity beyond what the
+    /// baseline predicts [m].
+    pub sigma_new_amb: f64,
+    /// False-alarm probability of the cycle-slip NIS gate (0 = off; the
+    /// paper has none).
+    pub slip_gate: f64,
+}
+
+impl Default for CpAttConfig {
+    fn default() -> Self {
+        CpAttConfig {
+            q: 0.02,
+            q_amb: 1e-10,
+            dd_noise: DdNoise::PaperDiagonal,
+            sigma_baseline0: 1.0,
+            sigma_rate0: 0.1,
+            sigma_new_amb: 1.0,
+            slip_gate: 0.0,
+        }
+    }
+}
+
+/// One carrier-phase epoch for all baselines, satellites ordered by
+/// decreasing elevation (the paper's DD order).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct CpEpoch {
+    /// GPS time [s].
+    pub t: f64,
+    /// Number of satellites used (≤ `MAX_SATS`).
+    pub n_sats: usize,
+    pub prn: [u8; MAX_SATS],
+    /// ENU unit line of sight master → satellite.
+    pub los_enu: [Vec3; MAX_SATS],
+    /// Undifferenced phase σ per satellite [m] (for R).
+    pub sigma: [f64; MAX_SATS],
+    /// Number of baselines.
+    pub n_baselines: usize,
+    /// Single differences `φ_master − φ_slave` [m] per baseline and satellite.
+    pub sd_phase: [[f64; MAX_SATS]; MAX_BASELINES],
+}
+
+impl Default for CpEpoch {
+    fn default() -> Self {
+        CpEpoch {
+            t: 0.0,
+            n_sats: 0,
+            prn: [0; MAX_SATS],
+            los_enu: [Vec3::zeros(); MAX_SATS],
+            sigma: [0.0; MAX_SATS],
+            n_baselines: 0,
+            sd_phase: [[0.0; MAX_SATS]; MAX_BASELINES],
+        }
+    }
+}
+
+/// The float filter of one baseline (eq. 11–12).
+#[derive(Clone, Debug)]
+pub struct BaselineFilter {
+    /// State: baseline ENU [m], rate [m/s], DD ambiguities λ∇ΔN [m].
+    pub x: StateVec,
+    /// Covariance.
+    pub p: StateMat,
+    /// PRNs of the current DD set, ordered as the ambiguity states.
+    pub prn: [u8; MAX_SATS],
+    /// Number of satellites (ambiguity states = `n_sats − 1`).
+    pub n_sats: usize,
+    t_last: f64,
+    initialized: bool,
+    /// Number of times the satellite set or order changed (state re-mapped).
+    pub remaps: u32,
+    /// Number of ambiguities reset by the cycle-slip detector.
+    pub slips_detected: u32,
+}
+
+impl Default for BaselineFilter {
+    fn default() -> Self {
+        BaselineFilter {
+            x: StateVec::zeros(),
+            p: StateMat::zeros(),
+            prn: [0; MAX_SATS],
+            n_sats: 0,
+            t_last: 0.0,
+            initialized: false,
+            remaps: 0,
+            slips_detected: 0,
+        }
+    }
+}
+
+impl BaselineFilter {
+    /// Baseline estimate, ENU [m].
+    pub fn baseline(&self) -> Vec3 {
+        Vec3::new(self.x[0], self.x[1], self.x[2])
+    }
+
+    /// Number of active ambiguity states.
+    pub fn n_amb(&self) -> usize {
+        self.n_sats.saturating_sub(1)
+    }
+
+    /// Start from the first epoch: baseline ~ N(0, σ_b² I), ambiguities from
+    /// the measurement `a = z − ΔS·0` with the covariance that prior implies
+    /// (so the first epoch is used once, here).
+    fn initialize(&mut self, ep: &CpEpoch, k: usize, cfg: &CpAttConfig) {
+        let n = ep.n_sats;
+        self.x = StateVec::zeros();
+        self.p = StateMat::zeros();
+        let pb = cfg.sigma_baseline0 * cfg.sigma_baseline0;
+        for i in 0..3 {
+            self.p[(i, i)] = pb;
+            self.p[(3 + i, 3 + i)] = cfg.sigma_rate0 * cfg.sigma_rate0;
+        }
+        let r = dd_covariance(&ep.sigma[..n], cfg.dd_noise);
+        for i in 0..n - 1 {
+            let ds = ep.los_enu[i] - ep.los_enu[i + 1];
+            self.x[6 + i] = ep.sd_phase[k][i] - ep.sd_phase[k][i + 1];
+            for c in 0..3 {
+                // a = z − ΔS b  ⇒  cov(a, b) = −ΔS P_bb
+                self.p[(6 + i, c)] = -ds[c] * pb;
+                self.p[(c, 6 + i)] = -ds[c] * pb;
+            }
+            for j in 0..n - 1 {
+                let dsj = ep.los_enu[j] - ep.los_enu[j + 1];
+                self.p[(6 + i, 6 + j)] = ds.dot(&dsj) * pb + r[(i, j)];
+            }
+        }
+        self.prn = ep.prn;
+        self.n_sats = n;
+        self.t_last = ep.t;
+        self.initialized = true;
+    }
+
+    /// Time update (eq. 11): `X⁻ = F X`, `P⁻ = F P Fᵀ + Q` over the active states.
+    fn predict(&mut self, dt: f64, cfg: &CpAttConfig) {
+        if dt <= 0.0 {
+            return;
+        }
+        for i in 0..3 {
+            self.x[i] += dt * self.x[3 + i];
+        }
+        // P ← F P Fᵀ with F = I + dt·E(0..3, 3..6), in place.
+        for c in 0..NS {
+            for i in 0..3 {
+                self.p[(i, c)] += dt * self.p[(3 + i, c)];
+            }
+        }
+        for r in 0..NS {
+            for i in 0..3 {
+                self.p[(r, i)] += dt * self.p[(r, 3 + i)];
+            }
+        }
+        let q = cfg.q;
+        for i in 0..3 {
+            self.p[(i, i)] += q * dt * dt * dt / 3.0;
+            self.p[(i, 3 + i)] += q * dt * dt / 2.0;
+            self.p[(3 + i, i)] += q * dt * dt / 2.0;
+            self.p[(3 + i, 3 + i)] += q * dt;
+        }
+        for i in 0..self.n_amb() {
+            self.p[(6 + i, 6 + i)] += cfg.q_amb;
+        }
+    }
+
+    /// Map the ambiguity states to the new satellite list of `ep` (rising,
+    /// setting, reordered). Returns false when no satellite is kept (then the
+    /// caller re-initialises).
+    fn remap(&mut self, ep: &CpEpoch, k: usize, cfg: &CpAttConfig) -> bool {
+        let n_new = ep.n_sats;
+        if n_new == self.n_sats && ep.prn[..n_new] == self.prn[..n_new] {
+            return true;
+        }
+        // Potential of each satellite, p(s) = SDamb(ref) − SDamb(s), ref = old[0],
+        // as a row over the old state plus a constant and a fresh-noise flag.
+        let old_pos = |prn: u8| self.prn[..self.n_sats].iter().position(|&p| p == prn);
+        let Some(anchor) = (0..n_new).find(|&i| old_pos(ep.prn[i]).is_some()) else {
+            return false;
+        };
+        // Measured SD-phase differences relative to the first new satellite.
+        let mut rows = [SVector::<f64, NS>::zeros(); MAX_SATS];
+        let mut cons = [0.0f64; MAX_SATS];
+        let mut fresh = [false; MAX_SATS];
+        let anchor_prn = ep.prn[anchor];
+        let ja = old_pos(anchor_prn).unwrap_or(0);
+        for (s, row) in rows.iter_mut().enumerate().take(n_new) {
+            if let Some(j) = old_pos(ep.prn[s]) {
+                for i in 0..j {
+                    row[6 + i] = 1.0;
+                }
+            } else {
+                // p(c) = p(a) + (SDamb(a) − SDamb(c)), with
+                // SDamb(a) − SDamb(c) = (Δφ_a − Δφ_c) − (s_a − s_c)ᵀ b + w.
+                for i in 0..ja {
+                    row[6 + i] = 1.0;
+                }
+                let ds = ep.los_enu[anchor] - ep.los_enu[s];
+                for c in 0..3 {
+                    row[c] = -ds[c];
+                }
+                cons[s] = ep.sd_phase[k][anchor] - ep.sd_phase[k][s];
+                fresh[s] = true;
+            }
+        }
+        // New DD_i = p(new[i+1]) − p(new[i]).
+        let mut a = StateMat::zeros();
+        let mut x_new = StateVec::zeros();
+        for i in 0..6 {
+            a[(i, i)] = 1.0;
+        }
+        for i in 0..n_new - 1 {
+            let r = rows[i + 1] - rows[i];
+            for c in 0..NS {
+                a[(6 + i, c)] = r[c];
+            }
+            x_new[6 + i] = cons[i + 1] - cons[i];
+        }
+        x_new += a * self.x;
+        let mut p_new = a * self.p * a.transpose();
+        let w = cfg.sigma_new_amb * cfg.sigma_new_amb;
+        for i in 0..n_new - 1 {
+            for j in 0..n_new - 1 {
+                let coef = |d: usize, s: usize| -> f64 {
+                    (if d + 1 == s { 1.0 } else { 0.0 }) - (if d == s { 1.0 } else { 0.0 })
+                };
+                let mut v = 0.0;
+                for s in 0..n_new {
+                    if fresh[s] {
+                        v += coef(i, s) * coef(j, s) * w;
+                    }
+                }
+                p_new[(6 + i, 6 + j)] += v;
+            }
+        }
+        self.x = x_new;
+        self.p = p_new;
+        self.prn = ep.prn;
+        self.n_sats = n_new;
+        self.remaps += 1;
+        true
+    }
+
+    /// Measurement update (eq. 12) with the DDs of baseline `k` of `ep`,
+    /// Joseph form. Returns the normalised innovation squared.
+    fn correct(&mut self, ep: &CpEpoch, k: usize, cfg: &CpAttConfig) -> f64 {
+        let n = ep.n_sats;
+        let m = n - 1;
+        let r: DdMat = dd_covariance(&ep.sigma[..n], cfg.dd_noise);
+        let mut h = SMatrix::<f64, MAX_DD, NS>::zeros();
+        let mut z = DdVec::zeros();
+        for i in 0..m {
+            let ds = ep.los_enu[i] - ep.los_enu[i + 1];
+            for c in 0..3 {
+                h[(i, c)] = ds[c];
+            }
+            h[(i, 6 + i)] = 1.0;
+            z[i] = ep.sd_phase[k][i] - ep.sd_phase[k][i + 1];
+        }
+        let innov = z - h * self.x;
+        let ph = self.p * h.transpose();
+        let s = h * ph + r;
+        let Some(chol) = s.cholesky() else {
+            return f64::NAN;
+        };
+        let k_gain = chol.solve(&ph.transpose()).transpose();
+        let nis = innov.dot(&chol.solve(&innov));
+        self.x += k_gain * innov;
+        let ikh = StateMat::identity() - k_gain * h;
+        self.p = ikh * self.p * ikh.transpose() + k_gain * r * k_gain.transpose();
+        nis
+    }
+
+    /// Process one epoch for baseline `k`: initialise, or predict, re-map and correct.
+    pub fn update(&mut self, ep: &CpEpoch, k: usize, cfg: &CpAttConfig) -> f64 {
+        if ep.n_sats < 2 {
+            return f64::NAN;
+        }
+        if !self.initialized {
+            self.initialize(ep, k, cfg);
+            return 0.0;
+        }
+        self.predict(ep.t - self.t_last, cfg);
+        self.t_last = ep.t;
+        if !self.remap(ep, k, cfg) {
+            self.initialize(ep, k, cfg);
+            return 0.0;
+        }
+        if cfg.slip_gate > 0.0 {
+            self.detect_slips(ep, k, cfg);
+        }
+        self.correct(ep, k, cfg)
+    }
+
+    /// Normalised innovation squared of the DDs of baseline `k` against the
+    /// current (predicted) state, without updating.
+    fn nis(&self, ep: &CpEpoch, k: usize, cfg: &CpAttConfig) -> f64 {
+        let n = ep.n_sats;
+        let m = n - 1;
+        let r: DdMat = dd_covariance(&ep.sigma[..n], cfg.dd_noise);
+        let mut h = SMatrix::<f64, MAX_DD, NS>::zeros();
+        let mut z = DdVec::zeros();
+        for i in 0..m {
+            let ds = ep.los_enu[i] - ep.los_enu[i + 1];
+            for c in 0..3 {
+                h[(i, c)] = ds[c];
+            }
+            h[(i, 6 + i)] = 1.0;
+            z[i] = ep.sd_phase[k][i] - ep.sd_phase[k][i + 1];
+        }
+        let innov = z - h * self.x;
+        let s = h * self.p * h.transpose() + r;
+        match s.cholesky() {
+            Some(ch) => innov.dot(&ch.solve(&innov)),
+            None => f64::NAN,
+        }
+    }
+
+    /// Cycle-slip detection: when the predicted NIS exceeds the χ²(n−1)
+    /// quantile of `cfg.slip_gate` (false-alarm probability, Wilson–Hilferty),
+    /// the satellite whose ambiguity reset lowers the NIS most is treated as
+    /// newly risen (fresh ambiguity), repeated up to 2 satellites per epoch.
+    fn detect_slips(&mut self, ep: &CpEpoch, k: usize, cfg: &CpAttConfig) {
+        let m = ep.n_sats - 1;
+        if m < 4 {
+            return;
+        }
+        for _ in 0..2 {
+            let nis = self.nis(ep, k, cfg);
+            let gate = chi2_quantile(m as f64, cfg.slip_gate);
+            if nis.is_nan() || nis <= gate {
+                return;
+            }
+            let mut best: Option<(usize, f64, Self)> = None;
+            for s in 0..ep.n_sats {
+                let mut trial = self.clone();
+                trial.prn[s] = 0; // forget this satellite: re-mapped as new
+                if !trial.remap(ep, k, cfg) {
+                    continue;
+                }
+                let v = trial.nis(ep, k, cfg);
+                if v.is_finite() && best.as_ref().map(|b| v < b.1).unwrap_or(true) {
+                    best = Some((s, v, trial));
+                }
+            }
+            let Some((_, _, trial)) = best else { return };
+            let remaps = self.remaps;
+            *self = trial;
+            self.remaps = remaps;
+            self.slips_detected += 1;
+        }
+    }
+
+    /// Float DD ambiguities [m] and their covariance block, active part only.
+    pub fn ambiguities(&self) -> (DdVec, DdMat, usize) {
+        let m = self.n_amb();
+        let mut a = DdVec::zeros();
+        let mut q = DdMat::zeros();
+        for i in 0..m {
+            a[i] = self.x[6 + i];
+            for j in 0..m {
+                q[(i, j)] = self.p[(6 + i, 6 + j)];
+            }
+        }
+        (a, q, m)
+    }
+}
+
+/// Upper `1 − alpha` quantile of χ²(k) (Wilson–Hilferty approximation).
+pub fn chi2_quantile(k: f64, alpha: f64) -> f64 {
+    // Normal quantile by bisection on erf (no_std friendly).
+    let (mut lo, mut hi) = (0.0f64, 10.0f64);
+    for _ in 0..60 {
+        let mid = 0.5 * (lo + hi);
+        let tail = 0.5 * libm::erfc(mid / core::f64::consts::SQRT_2);
+        if tail > alpha {
+            lo = mid;
+        } else {
+            hi = mid;
+        }
+    }
+    let z = 0.5 * (lo + hi);
+    let a = 2.0 / (9.0 * k);
+    k * (1.0 - a + z * a.sqrt()).powi(3)
+}
+
+/// The paper's DCM `C_nb = C(φ) C(θ) C(ψ)` (eq. 1; ψ about z, θ about x,
+/// φ about y), `b_b = C_nb b_n`, n = ENU.
+pub fn paper_dcm_nb(roll: f64, pitch: f64, yaw: f64) -> Mat3 {
+    let (sp, cp) = (roll.sin(), roll.cos());
+    let (st, ct) = (pitch.sin(), pitch.cos());
+    let (sy, cy) = (yaw.sin(), yaw.cos());
+    let c_psi = Mat3::new(cy, sy, 0.0, -sy, cy, 0.0, 0.0, 0.0, 1.0);
+    let c_theta = Mat3::new(1.0, 0.0, 0.0, 0.0, ct, st, 0.0, -st, ct);
+    let c_phi = Mat3::new(cp, 0.0, -sp, 0.0, 1.0, 0.0, sp, 0.0, cp);
+    c_phi * c_theta * c_psi
+}
+
+/// The paper's angles (eq. 2): φ = −atan(C13/C33), θ = asin(C23),
+/// ψ = −atan(C21/C22), as four-quadrant arctangents. Returns (roll, pitch, yaw) [rad].
+pub fn paper_euler(c_nb: &Mat3) -> Vec3 {
+    let roll = (-c_nb[(0, 2)]).atan2(c_nb[(2, 2)]);
+    let pitch = c_nb[(1, 2)].clamp(-1.0, 1.0).asin();
+    let yaw = (-c_nb[(1, 0)]).atan2(c_nb[(1, 1)]);
+    Vec3::new(roll, pitch, yaw)
+}
+
+/// The paper's least-squares DCM (eq. 4): `C_nb = R_b R_nᵀ (R_n R_nᵀ)⁻¹` from
+/// three body baselines `b_b` and their navigation-frame estimates `b_n`
+/// (`attitude::dcm_from_baselines_ls`). Not orthonormal in general. `None`
+/// when singular or not three baselines.
+pub fn ls_dcm(b_b: &[Vec3], b_n: &[Vec3]) -> Option<Mat3> {
+    if b_b.len() != 3 || b_n.len() != 3 {
+        return None;
+    }
+    let r_b = Mat3::from_columns(b_b);
+    let r_n = Mat3::from_columns(b_n);
+    crate::attitude::dcm_from_baselines_ls::<3>(&r_b, &r_n)
+}
+
+/// Wahba's problem by SVD (`attitude::wahba_svd`, Markley 1988) in the
+/// paper's direction: the rotation `C_nb` minimising `Σ wᵢ |b_b,i − C_nb b_n,i|²`.
+pub fn wahba_nb(b_b: &[Vec3], b_n: &[Vec3], w: &[f64]) -> Option<Mat3> {
+    crate::attitude::wahba_svd(b_b, b_n, w).map(|c_bn| c_bn.transpose())
+}
+
+/// How an epoch's baseline integers were found.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+pub enum FixMethod {
+    #[default]
+    None,
+    /// LAMBDA on the float filter's ambiguities, ratio test passed.
+    LambdaFloat,
+    /// Single-epoch length-constrained search (below), ratio test passed.
+    ConstrainedSearch,
+}
+
+/// Integer fix of one baseline at one epoch.
+#[derive(Clone, Copy, Debug, PartialEq, Default)]
+pub struct BaselineFix {
+    pub method: FixMethod,
+    /// DD integers [cycles] in the epoch's satellite order (`n_sats − 1`).
+    pub n_dd: [i64; MAX_DD],
+    pub m: usize,
+    /// Fixed baseline, ENU [m].
+    pub b_n: Vec3,
+    /// Ratio test statistic (second best / best squared norm).
+    pub ratio: f64,
+}
+
+/// Configuration of the integer ambiguity resolution ("beyond" the paper).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct FixConfig {
+    /// Carrier wavelength [m].
+    pub lambda: f64,
+    /// Ratio test threshold.
+    pub ratio_min: f64,
+    /// Baseline length tolerance in the search and the integrity check [m].
+    pub len_tol: f64,
+    /// Inter-baseline angle tolerance of the integrity check [rad].
+    pub angle_tol: f64,
+    /// Try LAMBDA on the float filter first.
+    pub use_float_lambda: bool,
+    /// Single-epoch length-constrained search when LAMBDA does not pass.
+    pub use_search: bool,
+    /// Process noise q of the fixed-baseline filter [m²/s³]; 0 = no
+    /// smoothing (each epoch's fixed baselines alone).
+    pub q_fixed: f64,
+    /// Fixed-baseline filters coast this many epochs without a fix, then reset.
+    pub max_coast: u32,
+}
+
+impl Default for FixConfig {
+    fn default() -> Self {
+        FixConfig {
+            lambda: 0.190293673,
+            ratio_min: 3.0,
+            len_tol: 0.03,
+            angle_tol: 1.5f64.to_radians(),
+            use_float_lambda: true,
+            use_search: true,
+            q_fixed: 0.0,
+            max_coast: 6,
+        }
+    }
+}
+
+/// Weighted least-squares baseline from DDs with known integers:
+/// `b = (ΔSᵀ W ΔS)⁻¹ ΔSᵀ W (z − λN)`, `W = R⁻¹`; returns (b, weighted SSR).
+fn fixed_ls(ds: &[Vec3], z: &[f64], n: &[i64], lambda: f64, w: &DdMat) -> Option<(Vec3, f64)> {
+    fixed_ls_info(ds, z, n, lambda, w).map(|(b, s, _)| (b, s))
+}
+
+/// [`fixed_ls`] also returning the information matrix `ΔSᵀ W ΔS`.
+fn fixed_ls_info(
+    ds: &[Vec3],
+    z: &[f64],
+    n: &[i64],
+    lambda: f64,
+    w: &DdMat,
+) -> Option<(Vec3, f64, Mat3)> {
+    let m = ds.len();
+    let mut ata = Mat3::zeros();
+    let mut atb = Vec3::zeros();
+    let mut y = [0.0; MAX_DD];
+    for i in 0..m {
+        y[i] = z[i] - lambda * n[i] as f64;
+    }
+    for i in 0..m {
+        for j in 0..m {
+            let wij = w[(i, j)];
+            if wij == 0.0 {
+                continue;
+            }
+            ata += wij * ds[i] * ds[j].transpose();
+            atb += wij * ds[i] * y[j];
+        }
+    }
+    let b = ata.try_inverse()? * atb;
+    let info = ata;
+    let mut e = [0.0; MAX_DD];
+    for i in 0..m {
+        e[i] = y[i] - ds[i].dot(&b);
+    }
+    let mut ssr = 0.0;
+    for i in 0..m {
+        for j in 0..m {
+            ssr += e[i] * w[(i, j)] * e[j];
+        }
+    }
+    Some((b, ssr, info))
+}
+
+/// Weighted Wahba: the rotation `C_nb` minimising
+/// `Σ (b_n,k − C_bn b_b,k)ᵀ W_k (b_n,k − C_bn b_b,k)` with full 3×3 weights
+/// (Gauss–Newton on a small rotation from the SVD solution, 3 iterations).
+pub fn wahba_weighted_nb(b_b: &[Vec3], b_n: &[Vec3], w: &[Mat3]) -> Option<Mat3> {
+    let ones = [1.0; MAX_BASELINES];
+    let mut c_bn = wahba_nb(b_b, b_n, &ones[..b_b.len().min(MAX_BASELINES)])?.transpose();
+    for _ in 0..3 {
+        let mut n = Mat3::zeros();
+        let mut g = Vec3::zeros();
+        for ((vb, vn), wk) in b_b.iter().zip(b_n).zip(w) {
+            let u = c_bn * vb;
+            let a = crate::attitude::skew(&u);
+            let r = vn - u;
+            n += a.transpose() * wk * a;
+            g += a.transpose() * wk * r;
+        }
+        // e = r + [u×] δθ  ⇒  δθ = −N⁻¹ g.
+        let d = -(n.try_inverse()? * g);
+        c_bn = crate::attitude::dcm_from_rotvec(&d) * c_bn;
+        if d.norm() < 1e-12 {
+            break;
+        }
+    }
+    Some(c_bn.transpose())
+}
+
+/// Constant-velocity Kalman filter of a fixed baseline (ENU): state
+/// `[b, ḃ]`, measurement the epoch's fixed baseline with covariance
+/// `(ΔSᵀ R⁻¹ ΔS)⁻¹`; process noise spectral density `q` (as eq. 11).
+#[derive(Clone, Copy, Debug, PartialEq, Default)]
+pub struct FixedBaselineKf {
+    pub x: SVector<f64, 6>,
+    pub p: SMatrix<f64, 6, 6>,
+    pub t: f64,
+    pub active: bool,
+}
+
+impl FixedBaselineKf {
+    /// Predict to `t` and update with `b_meas` of information `info` [1/m²].
+    pub fn update(&mut self, t: f64, b_meas: &Vec3, info: &Mat3, q: f64) -> Option<()> {
+        let r = info.try_inverse()?;
+        if !self.active {
+            self.x = SVector::<f64, 6>::zeros();
+            self.p = SMatrix::<f64, 6, 6>::zeros();
+            for i in 0..3 {
+                self.x[i] = b_meas[i];
+                self.p[(3 + i, 3 + i)] = 0.1 * 0.1;
+                for j in 0..3 {
+                    self.p[(i, j)] = r[(i, j)];
+                }
+            }
+            self.t = t;
+            self.active = true;
+            return Some(());
+        }
+        self.predict(t, q);
+        let mut h = SMatrix::<f64, 3, 6>::zeros();
+        for i in 0..3 {
+            h[(i, i)] = 1.0;
+        }
+        let innov = b_meas - h * self.x;
+        let s = h * self.p * h.transpose() + r;
+        let k = self.p * h.transpose() * s.try_inverse()?;
+        self.x += k * innov;
+        let ikh = SMatrix::<f64, 6, 6>::identity() - k * h;
+        self.p = ikh * self.p * ikh.transpose() + k * r * k.transpose();
+        Some(())
+    }
+
+    /// Time update to `t`.
+    pub fn predict(&mut self, t: f64, q: f64) {
+        let dt = t - self.t;
+        if dt <= 0.0 || !self.active {
+            return;
+        }
+        let mut f = SMatrix::<f64, 6, 6>::identity();
+        for i in 0..3 {
+            f[(i, 3 + i)] = dt;
+        }
+        self.x = f * self.x;
+        self.p = f * self.p * f.transpose();
+        for i in 0..3 {
+            self.p[(i, i)] += q * dt * dt * dt / 3.0;
+            self.p[(i, 3 + i)] += q * dt * dt / 2.0;
+            self.p[(3 + i, i)] += q * dt * dt / 2.0;
+            self.p[(3 + i, 3 + i)] += q * dt;
+        }
+        self.t = t;
+    }
+
+    pub fn baseline(&self) -> Vec3 {
+        Vec3::new(self.x[0], self.x[1], self.x[2])
+    }
+
+    pub fn cov(&self) -> Mat3 {
+        self.p.fixed_view::<3, 3>(0, 0).into_owned()
+    }
+}
+
+/// Single-epoch ambiguity search constrained by the known baseline length
+/// (a least-squares ambiguity search in the spirit of Hatch 1990): the
+/// integers of the three best-conditioned DDs are enumerated over the range
+/// the length allows, each triple gives a baseline that must have the right
+/// length, the other DDs are rounded from it, and the candidates are ranked
+/// by the weighted residual. Returns the best with its ratio (second best /
+/// best), `None` with fewer than 4 DDs or no candidate.
+pub fn constrained_search(
+    ds: &[Vec3],
+    z: &[f64],
+    r: &DdMat,
+    length: f64,
+    cfg: &FixConfig,
+) -> Option<BaselineFix> {
+    let m = ds.len();
+    if !(4..=MAX_DD).contains(&m) {
+        return None;
+    }
+    let mut w = DdMat::zeros();
+    {
+        let mut rr = DdMat::identity();
+        for i in 0..m {
+            for j in 0..m {
+                rr[(i, j)] = r[(i, j)];
+            }
+        }
+        let inv = rr.try_inverse()?;
+        for i in 0..m {
+            for j in 0..m {
+                w[(i, j)] = inv[(i, j)];
+            }
+        }
+    }
+    // Best-conditioned triple (largest |det| of unit-normalised rows).
+    let mut best_t = (0, 1, 2);
+    let mut best_det = -1.0;
+    for i in 0..m {
+        for j in i + 1..m {
+            for k in j + 1..m {
+                let a = Mat3::from_rows(&[ds[i].transpose(), ds[j].transpose(), ds[k].transpose()]);
+                let d = a.determinant().abs() / (ds[i].norm() * ds[j].norm() * ds[k].norm());
+                if d > best_det {
+                    best_det = d;
+                    best_t = (i, j, k);
+                }
+            }
+        }
+    }
+    let (i0, i1, i2) = best_t;
+    let a = Mat3::from_rows(&[ds[i0].transpose(), ds[i1].transpose(), ds[i2].transpose()]);
+    let a_inv = a.try_inverse()?;
+    let lam = cfg.lambda;
+    let range = |i: usize| -> (i64, i64) {
+        let reach = ds[i].norm() * (length + cfg.len_tol);
+        (
+            ((z[i] - reach) / lam).floor() as i64 - 1,
+            ((z[i] + reach) / lam).ceil() as i64 + 1,
+        )
+    };
+    let (r0, r1, r2) = (range(i0), range(i1), range(i2));
+    let mut best: [(f64, [i64; MAX_DD], Vec3); 2] =
+        [(f64::INFINITY, [0; MAX_DD], Vec3::zeros()); 2];
+    for n0 in r0.0..=r0.1 {
+        for n1 in r1.0..=r1.1 {
+            for n2 in r2.0..=r2.1 {
+                let y = Vec3::new(
+                    z[i0] - lam * n0 as f64,
+                    z[i1] - lam * n1 as f64,
+                    z[i2] - lam * n2 as f64,
+                );
+                let b = a_inv * y;
+                if (b.norm() - length).abs() > cfg.len_tol {
+                    continue;
+                }
+                let mut n = [0i64; MAX_DD];
+                for i in 0..m {
+                    n[i] = ((z[i] - ds[i].dot(&b)) / lam).round() as i64;
+                }
+                let Some((bf, ssr)) = fixed_ls(&ds[..m], &z[..m], &n[..m], lam, &w) else {
+                    continue;
+                };
+                if (bf.norm() - length).abs() > cfg.len_tol {
+                    continue;
+                }
+                if (best[0].0.is_finite() && best[0].1[..m] == n[..m])
+                    || (best[1].0.is_finite() && best[1].1[..m] == n[..m])
+                {
+                    continue;
+                }
+                if ssr < best[0].0 {
+                    best[1] = best[0];
+                    best[0] = (ssr, n, bf);
+                } else if ssr < best[1].0 {
+                    best[1] = (ssr, n, bf);
+                }
+            }
+        }
+    }
+    if !best[0].0.is_finite() {
+        return None;
+    }
+    Some(BaselineFix {
+        method: FixMethod::ConstrainedSearch,
+        n_dd: best[0].1,
+        m,
+        b_n: best[0].2,
+        ratio: if best[0].0 > 0.0 {
+            best[1].0 / best[0].0
+        } else {
+            f64::INFINITY
+        },
+    })
+}
+
+/// LAMBDA on the float filter of one baseline; the fixed baseline is the
+/// conditional `b̌ = b̂ − P_ba P_aa⁻¹ (â − λ ž)` (Teunissen 1995).
+pub fn lambda_on_float(f: &BaselineFilter, cfg: &FixConfig) -> Option<BaselineFix> {
+    let (a, q, m) = f.ambiguities();
+    if !(1..=MAX_DD).contains(&m) {
+        return None;
+    }
+    let lam = cfg.lambda;
+    let mut ac = [0.0; MAX_DD];
+    let mut qc = [0.0; MAX_DD * MAX_DD];
+    for i in 0..m {
+        ac[i] = a[i] / lam;
+        for j in 0..m {
+            qc[i * m + j] = q[(i, j)] / (lam * lam);
+        }
+    }
+    let res = crate::lambda::lambda(&ac[..m], &qc[..m * m], m, 2).ok()?;
+    let mut n = [0i64; MAX_DD];
+    let mut da = DdVec::zeros();
+    let mut qa = DdMat::identity();
+    for i in 0..m {
+        n[i] = res.fixed[0][i] as i64;
+        da[i] = a[i] - lam * res.fixed[0][i];
+        for j in 0..m {
+            qa[(i, j)] = q[(i, j)];
+        }
+    }
+    let sol = qa.cholesky()?.solve(&da);
+    let mut b = f.baseline();
+    for c in 0..3 {
+        for i in 0..m {
+            b[c] -= f.p[(c, 6 + i)] * sol[i];
+        }
+    }
+    Some(BaselineFix {
+        method: FixMethod::LambdaFloat,
+        n_dd: n,
+        m,
+        b_n: b,
+        ratio: res.ratio(),
+    })
+}
+
+/// Attitude output of one epoch.
+#[derive(Clone, Copy, Debug, PartialEq, Default)]
+pub struct CpAttSolution {
+    pub t: f64,
+    /// Paper's (roll, pitch, yaw) [rad] from the float baselines by eq. 4 and eq. 2.
+    pub rpy_float: Vec3,
+    /// Float baselines, ENU [m].
+    pub b_n_float: [Vec3; MAX_BASELINES],
+    pub n_sats: usize,
+    /// Fixed solution when every baseline passed the ratio test and the
+    /// integrity checks: Wahba/SVD attitude with the known body geometry.
+    pub rpy_fixed: Option<Vec3>,
+    pub fixes: [BaselineFix; MAX_BASELINES],
+    /// Why the fix was rejected (0 none, 1 ratio/no candidate, 2 length, 3 angle).
+    pub reject: u8,
+}
+
+/// The seed 003 estimator: one float filter per baseline and the paper's
+/// least-squares attitude; optionally integer fixing + Wahba.
+#[derive(Clone, Debug)]
+pub struct CpAttitude {
+    pub cfg: CpAttConfig,
+    pub fix: Option<FixConfig>,
+    /// Body-frame baselines (slave − master) [m].
+    pub b_b: [Vec3; MAX_BASELINES],
+    pub n_baselines: usize,
+    pub filters: [BaselineFilter; MAX_BASELINES],
+    pub fixed_kf: [FixedBaselineKf; MAX_BASELINES],
+    coast: u32,
+}
+
+impl CpAttitude {
+    /// A new estimator for the body baselines `b_b` (≤ `MAX_BASELINES`).
+    pub fn new(cfg: CpAttConfig, b_b: &[Vec3]) -> Self {
+        let mut bb = [Vec3::zeros(); MAX_BASELINES];
+        let n = b_b.len().min(MAX_BASELINES);
+        bb[..n].copy_from_slice(&b_b[..n]);
+        CpAttitude {
+            cfg,
+            fix: None,
+            b_b: bb,
+            n_baselines: n,
+            filters: core::array::from_fn(|_| BaselineFilter::default()),
+            fixed_kf: [FixedBaselineKf::default(); MAX_BASELINES],
+            coast: 0,
+        }
+    }
+
+    /// Enable integer fixing.
+    pub fn with_fixing(mut self, fix: FixConfig) -> Self {
+        self.fix = Some(fix);
+        self
+    }
+
+    /// Feed one epoch; returns the float attitude (NaN when fewer than 3
+    /// baselines) and, with fixing enabled, the fixed one.
+    pub fn update(&mut self, ep: &CpEpoch) -> CpAttSolution {
+        let nb = self.n_baselines.min(ep.n_baselines);
+        let mut sol = CpAttSolution {
+            t: ep.t,
+            n_sats: ep.n_sats,
+            rpy_float: Vec3::repeat(f64::NAN),
+            ..Default::default()
+        };
+        for k in 0..nb {
+            self.filters[k].update(ep, k, &self.cfg);
+            sol.b_n_float[k] = self.filters[k].baseline();
+        }
+        if nb >= 3 {
+            if let Some(c) = ls_dcm(&self.b_b[..nb], &sol.b_n_float[..nb]) {
+                sol.rpy_float = paper_euler(&c);
+            }
+        }
+        if let Some(fc) = self.fix {
+            self.fix_epoch(ep, nb, &fc, &mut sol);
+        }
+        sol
+    }
+
+    fn fix_epoch(&mut self, ep: &CpEpoch, nb: usize, fc: &FixConfig, sol: &mut CpAttSolution) {
+        let n = ep.n_sats;
+        if n < 5 || nb < 2 {
+            sol.reject = 1;
+            return;
+        }
+        let m = n - 1;
+        let mut ds = [Vec3::zeros(); MAX_DD];
+        for i in 0..m {
+            ds[i] = ep.los_enu[i] - ep.los_enu[i + 1];
+        }
+        let r = dd_covariance(&ep.sigma[..n], self.cfg.dd_noise);
+        let mut b_fix = [Vec3::zeros(); MAX_BASELINES];
+        let mut z_all = [[0.0; MAX_DD]; MAX_BASELINES];
+        for k in 0..nb {
+            for i in 0..m {
+                z_all[k][i] = ep.sd_phase[k][i] - ep.sd_phase[k][i + 1];
+            }
+        }
+        let mut w = DdMat::zeros();
+        if let Some(inv) = r.try_inverse() {
+            for i in 0..m {
+                for j in 0..m {
+                    w[(i, j)] = inv[(i, j)];
+                }
+            }
+        }
+        let ok = self.fix_baselines(ep, nb, fc, sol, &ds[..m], &z_all, &r, &mut b_fix);
+        if !ok {
+            self.coast += 1;
+            if self.coast > fc.max_coast {
+                for f in self.fixed_kf.iter_mut() {
+                    f.active = false;
+                }
+            }
+            return;
+        }
+        self.coast = 0;
+        // Fixed baselines re-estimated with all DDs (weights W), information per baseline.
+        let mut info = [Mat3::identity(); MAX_BASELINES];
+        for k in 0..nb {
+            let f = &sol.fixes[k];
+            if let Some((b, _, inf)) =
+                fixed_ls_info(&ds[..m], &z_all[k][..m], &f.n_dd[..m], fc.lambda, &w)
+            {
+                b_fix[k] = b;
+                info[k] = inf;
+            }
+        }
+        let mut b_use = b_fix;
+        let mut w_use = info;
+        if fc.q_fixed > 0.0 {
+            for k in 0..nb {
+                if self.fixed_kf[k]
+                    .update(ep.t, &b_fix[k], &info[k], fc.q_fixed)
+                    .is_some()
+                {
+                    b_use[k] = self.fixed_kf[k].baseline();
+                    w_use[k] = self.fixed_kf[k].cov().try_inverse().unwrap_or(info[k]);
+                }
+            }
+        }
+        if let Some(c) = wahba_weighted_nb(&self.b_b[..nb], &b_use[..nb], &w_use[..nb]) {
+            sol.rpy_fixed = Some(paper_euler(&c));
+        }
+    }
+
+    /// Fix every baseline (LAMBDA on the float filter, else the constrained
+    /// search), then check lengths and inter-baseline angles.
+    #[allow(clippy::too_many_arguments)]
+    fn fix_baselines(
+        &self,
+        ep: &CpEpoch,
+        nb: usize,
+        fc: &FixConfig,
+        sol: &mut CpAttSolution,
+        ds: &[Vec3],
+        z_all: &[[f64; MAX_DD]; MAX_BASELINES],
+        r: &DdMat,
+        b_fix: &mut [Vec3; MAX_BASELINES],
+    ) -> bool {
+        let n = ep.n_sats;
+        let m = ds.len();
+        for k in 0..nb {
+            let len = self.b_b[k].norm();
+            let mut fx = None;
+            if fc.use_float_lambda && self.filters[k].n_sats == n {
+                if let Some(f) = lambda_on_float(&self.filters[k], fc) {
+                    let _ = n;
+                    if f.ratio >= fc.ratio_min && (f.b_n.norm() - len).abs() <= fc.len_tol {
+                        fx = Some(f);
+                    }
+                }
+            }
+            if fx.is_none() && fc.use_search {
+                if let Some(f) = constrained_search(ds, &z_all[k][..m], r, len, fc) {
+                    if f.ratio >= fc.ratio_min {
+                        fx = Some(f);
+                    }
+                }
+            }
+            let Some(f) = fx else {
+                sol.reject = 1;
+                return false;
+            };
+            if (f.b_n.norm() - len).abs() > fc.len_tol {
+                sol.reject = 2;
+                return false;
+            }
+            sol.fixes[k] = f;
+            b_fix[k] = f.b_n;
+        }
+        // Integrity: inter-baseline angles against the body geometry.
+        for i in 0..nb {
+            for j in i + 1..nb {
+                let ang =
+                    |a: &Vec3, b: &Vec3| (a.dot(b) / (a.norm() * b.norm())).clamp(-1.0, 1.0).acos();
+                if (ang(&b_fix[i], &b_fix[j]) - ang(&self.b_b[i], &self.b_b[j])).abs()
+                    > fc.angle_tol
+                {
+                    sol.reject = 3;
+                    return false;
+                }
+            }
+        }
+        true
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn paper_dcm_matches_its_closed_form_and_eq2_inverts_it() {
+        let (r, p, y) = (0.3, -0.2, 1.1);
+        let c = paper_dcm_nb(r, p, y);
+        let (sp, cp, st, ct, sy, cy) = (r.sin(), r.cos(), p.sin(), p.cos(), y.sin(), y.cos());
+        // Rows 2 and 3 of the paper's C_{n→B}; row 2 typo-corrected (cθ sψ, cθ cψ).
+        assert!((c[(1, 0)] + ct * sy).abs() < 1e-12);
+        assert!((c[(1, 1)] - ct * cy).abs() < 1e-12);
+        assert!((c[(1, 2)] - st).abs() < 1e-12);
+        assert!((c[(0, 2)] + sp * ct).abs() < 1e-12);
+        assert!((c[(2, 2)] - cp * ct).abs() < 1e-12);
+        assert!((c[(0, 0)] - (cp * cy - sp * st * sy)).abs() < 1e-12);
+        let e = paper_euler(&c);
+        assert!((e - Vec3::new(r, p, y)).norm() < 1e-12);
+    }
+
+    #[test]
+    fn chi2_quantiles() {
+        // χ²(10) upper 1 % ≈ 23.21, χ²(4) upper 0.1 % ≈ 18.47.
+        assert!((chi2_quantile(10.0, 0.01) - 23.21).abs() < 0.2);
+        assert!((chi2_quantile(4.0, 0.001) - 18.47).abs() < 0.5);
+    }
+
+    /// The constrained search finds the true integers in one noise-free epoch,
+    /// and the integrity/length rules reject a wrong body length.
+    #[test]
+    fn constrained_search_single_epoch() {
+        const LAM: f64 = 0.190293673;
+        let b = Vec3::new(0.3, -0.8, 0.52).normalize();
+        let mut ds = [Vec3::zeros(); 8];
+        let mut z = [0.0; 8];
+        let mut n_true = [0i64; 8];
+        let mut prev = Vec3::z();
+        for i in 0..9 {
+            let el = 1.4 - 0.14 * i as f64;
+            let az = 1.9 * i as f64;
+            let s = Vec3::new(el.cos() * az.sin(), el.cos() * az.cos(), el.sin());
+            if i > 0 {
+                ds[i - 1] = prev - s;
+                n_true[i - 1] = (i as i64 * 37) % 11 - 5;
+                z[i - 1] = ds[i - 1].dot(&b) + LAM * n_true[i - 1] as f64;
+            }
+            prev = s;
+        }
+        let r = dd_covariance(&[0.002; 9], DdNoise::PaperDiagonal);
+        let cfg = FixConfig::default();
+        let f = constrained_search(&ds, &z, &r, 1.0, &cfg).unwrap();
+        assert_eq!(&f.n_dd[..8], &n_true);
+        assert!((f.b_n - b).norm() < 1e-9);
+        assert!(f.ratio > 100.0, "{}", f.ratio);
+        // With a body length 20 cm off no candidate has the true integers.
+        if let Some(g) = constrained_search(&ds, &z, &r, 1.2, &cfg) {
+            assert_ne!(&g.n_dd[..8], &n_true);
+        }
+    }
+
+    #[test]
+    fn ls_and_wahba_recover_exact_rotation() {
+        let c = paper_dcm_nb(0.1, 0.2, -2.0);
+        let b_b = [Vec3::x(), Vec3::y(), Vec3::new(0.0, 0.0, 1.0)];
+        let b_n: [Vec3; 3] = core::array::from_fn(|i| c.transpose() * b_b[i]);
+        let l = ls_dcm(&b_b, &b_n).unwrap();
+        assert!((l - c).norm() < 1e-12);
+        let w = wahba_nb(&b_b, &b_n, &[1.0; 3]).unwrap();
+        assert!((w - c).norm() < 1e-12);
+        // Two baselines still determine a rotation for Wahba, not for eq. 4.
+        assert!(wahba_nb(&b_b[..2], &b_n[..2], &[1.0; 2]).is_some());
+        assert!(ls_dcm(&b_b[..2], &b_n[..2]).is_none());
+    }
+
+    /// A static baseline under a fixed sky: the float filter converges to the
+    /// truth, and survives a satellite setting and one rising.
+    #[test]
+    fn float_filter_converges_and_survives_set_changes() {
+        let b_true = Vec3::new(0.6, -0.7, 0.2);
+        // Satellites moving independently across the sky (non-rigid geometry change).
+        let sky = |s: usize, e: usize| -> Vec3 {
+            let el = 1.3 - 0.15 * s as f64 + 0.0015 * (s as f64 - 3.5) * e as f64;
+            let az = 0.9 * s as f64 + 0.003 * (s % 3) as f64 * e as f64;
+            Vec3::new(el.cos() * az.sin(), el.cos() * az.cos(), el.sin())
+        };
+        let amb: [f64; 8] = core::array::from_fn(|i| LAMBDA * ((i as f64 * 7.3) % 11.0 - 5.0));
+        const LAMBDA: f64 = 0.190293673;
+        let cfg = CpAttConfig {
+            q: 1e-8,
+            ..Default::default()
+        };
+        let mut f = BaselineFilter::default();
+        for e in 0..200 {
+            // Sats 0..6 at first; sat 3 sets at epoch 80; sat 7 rises at 120.
+            let mut ep = CpEpoch {
+                t: 10.0 * e as f64,
+                n_baselines: 1,
+                ..Default::default()
+            };
+            let mut n = 0;
+            for s in 0..8 {
+                let on = match s {
+                    3 => e < 80,
+                    7 => e >= 120,
+                    _ => true,
+                };
+                if !on {
+                    continue;
+                }
+                let l = sky(s, e);
+                ep.prn[n] = s as u8 + 1;
+                ep.los_enu[n] = l;
+                ep.sigma[n] = 0.002;
+                ep.sd_phase[0][n] = l.dot(&b_true) + amb[s];
+                n += 1;
+            }
+            ep.n_sats = n;
+            f.update(&ep, 0, &cfg);
+            let (a, _, m) = f.ambiguities();
+            if e > 150 {
+                assert!(
+                    (f.baseline() - b_true).norm() < 2e-3,
+                    "{e}: {}",
+                    f.baseline()
+                );
+                for i in 0..m {
+                    let si = (f.prn[i] - 1) as usize;
+                    let sj = (f.prn[i + 1] - 1) as usize;
+                    assert!((a[i] - (amb[si] - amb[sj])).abs() < 2e-3);
+                }
+            }
+        }
+        assert_eq!(f.n_sats, 7);
+        assert!(f.remaps >= 2);
+    }
+}

@@ -1,0 +1,833 @@
+//! Fuzzing every reader on stable Rust: generated and mutated inputs, each
+//! run to completion, checking for panics, hangs and unbounded memory.
+//!
+//! Inputs per reader: mutations of seeds (small synthetic examples of the
+//! format, written here, plus — when `navfuse_io::data::data_dir()` exists —
+//! windows of 1–40 lines of the real files), format-aware fix-ups so that
+//! mutated NMEA lines and UBX frames still pass their checksums and reach the
+//! field parsers, token-dictionary generation and raw random bytes; plus a
+//! proptest block per format with structured strategies.
+//!
+//! Case count per reader: `NAVFUSE_FUZZ_CASES` (default 3000, a few seconds
+//! in total). The dedicated run: `NAVFUSE_FUZZ_CASES=1000000 cargo test
+//! --release -p navfuse-io --test fuzz_readers -- --nocapture --test-threads 1`.
+//! Each test prints its case count, input bytes, slowest case and peak
+//! per-case heap. Checks per case: no panic (caught; the input is written to
+//! `target/fuzz_crashes/` and the test fails), < 2 s, < 64 MiB of heap at
+//! its peak (a per-thread counting allocator), and the reader stops within
+//! `len + 16` items. A crash found becomes a test in `regressions` below.
+
+use navfuse_io::csv_imu::{CsvImuConfig, CsvImuReader};
+use navfuse_io::kfgins::{KfGinsGnssReader, KfGinsImuOptions, KfGinsImuReader, KfGinsNavReader};
+use navfuse_io::live::{GpsdAssembler, ImuLineParser};
+use navfuse_io::navcsv::NavCsvReader;
+use navfuse_io::nmea::{self, NmeaOptions, NmeaReader, NmeaWriter};
+use navfuse_io::pos::PosReader;
+use navfuse_io::ubx::{self, UbxReader};
+use navfuse_io::writers::{CsvWriter, TrajectoryWriter};
+use navfuse_io::ReadError;
+use std::alloc::{GlobalAlloc, Layout, System};
+use std::cell::Cell;
+use std::time::{Duration, Instant};
+
+// ------------------------------------------------------------ allocator
+
+struct Counting;
+
+thread_local! {
+    static CUR: Cell<usize> = const { Cell::new(0) };
+    static PEAK: Cell<usize> = const { Cell::new(0) };
+}
+
+unsafe impl GlobalAlloc for Counting {
+    unsafe fn alloc(&self, l: Layout) -> *mut u8 {
+        let _ = CUR.try_with(|c| {
+            let n = c.get() + l.size();
+            c.set(n);
+            let _ = PEAK.try_with(|p| p.set(p.get().max(n)));
+        });
+        System.alloc(l)
+    }
+    unsafe fn dealloc(&self, p: *mut u8, l: Layout) {
+        let _ = CUR.try_with(|c| c.set(c.get().saturating_sub(l.size())));
+        System.dealloc(p, l)
+    }
+    unsafe fn realloc(&self, p: *mut u8, l: Layout, new: usize) -> *mut u8 {
+        let _ = CUR.try_with(|c| {
+            let n = c.get().saturating_sub(l.size()) + new;
+            c.set(n);
+            let _ = PEAK.try_with(|pk| pk.set(pk.get().max(n)));
+        });
+        System.realloc(p, l, new)
+    }
+}
+
+#[global_allocator]
+static A: Counting = Counting;
+
+// ------------------------------------------------------------ rng
+
+/// SplitMix64: small, fast, reproducible.
+struct Rng(u64);
+impl Rng {
+    fn next(&mut self) -> u64 {
+        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
+        let mut z = self.0;
+        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+        z ^ (z >> 31)
+    }
+    fn below(&mut self, n: usize) -> usize {
+        if n == 0 {
+            0
+        } else {
+            (self.next() % n as u64) as usize
+        }
+    }
+    fn chance(&mut self, p: f64) -> bool {
+        (self.next() >> 11) as f64 / (1u64 << 53) as f64 <= p
+    }
+}
+
+// ------------------------------------------------------------ harness
+
+/// How to run one reader over one input: returns the number of items.
+type Run = fn(&[u8]) -> usize;
+/// Format-aware repair after mutation (checksums).
+type Fixup = fn(&mut Vec<u8>, &mut Rng);
+
+fn drain<T>(it: impl Iterator<Item = Result<T, ReadError>>, cap: usize) -> usize {
+    let mut n = 0;
+    for r in it {
+        n += 1;
+        assert!(
+            n <= cap,
+            "reader yielded more than {cap} items: not terminating"
+        );
+        if r.is_err() {
+            // After an error the readers must end (or keep going): both fine,
+            // but they must terminate, which the cap checks.
+        }
+    }
+    n
+}
+
+fn cases() -> usize {
+    std::env::var("NAVFUSE_FUZZ_CASES")
+        .ok()
+        .and_then(|s| s.parse().ok())
+        .unwrap_or(3000)
+}
+
+const TOKENS: &[&[u8]] = &[
+    b"nan",
+    b"NaN",
+    b"inf",
+    b"-1e400",
+    b"1e308",
+    b"0",
+    b"-0",
+    b"99999999999999999999",
+    b"1.0.0",
+    b"",
+    b" ",
+    b"\t",
+    b",",
+    b",,",
+    b"\n",
+    b"\r\n",
+    b"*",
+    b"$",
+    b"%",
+    b"#",
+    b"\xff\xfe",
+    b"\xc3\x28",
+    b"2025/07/08",
+    b"19:34:18.5",
+    b"GPST",
+    b"UTC",
+    b"JST",
+    b"latitude(deg)",
+    b"$GPGGA",
+    b"$GNRMC",
+    b"$GPZDA",
+    b"$GPGST",
+    b"*00",
+    b"{",
+    b"}",
+    b"\"class\":\"TPV\"",
+    b"\"time\":\"2025-07-08T19:34:18.250Z\"",
+    b"\xb5\x62",
+    b"\xb5\x62\x01\x07\x5c\x00",
+    b"\xb5\x62\x02\x15\xff\xff",
+    b"9",
+    b"-",
+    b".",
+    b"e",
+    b"243262.999",
+    b"2374",
+    b"4005.7976080",
+    b"N",
+    b"W",
+    b"235959.99",
+    b"000000",
+];
+
+fn mutate(input: &mut Vec<u8>, rng: &mut Rng, seeds: &[Vec<u8>]) {
+    let k = 1 + rng.below(6);
+    for _ in 0..k {
+        let len = input.len();
+        match rng.below(11) {
+            0 if len > 0 => {
+                let i = rng.below(len);
+                input[i] ^= 1 << rng.below(8);
+            }
+            1 if len > 0 => {
+                let i = rng.below(len);
+                input[i] = rng.next() as u8;
+            }
+            2 => {
+                let i = rng.below(len + 1);
+                input.insert(i, rng.next() as u8);
+            }
+            3 if len > 0 => {
+                let a = rng.below(len);
+                let b = (a + 1 + rng.below(32)).min(len);
+                input.drain(a..b);
+            }
+            4 if len > 0 => {
+                let a = rng.below(len);
+                let b = (a + 1 + rng.below(64)).min(len);
+                let chunk = input[a..b].to_vec();
+                let at = rng.below(input.len() + 1);
+                input.splice(at..at, chunk);
+            }
+            5 => {
+                let t = TOKENS[rng.below(TOKENS.len())];
+                let at = rng.below(len + 1);
+                input.splice(at..at, t.iter().copied());
+            }
+            6 if len > 0 => input.truncate(rng.below(len)),
+            7 if !seeds.is_empty() => {
+                let s = &seeds[rng.below(seeds.len())];
+                if !s.is_empty() {
+                    let a = rng.below(s.len());
+                    let b = (a + 1 + rng.below(200)).min(s.len());
+                    let at = rng.below(len + 1);
+                    input.splice(at..at, s[a..b].iter().copied());
+                }
+            }
+            8 if len > 0 => {
+                // Replace a run of digits by an extreme number.
+                let i = rng.below(len);
+                if input[i].is_ascii_digit() {
+                    let t: &[u8] =
+                        [&b"4294967296"[..], b"-2147483649", b"1e-320", b"256"][rng.below(4)];
+                    input.splice(i..i + 1, t.iter().copied());
+                }
+            }
+            9 => {
+                // Swap two lines.
+                let lines: Vec<&[u8]> = input.split(|&b| b == b'\n').collect();
+                if lines.len() > 2 {
+                    let (a, b) = (rng.below(lines.len()), rng.below(lines.len()));
+                    let mut v: Vec<Vec<u8>> = lines.iter().map(|l| l.to_vec()).collect();
+                    v.swap(a, b);
+                    *input = v.join(&b'\n');
+                }
+            }
+            _ => {
+                let n = rng.below(8);
+                for _ in 0..n {
+                    let at = rng.below(input.len() + 1);
+                    input.insert(at, rng.next() as u8);
+                }
+            }
+        }
+    }
+    input.truncate(1 << 16);
+}
+
+fn generate(rng: &mut Rng) -> Vec<u8> {
+    let mut v = Vec::new();
+    let n = rng.below(60);
+    for _ in 0..n {
+        if rng.chance(0.7) {
+            v.extend_from_slice(TOKENS[rng.below(TOKENS.len())]);
+        } else {
+            v.push(rng.next() as u8);
+        }
+        if rng.chance(0.3) {
+            v.push(b' ');
+        }
+    }
+    v
+}
+
+struct Report {
+    cases: usize,
+    bytes: u64,
+    items: u64,
+    slowest: Duration,
+    peak_heap: usize,
+}
+
+fn fuzz(name: &str, run: Run, seeds: Vec<Vec<u8>>, fixup: Option<Fixup>) -> Report {
+    let n = cases();
+    // Seed from the reader name so each reader explores its own sequence.
+    let mut rng = Rng(name.bytes().fold(0xC0FFEE, |a: u64, b| {
+        a.wrapping_mul(31).wrapping_add(u64::from(b))
+    }));
+    let mut rep = Report {
+        cases: 0,
+        bytes: 0,
+        items: 0,
+        slowest: Duration::ZERO,
+        peak_heap: 0,
+    };
+    let mut input = Vec::with_capacity(1 << 16);
+    for case in 0..n {
+        input.clear();
+        let r = rng.below(100);
+        if r < 75 && !seeds.is_empty() {
+            input.extend_from_slice(&seeds[rng.below(seeds.len())]);
+            mutate(&mut input, &mut rng, &seeds);
+            if let Some(f) = fixup {
+                if rng.chance(0.6) {
+                    f(&mut input, &mut rng);
+                }
+            }
+        } else if r < 92 {
+            input = generate(&mut rng);
+        } else {
+            let len = rng.below(300);
+            input.extend((0..len).map(|_| rng.next() as u8));
+        }
+        let base = CUR.with(|c| c.get());
+        PEAK.with(|p| p.set(base));
+        let t = Instant::now();
+        let res = std::panic::catch_unwind(|| run(&input));
+        let dt = t.elapsed();
+        let peak = PEAK.with(|p| p.get()).saturating_sub(base);
+        match res {
+            Ok(items) => rep.items += items as u64,
+            Err(e) => {
+                let msg = e
+                    .downcast_ref::<String>()
+                    .cloned()
+                    .or_else(|| e.downcast_ref::<&str>().map(|s| s.to_string()))
+                    .unwrap_or_default();
+                let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+                    .join("../../target/fuzz_crashes");
+                let _ = std::fs::create_dir_all(&dir);
+                let p = dir.join(format!("{name}-{case}.bin"));
+                let _ = std::fs::write(&p, &input);
+                panic!(
+                    "{name}: case {case} panicked: {msg}; input saved to {}",
+                    p.display()
+                );
+            }
+        }
+        assert!(
+            dt < Duration::from_secs(2),
+            "{name}: case {case} took {dt:?} (hang?) on {} bytes",
+            input.len()
+        );
+        assert!(
+            peak < 64 << 20,
+            "{name}: case {case} peaked at {peak} bytes of heap on {} bytes of input",
+            input.len()
+        );
+        rep.cases += 1;
+        rep.bytes += input.len() as u64;
+        rep.slowest = rep.slowest.max(dt);
+        rep.peak_heap = rep.peak_heap.max(peak);
+    }
+    println!(
+        "fuzz {name}: {} cases, {} input bytes, {} items, slowest case {:?}, peak heap per case {} KiB, {} seeds",
+        rep.cases,
+        rep.bytes,
+        rep.items,
+        rep.slowest,
+        rep.peak_heap / 1024,
+        seeds.len()
+    );
+    rep
+}
+
+/// Windows of 1–40 lines from the first 512 KiB of a real file, when present.
+fn real_seeds(rel: &str, count: usize) -> Vec<Vec<u8>> {
+    let p = navfuse_io::data::data_dir().join(rel);
+    let Ok(mut b) = std::fs::read(&p) else {
+        return Vec::new();
+    };
+    b.truncate(512 << 10);
+    let lines: Vec<&[u8]> = b.split_inclusive(|&c| c == b'\n').collect();
+    let mut rng = Rng(count as u64 + lines.len() as u64);
+    let mut out = Vec::new();
+    // Always the head (headers live there).
+    out.push(lines[..lines.len().min(40)].concat());
+    for _ in 0..count {
+        let a = rng.below(lines.len());
+        let e = (a + 1 + rng.below(40)).min(lines.len());
+        out.push(lines[a..e].concat());
+    }
+    out
+}
+
+fn with_real(mut synth: Vec<Vec<u8>>, rel: &[&str]) -> Vec<Vec<u8>> {
+    for r in rel {
+        synth.extend(real_seeds(r, 200));
+    }
+    synth
+}
+
+// ------------------------------------------------------------ readers
+
+fn run_kfgins_imu(b: &[u8]) -> usize {
+    let opt = KfGinsImuOptions {
+        week: 2374,
+        columns: 7,
+        nominal_rate_hz: Some(100.0),
+    };
+    drain(KfGinsImuReader::new(b, "f", opt), b.len() + 16)
+}
+fn run_kfgins_gnss(b: &[u8]) -> usize {
+    drain(KfGinsGnssReader::new(b, "f", 2374), b.len() + 16)
+}
+fn run_kfgins_nav(b: &[u8]) -> usize {
+    drain(KfGinsNavReader::new(b, "f", 2374), b.len() + 16)
+}
+fn run_pos(b: &[u8]) -> usize {
+    drain(PosReader::new(b, "f"), b.len() + 16)
+}
+fn run_csv_imu(b: &[u8]) -> usize {
+    // Alternate the two presets by the input's first byte (both explored).
+    let cfg = if b.first().is_some_and(|c| c % 2 == 0) {
+        CsvImuConfig::drive_0708()
+    } else {
+        CsvImuConfig::vn310()
+    };
+    drain(CsvImuReader::new(b, "f", cfg), b.len() + 16)
+}
+fn run_nav_csv(b: &[u8]) -> usize {
+    drain(NavCsvReader::new(b, "f"), b.len() + 16)
+}
+fn run_nmea(b: &[u8]) -> usize {
+    let mut r = NmeaReader::new(b, "f", NmeaOptions::default());
+    let n = drain(r.by_ref(), b.len() + 16);
+    assert!(r.stats().is_balanced(), "NMEA accounting: {}", r.stats());
+    n
+}
+fn run_ubx(b: &[u8]) -> usize {
+    let mut r = UbxReader::new(b, "f");
+    let n = drain(r.by_ref(), b.len() + 16);
+    assert!(r.stats().is_balanced(), "UBX accounting: {}", r.stats());
+    n
+}
+fn run_gpsd(b: &[u8]) -> usize {
+    let mut a = GpsdAssembler::new();
+    let mut n = 0;
+    for line in b.split(|&c| c == b'\n') {
+        a.push_line(line);
+        while a.pop().is_some() {
+            n += 1;
+        }
+    }
+    a.flush();
+    while a.pop().is_some() {
+        n += 1;
+    }
+    n
+}
+fn run_imu_lines(b: &[u8]) -> usize {
+    let mut p = ImuLineParser::new(2374, Some(100.0));
+    let mut out = Vec::new();
+    for line in b.split(|&c| c == b'\n') {
+        let _ = p.push_line(line, &mut out);
+    }
+    p.finish();
+    assert!(p.stats.is_balanced(), "IMU line accounting: {}", p.stats);
+    out.len()
+}
+
+// ------------------------------------------------------------ seeds & fix-ups
+
+fn nmea_seed() -> Vec<Vec<u8>> {
+    use navfuse_core::types::{GnssFix, Vec3};
+    let mut out = Vec::new();
+    let mut buf = Vec::new();
+    {
+        let mut w = NmeaWriter::new(&mut buf);
+        for k in 0..6 {
+            let f = GnssFix {
+                t: 1_435_700_000.0 + 0.25 * k as f64,
+                lat: 0.7,
+                lon: -1.8,
+                h: 1600.0,
+                std_ned: Vec3::new(0.01, 0.02, 0.03),
+                quality: 1,
+                num_sats: 20,
+                v_n: Some(Vec3::new(3.0, -4.0, 0.0)),
+                ..Default::default()
+            };
+            w.write_fix(&f).unwrap();
+        }
+    }
+    out.push(buf);
+    let bodies = [
+        "GNVTG,054.7,T,034.4,M,005.5,N,010.2,K",
+        "GNGSA,A,3,04,05,,09,12,,,24,,,,,2.5,1.3,2.1",
+        "GPGSV,2,1,08,01,40,083,46,02,17,308,41,12,07,344,39,14,22,228,45",
+        "GPZDA,201530.00,04,07,2002,00,00",
+        "GPHDT,274.07,T",
+        "GNGNS,014035.00,4332.69262,S,17235.48549,E,RR,13,0.9,25.63,11.24,,",
+        "GPGGA,201530.00,4807.038,N,01131.000,E,4,08,0.9,545.4,M,46.9,M,,",
+    ];
+    let mut s = Vec::new();
+    for b in bodies {
+        s.extend(format!("${b}*{:02X}\r\n", nmea::checksum(b.as_bytes())).bytes());
+    }
+    out.push(s);
+    out
+}
+
+/// Recompute the checksum of every `$…*hh` line.
+fn nmea_fixup(b: &mut Vec<u8>, _rng: &mut Rng) {
+    let mut out = Vec::with_capacity(b.len() + 8);
+    for line in b.split_inclusive(|&c| c == b'\n') {
+        let body_end = line.iter().rposition(|&c| c == b'*');
+        match (line.first(), body_end) {
+            (Some(b'$'), Some(star)) => {
+                let cs = nmea::checksum(&line[1..star]);
+                out.extend_from_slice(&line[..=star]);
+                out.extend(format!("{cs:02X}").bytes());
+                let rest = &line[star + 1..];
+                let skip = rest
+                    .iter()
+                    .take(2)
+                    .take_while(|c| c.is_ascii_hexdigit())
+                    .count();
+                out.extend_from_slice(&rest[skip..]);
+            }
+            _ => out.extend_from_slice(line),
+        }
+    }
+    *b = out;
+}
+
+fn ubx_seed() -> Vec<Vec<u8>> {
+    use ubx::*;
+    let pvt = NavPvt {
+        year: 2025,
+        month: 7,
+        day: 8,
+        hour: 19,
+        min: 34,
+        sec: 18,
+        valid: 7,
+        fix_type: 3,
+        flags: 0x81,
+        lat_e7: 401_000_000,
+        lon_e7: -1_051_000_000,
+        height_mm: 1_600_000,
+        ..Default::default()
+    };
+    let rawx = RxmRawx {
+        rcv_tow: 243_262.0,
+        week: 2374,
+        meas: vec![
+            RawxMeas {
+                pr_mes: 2.1e7,
+                cp_mes: 1.1e8,
+                trk_stat: 3,
+                ..Default::default()
+            };
+            3
+        ],
+        ..Default::default()
+    };
+    let esf_raw = EsfRaw {
+        data: vec![
+            (
+                EsfData {
+                    data_type: 14,
+                    value: 0xFF_F000
+                },
+                1000
+            );
+            4
+        ],
+    };
+    let esf_meas = EsfMeas {
+        time_tag: 5,
+        flags: 3 << 11,
+        id: 0,
+        data: vec![
+            EsfData {
+                data_type: 16,
+                value: 10
+            };
+            3
+        ],
+        calib_ttag: None,
+    };
+    let rel = NavRelPosNed {
+        version: 1,
+        rel_pos_n_cm: 100,
+        ..Default::default()
+    };
+    let msgs = [
+        UbxMessage::NavPvt(pvt),
+        UbxMessage::RxmRawx(rawx),
+        UbxMessage::EsfRaw(esf_raw),
+        UbxMessage::EsfMeas(esf_meas),
+        UbxMessage::NavRelPosNed(rel),
+    ];
+    let mut all = Vec::new();
+    let mut out = Vec::new();
+    for m in &msgs {
+        let f = encode(m);
+        all.extend_from_slice(&f);
+        out.push(f);
+    }
+    out.push(all);
+    out
+}
+
+/// Re-frame: walk sync pairs; where a header's length fits, set the
+/// checksum right (and sometimes the length to the bytes that follow).
+#[allow(clippy::ptr_arg)] // must match the `Fixup` signature
+fn ubx_fixup(b: &mut Vec<u8>, rng: &mut Rng) {
+    let mut i = 0;
+    while i + 8 <= b.len() {
+        if b[i] == 0xB5 && b[i + 1] == 0x62 {
+            let mut len = usize::from(u16::from_le_bytes([b[i + 4], b[i + 5]]));
+            if i + 8 + len > b.len() || rng.chance(0.2) {
+                let avail = b.len() - i - 8;
+                len = avail.min(rng.below(avail + 1));
+                b[i + 4..i + 6].copy_from_slice(&(len as u16).to_le_bytes());
+            }
+            let (ca, cb) = ubx::checksum(&b[i + 2..i + 6 + len]);
+            b[i + 6 + len] = ca;
+            b[i + 7 + len] = cb;
+            i += 8 + len;
+        } else {
+            i += 1;
+        }
+    }
+}
+
+fn gpsd_seed() -> Vec<Vec<u8>> {
+    vec![br#"{"class":"VERSION","release":"3.22","rev":"3.22","proto_major":3,"proto_minor":14}
+{"class":"TPV","device":"/dev/pts/3","status":3,"mode":3,"time":"2025-07-08T19:34:03.749Z","ept":0.005,"lat":40.096626800,"lon":-105.147448300,"altHAE":1601.4710,"altMSL":1601.4710,"alt":1601.4710,"track":161.5700,"speed":0.003,"geoidSep":0.000,"eph":1.900}
+{"class":"GST","device":"/dev/pts/3","time":"2025-07-08T19:34:03.749Z","lat":0.010,"lon":0.010,"alt":0.010}
+{"class":"TPV","device":"/dev/pts/3","status":3,"mode":3,"time":"2025-07-08T19:34:03.999Z","lat":40.096626800,"lon":-105.147448300,"altHAE":1601.4750,"epx":1.0,"epy":1.0,"epv":2.0}
+{"class":"SKY","satellites":[]}
+"#
+    .to_vec()]
+}
+
+type Seeds = Vec<Vec<u8>>;
+
+fn text_seeds() -> (Seeds, Seeds, Seeds, Seeds) {
+    let imu = b"243261.664534 -2.8e-05 -2.5e-04 -3.4e-05 1.2e-04 2.0e-03 -9.8e-02\n243261.674537 -2.0e-05 -1.9e-04 -2.2e-05 -2.3e-04 1.5e-03 -1.0e-01\n243261.684540 5.6e-05 3.3e-04 -1.3e-05 -6.0e-04 1.2e-03 -9.9e-02\n".to_vec();
+    let gnss = b"243262.999 40.096626800 -105.147448400 1601.4680 0.0200 0.0200 0.0200\n243263.999 40.096626800 -105.147448300 1601.4730 0.0200 0.0200 0.0200\n".to_vec();
+    let gnss13 =
+        b"243262.999 40.0966268 -105.1474484 1601.468 0.02 0.02 0.02 0.1 0.2 0.3 0.01 0.01 0.02\n"
+            .to_vec();
+    let nav = b"2374 243262.999 40.0966268 -105.1474484 1601.468 0.1 0.2 0.0 1.0 2.0 -179.9\n0.000000000 243263.999 40.0966268 -105.1474484 1601.468 0.1 0.2 0.0 nan nan nan\n".to_vec();
+    let pos = b"% program   : RTKPOST\n%  GPST                  latitude(deg) longitude(deg)  height(m)   Q  ns   sdn(m)   sde(m)   sdu(m)  sdne(m)  sdeu(m)  sdun(m) age(s)  ratio\n2025/07/08 19:34:18.499   40.096626800 -105.147448300  1601.4740   1  21   0.0099   0.0099   0.0100   0.0000   0.0000   0.0000   0.00    0.0\n2374 243258.749   40.096626800 -105.147448300  1601.4760   2  21   0.0099   0.0099   0.0100   0.0000   0.0000   0.0000   0.00    0.0\n".to_vec();
+    (vec![imu], vec![gnss, gnss13], vec![nav], vec![pos])
+}
+
+fn nav_csv_seed() -> Vec<Vec<u8>> {
+    use navfuse_core::types::NavSolution;
+    let mut buf = Vec::new();
+    {
+        let mut w = CsvWriter::new(&mut buf);
+        let mut s = NavSolution::unknown_at(1_435_700_000.0);
+        s.lat = 0.7;
+        s.lon = -1.8;
+        s.h = 1600.0;
+        w.write(&s).unwrap();
+        s.t += 0.01;
+        s.rpy = navfuse_core::types::Vec3::new(0.1, 0.2, 3.0);
+        w.write(&s).unwrap();
+        w.finish().unwrap();
+    }
+    vec![buf]
+}
+
+fn csv_imu_seed() -> Vec<Vec<u8>> {
+    vec![
+        b"# gps_week,gps_tow_s,acc_x_g,acc_y_g,acc_z_g,gyro_x_dps,gyro_y_dps,gyro_z_dps\n2374,243261.864,0.01,0.02,1.0,0.1,0.2,0.3\n2374,243261.874,0.01,0.02,1.0,0.1,0.2,0.3\n2374,243261.884,0.02,0.02,1.0,0.1,0.2,0.3\n".to_vec(),
+    ]
+}
+
+// ------------------------------------------------------------ tests
+
+#[test]
+fn fuzz_kfgins_imu() {
+    let s = with_real(text_seeds().0, &["drive_0708/kfgins/imu.txt"]);
+    fuzz("kfgins_imu", run_kfgins_imu, s, None);
+}
+
+#[test]
+fn fuzz_kfgins_gnss() {
+    let s = with_real(
+        text_seeds().1,
+        &[
+            "drive_0708/kfgins/gnss_full.txt",
+            "drive_0708/kfgins/gnss_outage.txt",
+        ],
+    );
+    fuzz("kfgins_gnss", run_kfgins_gnss, s, None);
+}
+
+#[test]
+fn fuzz_kfgins_nav() {
+    let s = with_real(
+        text_seeds().2,
+        &[
+            "drive_0708/kfgins/truth.nav",
+            "drive_0708/kfgins/kfgins_result_full_10hz.nav",
+        ],
+    );
+    fuzz("kfgins_nav", run_kfgins_nav, s, None);
+}
+
+#[test]
+fn fuzz_pos() {
+    let s = with_real(text_seeds().3, &["drive_0708/gnss_1934_sf.pos"]);
+    fuzz("pos", run_pos, s, None);
+}
+
+#[test]
+fn fuzz_csv_imu() {
+    let s = with_real(
+        csv_imu_seed(),
+        &["drive_0708/imu_1934_gpst.csv", "static_vn310/vn310-imu.csv"],
+    );
+    fuzz("csv_imu", run_csv_imu, s, None);
+}
+
+#[test]
+fn fuzz_nav_csv() {
+    fuzz("nav_csv", run_nav_csv, nav_csv_seed(), None);
+}
+
+#[test]
+fn fuzz_nmea() {
+    // Real seed: the drive's .pos written as NMEA, when the data is present.
+    let mut s = nmea_seed();
+    let pos = navfuse_io::data::data_dir().join("drive_0708/gnss_1934_sf.pos");
+    if let Ok((rdr, name)) = navfuse_io::open(&pos) {
+        let mut buf = Vec::new();
+        {
+            let mut w = NmeaWriter::new(&mut buf);
+            for f in PosReader::new(rdr, &name).take(400).flatten() {
+                w.write_fix(&f).unwrap();
+            }
+        }
+        let lines: Vec<&[u8]> = buf.split_inclusive(|&c| c == b'\n').collect();
+        for k in 0..100 {
+            let a = (k * 37) % lines.len().max(1);
+            s.push(lines[a..(a + 30).min(lines.len())].concat());
+        }
+    }
+    fuzz("nmea", run_nmea, s, Some(nmea_fixup));
+}
+
+#[test]
+fn fuzz_ubx() {
+    fuzz("ubx", run_ubx, ubx_seed(), Some(ubx_fixup));
+}
+
+#[test]
+fn fuzz_gpsd_json() {
+    fuzz("gpsd_json", run_gpsd, gpsd_seed(), None);
+}
+
+#[test]
+fn fuzz_live_imu_lines() {
+    let s = with_real(text_seeds().0, &["drive_0708/kfgins/imu.txt"]);
+    fuzz("live_imu_lines", run_imu_lines, s, None);
+}
+
+mod structured {
+    //! proptest strategies that build well-formed frames/sentences around
+    //! arbitrary content, so the field parsers behind the checksums are hit.
+    use super::*;
+    use proptest::prelude::*;
+
+    proptest! {
+        #![proptest_config(ProptestConfig { cases: 512, ..ProptestConfig::default() })]
+
+        #[test]
+        fn ubx_frames_with_arbitrary_payloads(
+            frames in proptest::collection::vec(
+                (prop_oneof![Just((1u8, 7u8)), Just((2, 0x15)), Just((0x10, 3)), Just((0x10, 2)),
+                             Just((1, 0x3C)), any::<(u8, u8)>()],
+                 proptest::collection::vec(any::<u8>(), 0..600)), 0..6),
+            junk in proptest::collection::vec(any::<u8>(), 0..20)) {
+            let mut b = junk;
+            for ((c, i), p) in &frames {
+                b.extend(ubx::frame(*c, *i, p));
+            }
+            run_ubx(&b);
+        }
+
+        #[test]
+        fn nmea_sentences_with_arbitrary_fields(
+            lines in proptest::collection::vec(
+                (prop_oneof![Just("GPGGA"), Just("GNRMC"), Just("GPVTG"), Just("GPGST"), Just("GNGSA"),
+                             Just("GPGSV"), Just("GPZDA"), Just("GPHDT"), Just("GNGNS"), Just("XXGGA")],
+                 proptest::collection::vec("[0-9NSEWAV.,+-]{0,12}", 0..20)), 0..12)) {
+            let mut b = Vec::new();
+            for (addr, f) in &lines {
+                let body = format!("{addr},{}", f.join(","));
+                b.extend(format!("${body}*{:02X}\r\n", nmea::checksum(body.as_bytes())).bytes());
+            }
+            run_nmea(&b);
+        }
+
+        #[test]
+        fn arbitrary_bytes_every_reader(b in proptest::collection::vec(any::<u8>(), 0..2000)) {
+            for run in [run_kfgins_imu, run_kfgins_gnss, run_kfgins_nav, run_pos, run_csv_imu,
+                        run_nav_csv, run_nmea, run_ubx, run_gpsd, run_imu_lines] {
+                run(&b);
+            }
+        }
+    }
+}
+
+mod regressions {
+    //! Inputs that once crashed a reader (found by the fuzzers above).
+    use super::*;
+
+    #[test]
+    fn ubx_length_that_reaches_past_the_buffer_is_a_truncation() {
+        let mut b = ubx::frame(1, 7, &[0; 92]);
+        b[4] = 0xFF;
+        b[5] = 0x1F; // 8191 bytes claimed, 92 present
+        assert_eq!(run_ubx(&b), 0);
+    }
+}
+
+mod regressions_found {
+    //! Crashes the fuzzers found, kept as tests (inputs in `fuzz_regressions/`).
+    use super::*;
+
+    /// An NMEA epoch rejected at closing (time not increasing) was counted
+    /// twice (used + rejected): the accounting no longer balanced.
+    #[test]
+    fn nmea_rejected_epoch_is_counted_once() {
+        let b = include_bytes!("fuzz_regressions/nmea_accounting.nmea");
+        let mut r = NmeaReader::new(&b[..], "f", NmeaOptions::default());
+        for x in r.by_ref() {
+            let _ = x;
+        }
+        assert!(r.stats().is_balanced(), "{}", r.stats());
+    }
+}

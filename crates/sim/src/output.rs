@@ -1,0 +1,159 @@
+//! Writers for a simulated run (private until navfuse-io's writers land on
+//! `main`; the formats follow KF-GINS' text files so KF-GINS and navfuse read them).
+//!
+//! Files in the output folder:
+//! - `imu.txt` KF-GINS IMU: `tow  dθx dθy dθz [rad]  dvx dvy dvz [m/s]` (FRD)
+//! - `imu_ideal.txt` the same without errors
+//! - `imu.csv` time, dt, increments and average rates (Δ/dt) with a header
+//! - `gnss.txt` KF-GINS GNSS: `tow lat lon [deg] h [m] σN σE σD [m]`
+//! - `gnss.csv` the fixes with NED velocity and its σ
+//! - `truth.nav` KF-GINS navigation result: `week tow lat lon h vN vE vD roll pitch yaw [deg]`
+//! - `truth.csv` truth with instantaneous ideal rates ω_ib^b, f^b
+//! - `run.toml` the scenario, seed and sensor specs (enough to reproduce the run)
+//!
+//! Numbers are printed with fixed formats, so output bytes depend only on
+//! the values (same scenario + seed → identical files).
+
+use crate::{SimError, SimRun};
+use std::fmt::Write as _;
+use std::io::Write;
+use std::path::Path;
+
+const R2D: f64 = 180.0 / core::f64::consts::PI;
+
+fn week_tow(t: f64) -> (u32, f64) {
+    let w = (t / 604_800.0).floor();
+    (w as u32, t - w * 604_800.0)
+}
+
+fn write(dir: &Path, name: &str, text: &str) -> Result<(), SimError> {
+    let p = dir.join(name);
+    let mut f =
+        std::fs::File::create(&p).map_err(|e| SimError::Io(format!("{}: {e}", p.display())))?;
+    f.write_all(text.as_bytes())
+        .map_err(|e| SimError::Io(format!("{}: {e}", p.display())))
+}
+
+fn imu_txt(s: &[navfuse_core::ImuSample]) -> String {
+    let mut o = String::with_capacity(s.len() * 120);
+    for x in s {
+        let (_, tow) = week_tow(x.t);
+        let _ = writeln!(
+            o,
+            "{:.6} {:.12e} {:.12e} {:.12e} {:.12e} {:.12e} {:.12e}",
+            tow, x.dtheta_b.x, x.dtheta_b.y, x.dtheta_b.z, x.dvel_b.x, x.dvel_b.y, x.dvel_b.z
+        );
+    }
+    o
+}
+
+/// Write every output file of `run` into `dir` (created if missing).
+pub fn write_run(run: &SimRun, dir: &Path) -> Result<(), SimError> {
+    std::fs::create_dir_all(dir).map_err(|e| SimError::Io(format!("{}: {e}", dir.display())))?;
+    write(dir, "imu.txt", &imu_txt(&run.imu))?;
+    write(dir, "imu_ideal.txt", &imu_txt(&run.traj.imu))?;
+
+    let mut o = String::from(
+        "t_gps_s,dt_s,dtheta_x_rad,dtheta_y_rad,dtheta_z_rad,dvel_x_m_s,dvel_y_m_s,dvel_z_m_s,gyro_x_rad_s,gyro_y_rad_s,gyro_z_rad_s,accel_x_m_s2,accel_y_m_s2,accel_z_m_s2\n",
+    );
+    for x in &run.imu {
+        let w = x.dtheta_b / x.dt;
+        let f = x.dvel_b / x.dt;
+        let _ = writeln!(
+            o,
+            "{:.6},{:.6},{:.12e},{:.12e},{:.12e},{:.12e},{:.12e},{:.12e},{:.12e},{:.12e},{:.12e},{:.12e},{:.12e},{:.12e}",
+            x.t, x.dt, x.dtheta_b.x, x.dtheta_b.y, x.dtheta_b.z, x.dvel_b.x, x.dvel_b.y, x.dvel_b.z,
+            w.x, w.y, w.z, f.x, f.y, f.z
+        );
+    }
+    write(dir, "imu.csv", &o)?;
+
+    let mut txt = String::new();
+    let mut csv = String::from(
+        "t_gps_s,lat_deg,lon_deg,h_m,std_n_m,std_e_m,std_d_m,vn_m_s,ve_m_s,vd_m_s,std_vn_m_s,std_ve_m_s,std_vd_m_s\n",
+    );
+    for g in &run.gnss {
+        let (_, tow) = week_tow(g.t);
+        let _ = writeln!(
+            txt,
+            "{:.6} {:.11} {:.11} {:.4} {:.4} {:.4} {:.4}",
+            tow,
+            g.lat * R2D,
+            g.lon * R2D,
+            g.h,
+            g.std_ned.x,
+            g.std_ned.y,
+            g.std_ned.z
+        );
+        let (v, sv) = match (g.v_n, g.std_v_n) {
+            (Some(v), Some(s)) => (
+                format!("{:.5},{:.5},{:.5}", v.x, v.y, v.z),
+                format!("{:.5},{:.5},{:.5}", s.x, s.y, s.z),
+            ),
+            _ => (",,".into(), ",,".into()),
+        };
+        let _ = writeln!(
+            csv,
+            "{:.6},{:.11},{:.11},{:.4},{:.4},{:.4},{:.4},{v},{sv}",
+            g.t,
+            g.lat * R2D,
+            g.lon * R2D,
+            g.h,
+            g.std_ned.x,
+            g.std_ned.y,
+            g.std_ned.z
+        );
+    }
+    write(dir, "gnss.txt", &txt)?;
+    write(dir, "gnss.csv", &csv)?;
+
+    let mut nav = String::new();
+    let mut csv = String::from(
+        "t_gps_s,lat_deg,lon_deg,h_m,vn_m_s,ve_m_s,vd_m_s,roll_deg,pitch_deg,yaw_deg,w_ib_x_rad_s,w_ib_y_rad_s,w_ib_z_rad_s,f_x_m_s2,f_y_m_s2,f_z_m_s2\n",
+    );
+    for x in &run.traj.truth {
+        let (w, tow) = week_tow(x.t);
+        let _ = writeln!(
+            nav,
+            "{w} {tow:.6} {:.11} {:.11} {:.5} {:.6} {:.6} {:.6} {:.8} {:.8} {:.8}",
+            x.lat * R2D,
+            x.lon * R2D,
+            x.h,
+            x.v_n.x,
+            x.v_n.y,
+            x.v_n.z,
+            x.rpy.x * R2D,
+            x.rpy.y * R2D,
+            x.rpy.z * R2D
+        );
+        let _ = writeln!(
+            csv,
+            "{:.6},{:.11},{:.11},{:.5},{:.6},{:.6},{:.6},{:.8},{:.8},{:.8},{:.12e},{:.12e},{:.12e},{:.12e},{:.12e},{:.12e}",
+            x.t, x.lat * R2D, x.lon * R2D, x.h, x.v_n.x, x.v_n.y, x.v_n.z,
+            x.rpy.x * R2D, x.rpy.y * R2D, x.rpy.z * R2D,
+            x.w_ib_b.x, x.w_ib_b.y, x.w_ib_b.z, x.f_b.x, x.f_b.y, x.f_b.z
+        );
+    }
+    write(dir, "truth.nav", &nav)?;
+    write(dir, "truth.csv", &csv)?;
+
+    #[derive(serde::Serialize)]
+    struct Meta<'a> {
+        seed: u64,
+        imu_spec: &'a crate::imu_model::ImuSpec,
+        gnss_spec: &'a crate::gnss_model::GnssSpec,
+        scenario: &'a crate::Scenario,
+    }
+    let meta = toml::to_string(&Meta {
+        seed: run.seed,
+        imu_spec: &run.imu_spec,
+        gnss_spec: &run.gnss_spec,
+        scenario: &run.scenario,
+    })
+    .map_err(|e| SimError::Io(format!("run.toml: {e}")))?;
+    write(
+        dir,
+        "run.toml",
+        &format!("# navfuse sim: scenario, seed and sensor specs of this run\n{meta}"),
+    )
+}
