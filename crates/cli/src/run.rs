@@ -129,7 +129,7 @@ struct Summary<'a> {
     gnss_fixes_read: usize,
     gnss_fixes_cut_by_outage: usize,
     used_rejected: serde_json::Value,
-    time_offset: &'a str,
+    time_offset: String,
     seconds_read: f64,
     seconds_filter: f64,
     outputs: Vec<String>,
@@ -188,6 +188,7 @@ pub fn run(args: Args) -> Result<(), String> {
         ));
     }
     let n_gnss = gnss.len();
+    let gnss_all = gnss.clone();
     if let Some(o) = &cfg.outage {
         if !(o.length > 0.0 && o.period >= o.length) {
             return Err(format!(
@@ -390,7 +391,12 @@ pub fn run(args: Args) -> Result<(), String> {
             "deweighted": st.deweighted,
             "singular": st.singular,
         }),
-        time_offset: "not estimated (IMU time is taken as given)",
+        time_offset: match estimate_time_offset(imu, &gnss_all, 0.5) {
+            Some((tau, r)) => format!(
+                "estimated {tau:+.3} s to add to the IMU stamps (course-rate / yaw-rate cross-correlation r = {r:.4}); reported, not applied"
+            ),
+            None => "not estimable (too little turning at speed)".into(),
+        },
         seconds_read,
         seconds_filter,
         outputs,
@@ -407,6 +413,85 @@ pub fn run(args: Args) -> Result<(), String> {
         p.display()
     );
     Ok(())
+}
+
+/// IMU–GNSS time offset by cross-correlation of the GNSS course rate with the
+/// IMU yaw rate (body z gyro, FRD: both positive turning right), over
+/// intervals between consecutive fixes with speed ≥ 3 m/s. Returns the
+/// offset `τ` [s] to add to the IMU stamps (best in ±`max_lag`, 5 ms steps)
+/// and the correlation coefficient there. `None` without enough turning data.
+pub fn estimate_time_offset(
+    imu: &[ImuSample],
+    gnss: &[GnssFix],
+    max_lag: f64,
+) -> Option<(f64, f64)> {
+    // Cumulative z-angle for O(1) interval means.
+    let mut cum = Vec::with_capacity(imu.len() + 1);
+    cum.push(0.0);
+    for s in imu {
+        cum.push(cum.last().copied().unwrap_or(0.0) + s.dtheta_b.z);
+    }
+    let angle_at = |t: f64| -> Option<f64> {
+        let k = imu.partition_point(|s| s.t < t);
+        if k == 0 || k >= imu.len() {
+            return None;
+        }
+        let s = &imu[k];
+        let frac = 1.0 - (s.t - t) / s.dt;
+        Some(cum[k] + frac.clamp(0.0, 1.0) * s.dtheta_b.z)
+    };
+    // Course at each fix from the neighbouring fixes, then course rate.
+    let mut pairs = Vec::new();
+    for w in gnss.windows(3) {
+        let course = |a: &GnssFix, b: &GnssFix| {
+            let (rm, rn) = navfuse_core::earth::radii(a.lat);
+            let dn = (b.lat - a.lat) * (rm + a.h);
+            let de = (b.lon - a.lon) * (rn + a.h) * a.lat.cos();
+            let dt = b.t - a.t;
+            (de.atan2(dn), dn.hypot(de) / dt, dt)
+        };
+        let (c0, v0, dt0) = course(&w[0], &w[1]);
+        let (c1, v1, dt1) = course(&w[1], &w[2]);
+        if v0 < 3.0 || v1 < 3.0 || !(0.5..2.0).contains(&dt0) || !(0.5..2.0).contains(&dt1) {
+            continue;
+        }
+        let mut d = c1 - c0;
+        d -= std::f64::consts::TAU * (d / std::f64::consts::TAU).round();
+        // Course change between the interval midpoints.
+        let (ta, tb) = (0.5 * (w[0].t + w[1].t), 0.5 * (w[1].t + w[2].t));
+        pairs.push((ta, tb, d));
+    }
+    if pairs.len() < 30 {
+        return None;
+    }
+    let mut best: Option<(f64, f64)> = None;
+    let steps = (max_lag / 0.005).round() as i64;
+    for i in -steps..=steps {
+        let tau = i as f64 * 0.005;
+        let (mut sx, mut sy, mut sxx, mut syy, mut sxy, mut n) = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0);
+        for &(ta, tb, d) in &pairs {
+            // IMU stamp + τ = true time  ⇒  IMU angle over [ta − τ, tb − τ].
+            let (Some(a), Some(b)) = (angle_at(ta - tau), angle_at(tb - tau)) else {
+                continue;
+            };
+            let g = b - a;
+            sx += d;
+            sy += g;
+            sxx += d * d;
+            syy += g * g;
+            sxy += d * g;
+            n += 1.0;
+        }
+        if n < 30.0 {
+            continue;
+        }
+        let cov = sxy / n - sx * sy / (n * n);
+        let r = cov / ((sxx / n - (sx / n).powi(2)) * (syy / n - (sy / n).powi(2))).sqrt();
+        if best.is_none_or(|(_, br)| r > br) {
+            best = Some((tau, r));
+        }
+    }
+    best
 }
 
 /// Time-ordered inputs of one run.
@@ -498,4 +583,47 @@ pub fn read_kfgins(cfg: &KfGinsConfig) -> Result<RunInput, String> {
         merge_gnss_velocity(&cfg.resolve(v), &mut gnss)?;
     }
     Ok(RunInput { imu, gnss })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    #[ignore = "real data: run with `cargo test --release -- --ignored`"]
+    fn time_offset_estimate_recovers_a_shift() {
+        let cfg = KfGinsConfig::load(&navfuse_io::data::require(
+            "drive_0708/kfgins/kf-gins_full.yaml",
+        ))
+        .unwrap();
+        let input = read_kfgins(&cfg).unwrap();
+        let (tau0, r0) = estimate_time_offset(&input.imu, &input.gnss, 0.5).unwrap();
+        // imu.txt already has its −0.2 s applied: the residual is small.
+        assert!(tau0.abs() <= 0.03 && r0 > 0.99, "residual {tau0} r {r0}");
+        for shift in [0.15, -0.1] {
+            let shifted: Vec<ImuSample> = input
+                .imu
+                .iter()
+                .map(|s| ImuSample {
+                    t: s.t + shift,
+                    ..*s
+                })
+                .collect();
+            let (tau, _) = estimate_time_offset(&shifted, &input.gnss, 0.5).unwrap();
+            assert!(
+                (tau - (tau0 - shift)).abs() < 0.011,
+                "shift {shift}: estimated {tau}"
+            );
+        }
+    }
+
+    #[test]
+    fn run_config_rejects_unknown_keys_with_the_field() {
+        let e = toml::from_str::<RunConfig>("[input]\nimu = \"a\"\ngnss = \"b\"\nbogus = 1\n")
+            .unwrap_err();
+        assert!(e.to_string().contains("bogus"), "{e}");
+        let c: RunConfig = toml::from_str("[input]\nimu = \"a\"\ngnss = \"b\"\n").unwrap();
+        assert_eq!(c.filter.preset, "enhanced");
+        assert_eq!(c.input.imu_rate, 100.0);
+    }
 }
