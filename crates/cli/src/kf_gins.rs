@@ -165,6 +165,12 @@ pub fn run_config(args: &Args) -> Result<KfGinsRun, String> {
     let input = ingest::read_kfgins(&cfg)?;
     if args.verbose {
         eprintln!("read inputs: {:.3} s", t_read.elapsed().as_secs_f64());
+        match ingest::estimate_time_offset(&input.imu, &input.gnss, 0.5) {
+            Some((tau, r)) => eprintln!(
+                "IMU–GNSS time offset (course-rate/yaw-rate correlation): {tau:+.3} s to add to the IMU stamps, r = {r:.4} (reported, not applied)"
+            ),
+            None => eprintln!("IMU–GNSS time offset: not estimable"),
+        }
     }
     let mut ecfg = cfg.eskf_config();
     if args.enhanced {

@@ -1,20 +1,497 @@
-//! `navfuse run`: Run an estimator on IMU/GNSS recordings with a TOML config.
-//! (placeholder until the ESKF run configuration lands; this module also holds
-//! the input loading shared with `kf-gins`.)
+//! `navfuse run`: the ESKF on IMU/GNSS recordings with a TOML config, with
+//! automatic alignment, optional outage simulation and RTS smoothing; writes
+//! `solution.nav` (+ `solution_smoothed.nav`) and `summary.json`. Also holds
+//! the input loading shared with `kf-gins` and `bench`.
 
 use clap::Args as ClapArgs;
-use navfuse_core::types::{GnssFix, ImuSample};
+use navfuse_core::estimators::eskf::{rts_smooth, Eskf, EskfConfig, ImuErrors, InitStd};
+use navfuse_core::ins::align;
+use navfuse_core::ins::mech::{q_bn_from_rpy, NavState};
+use navfuse_core::types::{Estimator, Event, GnssFix, ImuSample, NavSolution};
 use navfuse_core::Vec3;
 use navfuse_io::kfgins::{KfGinsGnssReader, KfGinsImuOptions, KfGinsImuReader};
 use navfuse_io::kfgins_yaml::KfGinsConfig;
+use navfuse_io::writers::{KfGinsNavWriter, TrajectoryWriter};
+use serde::{Deserialize, Serialize};
 use std::path::Path;
+use std::path::PathBuf;
+use std::time::Instant;
 
-/// Run an estimator on IMU/GNSS recordings with a TOML config.
+/// Run the ESKF on IMU/GNSS recordings with a TOML config.
 #[derive(ClapArgs, Debug)]
-pub struct Args {}
+pub struct Args {
+    /// TOML run configuration (paths inside are relative to it). See `RunConfig`.
+    pub config: PathBuf,
+    /// Output folder (default: `output` from the config, else `./navfuse-out`).
+    #[arg(long)]
+    pub output: Option<PathBuf>,
+}
 
-pub fn run(_args: Args) -> Result<(), String> {
-    Err("`run` is not implemented yet".into())
+/// `navfuse run` configuration (TOML). Units: degrees, metres, seconds.
+///
+/// ```toml
+/// [input]
+/// imu = "imu.txt"            # KF-GINS IMU text (increments, body FRD)
+/// imu_rate = 100.0
+/// gnss = "gnss.txt"          # KF-GINS GNSS text (.txt) or RTKLIB solution (.pos)
+/// start = 243262.0           # optional, seconds (time base of the files)
+///
+/// [init]                     # all optional: automatic alignment otherwise
+/// position = [40.09, -105.14, 1601.4]   # IMU lat, lon [deg], h [m]
+/// attitude = [-1.17, -0.04, -2.89]      # roll, pitch, yaw [deg]
+///
+/// [filter]
+/// preset = "enhanced"        # "kf-gins" | "enhanced" | "seed001"
+/// noise_yaml = "kf.yaml"     # optional: take the IMU noise from a KF-GINS YAML
+/// lever_arm = [0.0, -0.05, 0.0]
+/// smooth = true
+///
+/// [outage]                   # optional: cut GNSS for `length` s every `period` s from `start` s
+/// start = 120.0
+/// length = 30.0
+/// period = 90.0
+/// ```
+#[derive(Clone, Debug, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct RunConfig {
+    pub input: InputCfg,
+    #[serde(default)]
+    pub init: InitCfg,
+    #[serde(default)]
+    pub filter: FilterCfg,
+    pub outage: Option<OutageCfg>,
+    pub output: Option<String>,
+}
+
+#[derive(Clone, Debug, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct InputCfg {
+    pub imu: String,
+    #[serde(default = "default_rate")]
+    pub imu_rate: f64,
+    pub gnss: String,
+    pub start: Option<f64>,
+}
+
+fn default_rate() -> f64 {
+    100.0
+}
+
+#[derive(Clone, Debug, Default, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct InitCfg {
+    pub position: Option<[f64; 3]>,
+    pub attitude: Option<[f64; 3]>,
+}
+
+#[derive(Clone, Debug, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct FilterCfg {
+    #[serde(default = "default_preset")]
+    pub preset: String,
+    pub noise_yaml: Option<String>,
+    #[serde(default)]
+    pub lever_arm: [f64; 3],
+    #[serde(default)]
+    pub smooth: bool,
+}
+
+impl Default for FilterCfg {
+    fn default() -> Self {
+        FilterCfg {
+            preset: default_preset(),
+            noise_yaml: None,
+            lever_arm: [0.0; 3],
+            smooth: false,
+        }
+    }
+}
+
+fn default_preset() -> String {
+    "enhanced".into()
+}
+
+#[derive(Clone, Debug, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct OutageCfg {
+    /// Seconds after the first IMU sample used.
+    pub start: f64,
+    pub length: f64,
+    pub period: f64,
+}
+
+#[derive(Serialize)]
+struct Summary<'a> {
+    config: &'a RunConfig,
+    filter: String,
+    alignment: String,
+    imu_samples_read: usize,
+    gnss_fixes_read: usize,
+    gnss_fixes_cut_by_outage: usize,
+    used_rejected: serde_json::Value,
+    time_offset: String,
+    seconds_read: f64,
+    seconds_filter: f64,
+    outputs: Vec<String>,
+}
+
+fn read_gnss_any(path: &Path) -> Result<Vec<GnssFix>, String> {
+    if path
+        .extension()
+        .is_some_and(|e| e.eq_ignore_ascii_case("pos"))
+    {
+        let (rdr, name) = navfuse_io::open(path).map_err(|e| e.to_string())?;
+        // KF-GINS text files carry the time of week: use the same base.
+        navfuse_io::pos::PosReader::new(rdr, &name)
+            .map(|r| {
+                r.map(|mut g| {
+                    g.t = navfuse_io::time::week_tow(g.t).1;
+                    g
+                })
+            })
+            .collect::<Result<Vec<_>, _>>()
+            .map_err(|e| e.to_string())
+    } else {
+        read_kfgins_gnss(path)
+    }
+}
+
+pub fn run(args: Args) -> Result<(), String> {
+    let text = std::fs::read_to_string(&args.config)
+        .map_err(|e| format!("{}: cannot read: {e}", args.config.display()))?;
+    let cfg: RunConfig =
+        toml::from_str(&text).map_err(|e| format!("{}: {e}", args.config.display()))?;
+    let base = args
+        .config
+        .parent()
+        .map(Path::to_path_buf)
+        .unwrap_or_default();
+    let rel = |p: &str| {
+        let p = Path::new(p);
+        if p.is_absolute() {
+            p.to_path_buf()
+        } else {
+            base.join(p)
+        }
+    };
+    let t_read = Instant::now();
+    let imu = read_kfgins_imu(&rel(&cfg.input.imu), cfg.input.imu_rate, 7)?;
+    let mut gnss = read_gnss_any(&rel(&cfg.input.gnss))?;
+    let seconds_read = t_read.elapsed().as_secs_f64();
+    let start = cfg.input.start.unwrap_or(f64::NEG_INFINITY);
+    let i0 = imu.partition_point(|s| s.t < start);
+    let imu = &imu[i0..];
+    if imu.len() < 200 {
+        return Err(format!(
+            "{}: fewer than 200 IMU samples after the start",
+            cfg.input.imu
+        ));
+    }
+    let n_gnss = gnss.len();
+    let gnss_all = gnss.clone();
+    if let Some(o) = &cfg.outage {
+        if !(o.length > 0.0 && o.period >= o.length) {
+            return Err(format!(
+                "{}: [outage] needs length > 0 and period ≥ length",
+                args.config.display()
+            ));
+        }
+        let t0 = imu[0].t + o.start;
+        gnss.retain(|g| g.t < t0 || (g.t - t0) % o.period >= o.length);
+    }
+    let cut = n_gnss - gnss.len();
+
+    // Filter model.
+    let mut ecfg = match &cfg.filter.noise_yaml {
+        Some(y) => KfGinsConfig::load(&rel(y))?.eskf_config(),
+        None => EskfConfig::seed001(),
+    };
+    ecfg = match cfg.filter.preset.as_str() {
+        "kf-gins" => ecfg,
+        "enhanced" => crate::kf_gins::enhanced(ecfg),
+        "seed001" => EskfConfig::seed001(),
+        p => {
+            return Err(format!(
+                "{}: [filter] preset {p:?}: expected kf-gins, enhanced or seed001",
+                args.config.display()
+            ))
+        }
+    };
+    ecfg.lever_arm_b = Vec3::new(
+        cfg.filter.lever_arm[0],
+        cfg.filter.lever_arm[1],
+        cfg.filter.lever_arm[2],
+    );
+    if cfg.filter.smooth {
+        ecfg.smoother_every = 10;
+    }
+
+    // Alignment: static calibration over the detected static window
+    // (`SEEDS.md §1` eq. 1–2), heading given or from the GNSS course.
+    let first = gnss.first().ok_or("no GNSS fixes")?;
+    let n_static = align::initial_static_len(imu, 50, 0.15, 3.0f64.to_radians());
+    let cal = align::static_calibration(&imu[..n_static.max(2)], first.lat, first.h)
+        .ok_or("static calibration failed")?;
+    let (mut k_start, yaw, how) = match cfg.init.attitude {
+        Some(a) => (0usize, a[2].to_radians(), "attitude given".to_string()),
+        None => {
+            // First pair of fixes ≥ 1 s apart with a course speed ≥ 3 m/s.
+            let mut found = None;
+            for w in gnss.windows(2) {
+                let dt = w[1].t - w[0].t;
+                if dt <= 0.0 {
+                    continue;
+                }
+                let (rm, rn) = navfuse_core::earth::radii(w[0].lat);
+                let v = Vec3::new(
+                    (w[1].lat - w[0].lat) * (rm + w[0].h) / dt,
+                    (w[1].lon - w[0].lon) * (rn + w[0].h) * w[0].lat.cos() / dt,
+                    -(w[1].h - w[0].h) / dt,
+                );
+                if let Some(y) = align::heading_from_velocity(&v, 3.0) {
+                    found = Some((w[1].t, y));
+                    break;
+                }
+            }
+            let (t, y) =
+                found.ok_or("heading: no GNSS course ≥ 3 m/s found (give [init] attitude)")?;
+            let k = imu.partition_point(|s| s.t < t);
+            (
+                k,
+                y,
+                format!(
+                    "yaw from the GNSS course at t = {t:.2} ({:.1}°)",
+                    y.to_degrees()
+                ),
+            )
+        }
+    };
+    let bg = align::gyro_bias(&cal, yaw, first.lat);
+    let (roll, pitch) = match cfg.init.attitude {
+        Some(a) => (a[0].to_radians(), a[1].to_radians()),
+        None => (cal.roll, cal.pitch),
+    };
+    let mut nav = NavState {
+        q_bn: q_bn_from_rpy(&Vec3::new(roll, pitch, yaw)),
+        ..Default::default()
+    };
+    let alignment;
+    if k_start == 0 {
+        let p = cfg
+            .init
+            .position
+            .map(|p| (p[0].to_radians(), p[1].to_radians(), p[2]));
+        let (lat, lon, h) = p.unwrap_or((first.lat, first.lon, first.h));
+        nav.lat = lat;
+        nav.lon = lon;
+        nav.h = h;
+        alignment = format!(
+            "static window {n_static} samples: roll {:.2}°, pitch {:.2}°; {how}",
+            roll.to_degrees(),
+            pitch.to_degrees()
+        );
+    } else {
+        // Start at the fix that gave the course, moving at its velocity.
+        let g = gnss[gnss
+            .partition_point(|g| g.t < imu[k_start].t)
+            .saturating_sub(1)];
+        nav.lat = g.lat;
+        nav.lon = g.lon;
+        nav.h = g.h;
+        let prev = gnss[gnss.partition_point(|x| x.t < g.t).saturating_sub(1)];
+        let dt = (g.t - prev.t).max(1e-3);
+        let (rm, rn) = navfuse_core::earth::radii(g.lat);
+        nav.v_n = Vec3::new(
+            (g.lat - prev.lat) * (rm + g.h) / dt,
+            (g.lon - prev.lon) * (rn + g.h) * g.lat.cos() / dt,
+            -(g.h - prev.h) / dt,
+        );
+        k_start = k_start.saturating_sub(1);
+        alignment = format!(
+            "static window {n_static} samples: roll {:.2}°, pitch {:.2}°, gyro bias from it; {how}",
+            roll.to_degrees(),
+            pitch.to_degrees()
+        );
+    }
+    let std = InitStd {
+        pos: Vec3::repeat(if k_start == 0 { 0.5 } else { 1.0 }),
+        vel: Vec3::repeat(if k_start == 0 { 0.1 } else { 1.0 }),
+        att: Vec3::new(1.0, 1.0, 5.0).map(f64::to_radians),
+        bg: Vec3::repeat(100.0f64.to_radians() / 3600.0),
+        ba: Vec3::repeat(0.2),
+        sg: Vec3::repeat(1e-3),
+        sa: Vec3::repeat(1e-3),
+    };
+    let errors = ImuErrors {
+        bg,
+        ..Default::default()
+    };
+    let mut eskf = Eskf::new(ecfg, nav, errors, &std);
+
+    let out_dir = args
+        .output
+        .clone()
+        .or(cfg.output.as_deref().map(rel))
+        .unwrap_or_else(|| PathBuf::from("navfuse-out"));
+    std::fs::create_dir_all(&out_dir).map_err(|e| format!("{}: {e}", out_dir.display()))?;
+    let t_filter = Instant::now();
+    let mut g = gnss.partition_point(|x| x.t <= imu[k_start].t);
+    let mut sols = Vec::with_capacity(imu.len());
+    let mut records = Vec::new();
+    for s in &imu[k_start..] {
+        while g < gnss.len() && gnss[g].t <= s.t + 1e-3 {
+            eskf.push(&Event::Gnss(gnss[g]));
+            g += 1;
+        }
+        if let Some(sol) = eskf.push(&Event::Imu(*s)) {
+            sols.push(sol);
+        }
+        if let Some(r) = eskf.take_record() {
+            records.push(r);
+        }
+    }
+    let seconds_filter = t_filter.elapsed().as_secs_f64();
+    let mut outputs = Vec::new();
+    let write_nav = |name: &str, sols: &[NavSolution]| -> Result<String, String> {
+        let p = out_dir.join(name);
+        let f = std::fs::File::create(&p).map_err(|e| format!("{}: {e}", p.display()))?;
+        let mut w = KfGinsNavWriter::new(std::io::BufWriter::new(f));
+        for s in sols {
+            w.write(s).map_err(|e| format!("{}: {e}", p.display()))?;
+        }
+        w.finish().map_err(|e| format!("{}: {e}", p.display()))?;
+        Ok(p.display().to_string())
+    };
+    outputs.push(write_nav("solution.nav", &sols)?);
+    if cfg.filter.smooth {
+        let mut sm = Vec::with_capacity(records.len());
+        rts_smooth(&records, |e| {
+            sm.push(crate::kf_gins::check::smoothed_solution(e))
+        });
+        sm.reverse();
+        outputs.push(write_nav("solution_smoothed.nav", &sm)?);
+    }
+    let st = eskf.stats();
+    let summary = Summary {
+        config: &cfg,
+        filter: format!("{:?}", eskf.config()),
+        alignment,
+        imu_samples_read: imu.len(),
+        gnss_fixes_read: n_gnss,
+        gnss_fixes_cut_by_outage: cut,
+        used_rejected: serde_json::json!({
+            "imu": {"used": st.imu_samples, "rejected_bad": st.imu_rejected_bad},
+            "gnss_position": {"used": st.gnss_pos_used, "rejected_gate": st.gnss_pos_rejected_gate,
+                "forced_after_rejections": st.gnss_pos_forced, "rejected_bad_or_late": st.gnss_rejected_bad},
+            "gnss_velocity": {"used": st.gnss_vel_used, "rejected_gate": st.gnss_vel_rejected_gate},
+            "height": {"used": st.height_used, "rejected_gate": st.height_rejected_gate},
+            "nhc": {"used": st.nhc_used, "rejected_gate": st.nhc_rejected_gate},
+            "zupt": {"used": st.zupt_used, "rejected_gate": st.zupt_rejected_gate},
+            "zaru": {"used": st.zaru_used},
+            "deweighted": st.deweighted,
+            "singular": st.singular,
+        }),
+        time_offset: match estimate_time_offset(imu, &gnss_all, 0.5) {
+            Some((tau, r)) => format!(
+                "estimated {tau:+.3} s to add to the IMU stamps (course-rate / yaw-rate cross-correlation r = {r:.4}); reported, not applied"
+            ),
+            None => "not estimable (too little turning at speed)".into(),
+        },
+        seconds_read,
+        seconds_filter,
+        outputs,
+    };
+    let p = out_dir.join("summary.json");
+    let json = serde_json::to_string_pretty(&summary).map_err(|e| e.to_string())?;
+    std::fs::write(&p, json).map_err(|e| format!("{}: {e}", p.display()))?;
+    eprintln!(
+        "navfuse run: {} solutions, GNSS used {} / gated {}; {}; summary {}",
+        sols.len(),
+        st.gnss_pos_used,
+        st.gnss_pos_rejected_gate,
+        summary.alignment,
+        p.display()
+    );
+    Ok(())
+}
+
+/// IMU–GNSS time offset by cross-correlation of the GNSS course rate with the
+/// IMU yaw rate (body z gyro, FRD: both positive turning right), over
+/// intervals between consecutive fixes with speed ≥ 3 m/s. Returns the
+/// offset `τ` [s] to add to the IMU stamps (best in ±`max_lag`, 5 ms steps)
+/// and the correlation coefficient there. `None` without enough turning data.
+pub fn estimate_time_offset(
+    imu: &[ImuSample],
+    gnss: &[GnssFix],
+    max_lag: f64,
+) -> Option<(f64, f64)> {
+    // Cumulative z-angle for O(1) interval means.
+    let mut cum = Vec::with_capacity(imu.len() + 1);
+    cum.push(0.0);
+    for s in imu {
+        cum.push(cum.last().copied().unwrap_or(0.0) + s.dtheta_b.z);
+    }
+    let angle_at = |t: f64| -> Option<f64> {
+        let k = imu.partition_point(|s| s.t < t);
+        if k == 0 || k >= imu.len() {
+            return None;
+        }
+        let s = &imu[k];
+        let frac = 1.0 - (s.t - t) / s.dt;
+        Some(cum[k] + frac.clamp(0.0, 1.0) * s.dtheta_b.z)
+    };
+    // Course at each fix from the neighbouring fixes, then course rate.
+    let mut pairs = Vec::new();
+    for w in gnss.windows(3) {
+        let course = |a: &GnssFix, b: &GnssFix| {
+            let (rm, rn) = navfuse_core::earth::radii(a.lat);
+            let dn = (b.lat - a.lat) * (rm + a.h);
+            let de = (b.lon - a.lon) * (rn + a.h) * a.lat.cos();
+            let dt = b.t - a.t;
+            (de.atan2(dn), dn.hypot(de) / dt, dt)
+        };
+        let (c0, v0, dt0) = course(&w[0], &w[1]);
+        let (c1, v1, dt1) = course(&w[1], &w[2]);
+        if v0 < 3.0 || v1 < 3.0 || !(0.5..2.0).contains(&dt0) || !(0.5..2.0).contains(&dt1) {
+            continue;
+        }
+        let mut d = c1 - c0;
+        d -= std::f64::consts::TAU * (d / std::f64::consts::TAU).round();
+        // Course change between the interval midpoints.
+        let (ta, tb) = (0.5 * (w[0].t + w[1].t), 0.5 * (w[1].t + w[2].t));
+        pairs.push((ta, tb, d));
+    }
+    if pairs.len() < 30 {
+        return None;
+    }
+    let mut best: Option<(f64, f64)> = None;
+    let steps = (max_lag / 0.005).round() as i64;
+    for i in -steps..=steps {
+        let tau = i as f64 * 0.005;
+        let (mut sx, mut sy, mut sxx, mut syy, mut sxy, mut n) = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0);
+        for &(ta, tb, d) in &pairs {
+            // IMU stamp + τ = true time  ⇒  IMU angle over [ta − τ, tb − τ].
+            let (Some(a), Some(b)) = (angle_at(ta - tau), angle_at(tb - tau)) else {
+                continue;
+            };
+            let g = b - a;
+            sx += d;
+            sy += g;
+            sxx += d * d;
+            syy += g * g;
+            sxy += d * g;
+            n += 1.0;
+        }
+        if n < 30.0 {
+            continue;
+        }
+        let cov = sxy / n - sx * sy / (n * n);
+        let r = cov / ((sxx / n - (sx / n).powi(2)) * (syy / n - (sy / n).powi(2))).sqrt();
+        if best.is_none_or(|(_, br)| r > br) {
+            best = Some((tau, r));
+        }
+    }
+    best
 }
 
 /// Time-ordered inputs of one run.
@@ -106,4 +583,47 @@ pub fn read_kfgins(cfg: &KfGinsConfig) -> Result<RunInput, String> {
         merge_gnss_velocity(&cfg.resolve(v), &mut gnss)?;
     }
     Ok(RunInput { imu, gnss })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    #[ignore = "real data: run with `cargo test --release -- --ignored`"]
+    fn time_offset_estimate_recovers_a_shift() {
+        let cfg = KfGinsConfig::load(&navfuse_io::data::require(
+            "drive_0708/kfgins/kf-gins_full.yaml",
+        ))
+        .unwrap();
+        let input = read_kfgins(&cfg).unwrap();
+        let (tau0, r0) = estimate_time_offset(&input.imu, &input.gnss, 0.5).unwrap();
+        // imu.txt already has its −0.2 s applied: the residual is small.
+        assert!(tau0.abs() <= 0.03 && r0 > 0.99, "residual {tau0} r {r0}");
+        for shift in [0.15, -0.1] {
+            let shifted: Vec<ImuSample> = input
+                .imu
+                .iter()
+                .map(|s| ImuSample {
+                    t: s.t + shift,
+                    ..*s
+                })
+                .collect();
+            let (tau, _) = estimate_time_offset(&shifted, &input.gnss, 0.5).unwrap();
+            assert!(
+                (tau - (tau0 - shift)).abs() < 0.011,
+                "shift {shift}: estimated {tau}"
+            );
+        }
+    }
+
+    #[test]
+    fn run_config_rejects_unknown_keys_with_the_field() {
+        let e = toml::from_str::<RunConfig>("[input]\nimu = \"a\"\ngnss = \"b\"\nbogus = 1\n")
+            .unwrap_err();
+        assert!(e.to_string().contains("bogus"), "{e}");
+        let c: RunConfig = toml::from_str("[input]\nimu = \"a\"\ngnss = \"b\"\n").unwrap();
+        assert_eq!(c.filter.preset, "enhanced");
+        assert_eq!(c.input.imu_rate, 100.0);
+    }
 }
