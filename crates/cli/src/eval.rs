@@ -64,6 +64,9 @@ pub struct Args {
     /// Write the per-epoch error series as CSV to FILE.
     #[arg(long, value_name = "ERRORS.csv")]
     pub csv: Option<PathBuf>,
+    /// Also write the HTML report (index.html + plots/*.svg) into DIR.
+    #[arg(long, value_name = "DIR")]
+    pub report: Option<PathBuf>,
 }
 
 /// Where to compare (see `navfuse_eval::Align`).
@@ -161,6 +164,20 @@ pub fn run(args: Args) -> Result<(), String> {
     }
     if let Some(p) = &args.csv {
         std::fs::write(p, errors_csv(&ev)).map_err(|e| format!("{}: {e}", p.display()))?;
+    }
+    if let Some(dir) = &args.report {
+        let (sol, truth) = (
+            (args.solution.as_path(), solution),
+            (args.truth.as_path(), reference),
+        );
+        crate::report::from_eval(
+            dir,
+            sol,
+            truth,
+            args.fixes.as_deref(),
+            cfg,
+            schedule.as_ref(),
+        )?;
     }
     Ok(())
 }
@@ -526,6 +543,7 @@ mod tests {
             json: Some(jp.clone()),
             json_errors: false,
             csv: Some(cp.clone()),
+            report: None,
         };
         run(args).unwrap();
         let js: serde_json::Value =
@@ -596,6 +614,7 @@ mod tests {
                 json: None,
                 json_errors: false,
                 csv: None,
+                report: None,
             },
             dir,
         )

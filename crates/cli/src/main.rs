@@ -12,11 +12,15 @@ mod bench;
 mod convert;
 mod demo;
 mod eval;
+mod exp_seed002;
+mod exp_seed004;
 mod experiment;
 mod kf_gins;
 mod live;
+mod report;
 mod run;
 mod sim;
+mod smooth_gps;
 
 /// GNSS/INS navigation toolkit: fuse IMU and GNSS recordings into a trajectory
 /// with attitude, and tell how good it is.
@@ -54,6 +58,10 @@ enum Command {
     Experiment(experiment::Args),
     /// Fuse live GNSS (gpsd, NMEA) and IMU streams; solutions at the IMU rate.
     Live(live::Args),
+    /// Compensate GNSS positions with the seed 002 algorithm (or a SIR particle filter).
+    SmoothGps(smooth_gps::Args),
+    /// Self-contained HTML report and SVG plots of a run directory.
+    Report(report::Args),
 }
 
 fn main() -> ExitCode {
@@ -71,6 +79,8 @@ fn main() -> ExitCode {
         Command::Baseline(a) => baseline::run(a),
         Command::Experiment(a) => experiment::run(a),
         Command::Live(a) => live::run(a),
+        Command::SmoothGps(a) => smooth_gps::run(a),
+        Command::Report(a) => report::run(a),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

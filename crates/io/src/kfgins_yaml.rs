@@ -219,6 +219,8 @@ impl KfGinsConfig {
             lever_arm_b: v3(&self.antlever, 1.0),
             scale_factors: true,
             gate_probability: None,
+            gnss_force_after: 0,
+            gate_deweight_factor: 1.0,
             use_gnss_velocity: self.gnssvelpath.is_some(),
             position_until: None,
             nhc: None,

@@ -26,6 +26,7 @@ pub mod live;
 pub mod navcsv;
 pub mod nmea;
 pub mod pos;
+pub mod rinex;
 pub mod text;
 pub mod time;
 pub mod trajectory;

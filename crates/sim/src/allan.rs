@@ -10,7 +10,12 @@
 //! `σ² = K² τ/3` (slope +½, read at τ = 3 s → K). We fit
 //! `σ²(τ) = N²/τ + C + K²τ/3` by weighted linear least squares (relative
 //! residuals weighted by the number of independent clusters, negative
-//! coefficients dropped and refitted), and report B = min σ / 0.664.
+//! coefficients dropped and refitted), and report B = √C/0.664 (the flat
+//! floor without the white and random-walk parts) and the classic
+//! B = min σ/0.664 beside it.
+
+/// Fewest independent clusters (T/τ) for a point to count as the minimum.
+pub const MIN_CLUSTERS: f64 = 8.0;
 
 /// One point of the Allan deviation curve.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -26,9 +31,13 @@ pub struct AdevPoint {
 pub struct NoiseFit {
     /// White noise density N (ARW [rad/√s] or VRW [m/s/√s]).
     pub n: f64,
-    /// Bias instability B = min σ / 0.664 [rad/s or m/s²].
+    /// Bias instability B = √C / 0.664 from the fitted flat term C
+    /// [rad/s or m/s²]; when the fit finds no flat term, `b_min`.
     pub b: f64,
-    /// τ at the minimum [s].
+    /// Classic reading: B = min σ / 0.664, the minimum taken over τ with at
+    /// least [`MIN_CLUSTERS`] independent clusters.
+    pub b_min: f64,
+    /// τ at that minimum [s].
     pub tau_min: f64,
     /// Rate random walk K [rad/s/√s or m/s²/√s]; 0 when not observable.
     pub k: f64,
@@ -136,7 +145,7 @@ pub fn fit(curve: &[AdevPoint]) -> NoiseFit {
     let coef = wls(&pts, &model);
     let min = curve
         .iter()
-        .filter(|p| p.adev > 0.0)
+        .filter(|p| p.adev > 0.0 && p.clusters >= MIN_CLUSTERS)
         .min_by(|a, b| a.adev.total_cmp(&b.adev))
         .copied()
         .unwrap_or(AdevPoint {
@@ -144,9 +153,15 @@ pub fn fit(curve: &[AdevPoint]) -> NoiseFit {
             adev: f64::NAN,
             clusters: 0.0,
         });
+    let b_min = min.adev / 0.664;
     NoiseFit {
         n: coef[0].sqrt(),
-        b: min.adev / 0.664,
+        b: if coef[1] > 0.0 {
+            coef[1].sqrt() / 0.664
+        } else {
+            b_min
+        },
+        b_min,
         tau_min: min.tau,
         k: (3.0 * coef[2]).sqrt(),
     }
@@ -244,5 +259,80 @@ mod tests {
                 f.k
             );
         }
+    }
+
+    /// Flicker (1/f) rate noise of bias-instability coefficient `b`, made as a
+    /// sum of first-order Gauss–Markov processes with log-spaced correlation
+    /// times (`per_decade` per decade over [t_lo, t_hi]): with n = per_decade/ln 10
+    /// processes per e-fold, each of variance σ² = B²/(2π n), the one-sided PSD
+    /// Σ 4σ²T/(1 + (2πfT)²) ≈ nσ²/f = B²/(2π f), IEEE 952's bias-instability PSD.
+    fn flicker(b: f64, n_white: f64, secs: f64, dt: f64, seed: u64) -> Vec<f64> {
+        let (t_lo, t_hi, per_decade) = (0.1f64, 1e5f64, 4.0);
+        let k = ((t_hi / t_lo).log10() * per_decade).round() as usize + 1;
+        let n = per_decade / 10f64.ln();
+        let sig = b / (core::f64::consts::PI * n).sqrt();
+        let taus: Vec<f64> = (0..k)
+            .map(|i| t_lo * 10f64.powf(i as f64 / per_decade))
+            .collect();
+        let mut r = ChaCha12Rng::seed_from_u64(seed);
+        let mut x: Vec<f64> = taus
+            .iter()
+            .map(|_| sig * r.sample::<f64, _>(StandardNormal))
+            .collect();
+        let phis: Vec<(f64, f64)> = taus
+            .iter()
+            .map(|t| {
+                let phi = (-dt / t).exp();
+                (phi, sig * (1.0 - phi * phi).sqrt())
+            })
+            .collect();
+        (0..(secs / dt) as usize)
+            .map(|_| {
+                let mut y = n_white / dt.sqrt() * r.sample::<f64, _>(StandardNormal);
+                for (xi, (phi, q)) in x.iter_mut().zip(&phis) {
+                    *xi = *xi * phi + q * r.sample::<f64, _>(StandardNormal);
+                    y += *xi;
+                }
+                y
+            })
+            .collect()
+    }
+
+    #[test]
+    fn recovers_arw_and_bias_instability_within_10_percent() {
+        // Issue 4 must-show 2: a simulated static 2-hour log (10 Hz) with ARW
+        // N = 3e-5 rad/√s (0.10°/√h) and bias instability B = 2e-5 rad/s
+        // (4.1°/h): the flicker floor starts at τ ≈ (N/0.664B)² ≈ 5 s, so many
+        // well-averaged points show it. Flicker noise is slow: one 2-hour
+        // realisation of it can sit 20 % off its average level, so the test
+        // asks for N within 10 % in every one of 20 realisations and B within
+        // 10 % in at least 18 of them (measured: 19 of 20, worst −19 %).
+        let (n, b) = (3e-5, 2e-5);
+        let mut b_ok = 0;
+        for seed in 11..31 {
+            let y = flicker(b, n, 7200.0, 0.1, seed);
+            let c = overlapping_adev(&y, 0.1);
+            let f = fit(&c);
+            eprintln!(
+                "seed {seed}: N {:.4e} ({:+.1} %), B {:.4e} ({:+.1} %), min-B {:.4e} ({:+.1} %) at τ {:.0} s",
+                f.n,
+                (f.n / n - 1.0) * 100.0,
+                f.b,
+                (f.b / b - 1.0) * 100.0,
+                f.b_min,
+                (f.b_min / b - 1.0) * 100.0,
+                f.tau_min
+            );
+            assert!(
+                (f.n / n - 1.0).abs() < 0.10,
+                "seed {seed}: N {} vs {n}",
+                f.n
+            );
+            b_ok += usize::from((f.b / b - 1.0).abs() < 0.10);
+        }
+        assert!(
+            b_ok >= 18,
+            "B within 10 % in only {b_ok} of 20 realisations"
+        );
     }
 }

@@ -53,6 +53,9 @@ pub struct CpAttConfig {
     /// Prior σ of a newly risen satellite's ambiguity beyond what the
     /// baseline predicts [m].
     pub sigma_new_amb: f64,
+    /// False-alarm probability of the cycle-slip NIS gate (0 = off; the
+    /// paper has none).
+    pub slip_gate: f64,
 }
 
 impl Default for CpAttConfig {
@@ -64,6 +67,7 @@ impl Default for CpAttConfig {
             sigma_baseline0: 1.0,
             sigma_rate0: 0.1,
             sigma_new_amb: 1.0,
+            slip_gate: 0.0,
         }
     }
 }
@@ -116,6 +120,8 @@ pub struct BaselineFilter {
     initialized: bool,
     /// Number of times the satellite set or order changed (state re-mapped).
     pub remaps: u32,
+    /// Number of ambiguities reset by the cycle-slip detector.
+    pub slips_detected: u32,
 }
 
 impl Default for BaselineFilter {
@@ -128,6 +134,7 @@ impl Default for BaselineFilter {
             t_last: 0.0,
             initialized: false,
             remaps: 0,
+            slips_detected: 0,
         }
     }
 }
@@ -328,7 +335,69 @@ impl BaselineFilter {
             self.initialize(ep, k, cfg);
             return 0.0;
         }
+        if cfg.slip_gate > 0.0 {
+            self.detect_slips(ep, k, cfg);
+        }
         self.correct(ep, k, cfg)
+    }
+
+    /// Normalised innovation squared of the DDs of baseline `k` against the
+    /// current (predicted) state, without updating.
+    fn nis(&self, ep: &CpEpoch, k: usize, cfg: &CpAttConfig) -> f64 {
+        let n = ep.n_sats;
+        let m = n - 1;
+        let r: DdMat = dd_covariance(&ep.sigma[..n], cfg.dd_noise);
+        let mut h = SMatrix::<f64, MAX_DD, NS>::zeros();
+        let mut z = DdVec::zeros();
+        for i in 0..m {
+            let ds = ep.los_enu[i] - ep.los_enu[i + 1];
+            for c in 0..3 {
+                h[(i, c)] = ds[c];
+            }
+            h[(i, 6 + i)] = 1.0;
+            z[i] = ep.sd_phase[k][i] - ep.sd_phase[k][i + 1];
+        }
+        let innov = z - h * self.x;
+        let s = h * self.p * h.transpose() + r;
+        match s.cholesky() {
+            Some(ch) => innov.dot(&ch.solve(&innov)),
+            None => f64::NAN,
+        }
+    }
+
+    /// Cycle-slip detection: when the predicted NIS exceeds the χ²(n−1)
+    /// quantile of `cfg.slip_gate` (false-alarm probability, Wilson–Hilferty),
+    /// the satellite whose ambiguity reset lowers the NIS most is treated as
+    /// newly risen (fresh ambiguity), repeated up to 2 satellites per epoch.
+    fn detect_slips(&mut self, ep: &CpEpoch, k: usize, cfg: &CpAttConfig) {
+        let m = ep.n_sats - 1;
+        if m < 4 {
+            return;
+        }
+        for _ in 0..2 {
+            let nis = self.nis(ep, k, cfg);
+            let gate = chi2_quantile(m as f64, cfg.slip_gate);
+            if nis.is_nan() || nis <= gate {
+                return;
+            }
+            let mut best: Option<(usize, f64, Self)> = None;
+            for s in 0..ep.n_sats {
+                let mut trial = self.clone();
+                trial.prn[s] = 0; // forget this satellite: re-mapped as new
+                if !trial.remap(ep, k, cfg) {
+                    continue;
+                }
+                let v = trial.nis(ep, k, cfg);
+                if v.is_finite() && best.as_ref().map(|b| v < b.1).unwrap_or(true) {
+                    best = Some((s, v, trial));
+                }
+            }
+            let Some((_, _, trial)) = best else { return };
+            let remaps = self.remaps;
+            *self = trial;
+            self.remaps = remaps;
+            self.slips_detected += 1;
+        }
     }
 
     /// Float DD ambiguities [m] and their covariance block, active part only.
@@ -344,6 +413,24 @@ impl BaselineFilter {
         }
         (a, q, m)
     }
+}
+
+/// Upper `1 − alpha` quantile of χ²(k) (Wilson–Hilferty approximation).
+pub fn chi2_quantile(k: f64, alpha: f64) -> f64 {
+    // Normal quantile by bisection on erf (no_std friendly).
+    let (mut lo, mut hi) = (0.0f64, 10.0f64);
+    for _ in 0..60 {
+        let mid = 0.5 * (lo + hi);
+        let tail = 0.5 * libm::erfc(mid / core::f64::consts::SQRT_2);
+        if tail > alpha {
+            lo = mid;
+        } else {
+            hi = mid;
+        }
+    }
+    let z = 0.5 * (lo + hi);
+    let a = 2.0 / (9.0 * k);
+    k * (1.0 - a + z * a.sqrt()).powi(3)
 }
 
 /// The paper's DCM `C_nb = C(φ) C(θ) C(ψ)` (eq. 1; ψ about z, θ about x,
@@ -386,6 +473,369 @@ pub fn wahba_nb(b_b: &[Vec3], b_n: &[Vec3], w: &[f64]) -> Option<Mat3> {
     crate::attitude::wahba_svd(b_b, b_n, w).map(|c_bn| c_bn.transpose())
 }
 
+/// How an epoch's baseline integers were found.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+pub enum FixMethod {
+    #[default]
+    None,
+    /// LAMBDA on the float filter's ambiguities, ratio test passed.
+    LambdaFloat,
+    /// Single-epoch length-constrained search (below), ratio test passed.
+    ConstrainedSearch,
+}
+
+/// Integer fix of one baseline at one epoch.
+#[derive(Clone, Copy, Debug, PartialEq, Default)]
+pub struct BaselineFix {
+    pub method: FixMethod,
+    /// DD integers [cycles] in the epoch's satellite order (`n_sats − 1`).
+    pub n_dd: [i64; MAX_DD],
+    pub m: usize,
+    /// Fixed baseline, ENU [m].
+    pub b_n: Vec3,
+    /// Ratio test statistic (second best / best squared norm).
+    pub ratio: f64,
+}
+
+/// Configuration of the integer ambiguity resolution ("beyond" the paper).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct FixConfig {
+    /// Carrier wavelength [m].
+    pub lambda: f64,
+    /// Ratio test threshold.
+    pub ratio_min: f64,
+    /// Baseline length tolerance in the search and the integrity check [m].
+    pub len_tol: f64,
+    /// Inter-baseline angle tolerance of the integrity check [rad].
+    pub angle_tol: f64,
+    /// Try LAMBDA on the float filter first.
+    pub use_float_lambda: bool,
+    /// Single-epoch length-constrained search when LAMBDA does not pass.
+    pub use_search: bool,
+    /// Process noise q of the fixed-baseline filter [m²/s³]; 0 = no
+    /// smoothing (each epoch's fixed baselines alone).
+    pub q_fixed: f64,
+    /// Fixed-baseline filters coast this many epochs without a fix, then reset.
+    pub max_coast: u32,
+}
+
+impl Default for FixConfig {
+    fn default() -> Self {
+        FixConfig {
+            lambda: 0.190293673,
+            ratio_min: 3.0,
+            len_tol: 0.03,
+            angle_tol: 1.5f64.to_radians(),
+            use_float_lambda: true,
+            use_search: true,
+            q_fixed: 0.0,
+            max_coast: 6,
+        }
+    }
+}
+
+/// Weighted least-squares baseline from DDs with known integers:
+/// `b = (ΔSᵀ W ΔS)⁻¹ ΔSᵀ W (z − λN)`, `W = R⁻¹`; returns (b, weighted SSR).
+fn fixed_ls(ds: &[Vec3], z: &[f64], n: &[i64], lambda: f64, w: &DdMat) -> Option<(Vec3, f64)> {
+    fixed_ls_info(ds, z, n, lambda, w).map(|(b, s, _)| (b, s))
+}
+
+/// [`fixed_ls`] also returning the information matrix `ΔSᵀ W ΔS`.
+fn fixed_ls_info(
+    ds: &[Vec3],
+    z: &[f64],
+    n: &[i64],
+    lambda: f64,
+    w: &DdMat,
+) -> Option<(Vec3, f64, Mat3)> {
+    let m = ds.len();
+    let mut ata = Mat3::zeros();
+    let mut atb = Vec3::zeros();
+    let mut y = [0.0; MAX_DD];
+    for i in 0..m {
+        y[i] = z[i] - lambda * n[i] as f64;
+    }
+    for i in 0..m {
+        for j in 0..m {
+            let wij = w[(i, j)];
+            if wij == 0.0 {
+                continue;
+            }
+            ata += wij * ds[i] * ds[j].transpose();
+            atb += wij * ds[i] * y[j];
+        }
+    }
+    let b = ata.try_inverse()? * atb;
+    let info = ata;
+    let mut e = [0.0; MAX_DD];
+    for i in 0..m {
+        e[i] = y[i] - ds[i].dot(&b);
+    }
+    let mut ssr = 0.0;
+    for i in 0..m {
+        for j in 0..m {
+            ssr += e[i] * w[(i, j)] * e[j];
+        }
+    }
+    Some((b, ssr, info))
+}
+
+/// Weighted Wahba: the rotation `C_nb` minimising
+/// `Σ (b_n,k − C_bn b_b,k)ᵀ W_k (b_n,k − C_bn b_b,k)` with full 3×3 weights
+/// (Gauss–Newton on a small rotation from the SVD solution, 3 iterations).
+pub fn wahba_weighted_nb(b_b: &[Vec3], b_n: &[Vec3], w: &[Mat3]) -> Option<Mat3> {
+    let ones = [1.0; MAX_BASELINES];
+    let mut c_bn = wahba_nb(b_b, b_n, &ones[..b_b.len().min(MAX_BASELINES)])?.transpose();
+    for _ in 0..3 {
+        let mut n = Mat3::zeros();
+        let mut g = Vec3::zeros();
+        for ((vb, vn), wk) in b_b.iter().zip(b_n).zip(w) {
+            let u = c_bn * vb;
+            let a = crate::attitude::skew(&u);
+            let r = vn - u;
+            n += a.transpose() * wk * a;
+            g += a.transpose() * wk * r;
+        }
+        // e = r + [u×] δθ  ⇒  δθ = −N⁻¹ g.
+        let d = -(n.try_inverse()? * g);
+        c_bn = crate::attitude::dcm_from_rotvec(&d) * c_bn;
+        if d.norm() < 1e-12 {
+            break;
+        }
+    }
+    Some(c_bn.transpose())
+}
+
+/// Constant-velocity Kalman filter of a fixed baseline (ENU): state
+/// `[b, ḃ]`, measurement the epoch's fixed baseline with covariance
+/// `(ΔSᵀ R⁻¹ ΔS)⁻¹`; process noise spectral density `q` (as eq. 11).
+#[derive(Clone, Copy, Debug, PartialEq, Default)]
+pub struct FixedBaselineKf {
+    pub x: SVector<f64, 6>,
+    pub p: SMatrix<f64, 6, 6>,
+    pub t: f64,
+    pub active: bool,
+}
+
+impl FixedBaselineKf {
+    /// Predict to `t` and update with `b_meas` of information `info` [1/m²].
+    pub fn update(&mut self, t: f64, b_meas: &Vec3, info: &Mat3, q: f64) -> Option<()> {
+        let r = info.try_inverse()?;
+        if !self.active {
+            self.x = SVector::<f64, 6>::zeros();
+            self.p = SMatrix::<f64, 6, 6>::zeros();
+            for i in 0..3 {
+                self.x[i] = b_meas[i];
+                self.p[(3 + i, 3 + i)] = 0.1 * 0.1;
+                for j in 0..3 {
+                    self.p[(i, j)] = r[(i, j)];
+                }
+            }
+            self.t = t;
+            self.active = true;
+            return Some(());
+        }
+        self.predict(t, q);
+        let mut h = SMatrix::<f64, 3, 6>::zeros();
+        for i in 0..3 {
+            h[(i, i)] = 1.0;
+        }
+        let innov = b_meas - h * self.x;
+        let s = h * self.p * h.transpose() + r;
+        let k = self.p * h.transpose() * s.try_inverse()?;
+        self.x += k * innov;
+        let ikh = SMatrix::<f64, 6, 6>::identity() - k * h;
+        self.p = ikh * self.p * ikh.transpose() + k * r * k.transpose();
+        Some(())
+    }
+
+    /// Time update to `t`.
+    pub fn predict(&mut self, t: f64, q: f64) {
+        let dt = t - self.t;
+        if dt <= 0.0 || !self.active {
+            return;
+        }
+        let mut f = SMatrix::<f64, 6, 6>::identity();
+        for i in 0..3 {
+            f[(i, 3 + i)] = dt;
+        }
+        self.x = f * self.x;
+        self.p = f * self.p * f.transpose();
+        for i in 0..3 {
+            self.p[(i, i)] += q * dt * dt * dt / 3.0;
+            self.p[(i, 3 + i)] += q * dt * dt / 2.0;
+            self.p[(3 + i, i)] += q * dt * dt / 2.0;
+            self.p[(3 + i, 3 + i)] += q * dt;
+        }
+        self.t = t;
+    }
+
+    pub fn baseline(&self) -> Vec3 {
+        Vec3::new(self.x[0], self.x[1], self.x[2])
+    }
+
+    pub fn cov(&self) -> Mat3 {
+        self.p.fixed_view::<3, 3>(0, 0).into_owned()
+    }
+}
+
+/// Single-epoch ambiguity search constrained by the known baseline length
+/// (a least-squares ambiguity search in the spirit of Hatch 1990): the
+/// integers of the three best-conditioned DDs are enumerated over the range
+/// the length allows, each triple gives a baseline that must have the right
+/// length, the other DDs are rounded from it, and the candidates are ranked
+/// by the weighted residual. Returns the best with its ratio (second best /
+/// best), `None` with fewer than 4 DDs or no candidate.
+pub fn constrained_search(
+    ds: &[Vec3],
+    z: &[f64],
+    r: &DdMat,
+    length: f64,
+    cfg: &FixConfig,
+) -> Option<BaselineFix> {
+    let m = ds.len();
+    if !(4..=MAX_DD).contains(&m) {
+        return None;
+    }
+    let mut w = DdMat::zeros();
+    {
+        let mut rr = DdMat::identity();
+        for i in 0..m {
+            for j in 0..m {
+                rr[(i, j)] = r[(i, j)];
+            }
+        }
+        let inv = rr.try_inverse()?;
+        for i in 0..m {
+            for j in 0..m {
+                w[(i, j)] = inv[(i, j)];
+            }
+        }
+    }
+    // Best-conditioned triple (largest |det| of unit-normalised rows).
+    let mut best_t = (0, 1, 2);
+    let mut best_det = -1.0;
+    for i in 0..m {
+        for j in i + 1..m {
+            for k in j + 1..m {
+                let a = Mat3::from_rows(&[ds[i].transpose(), ds[j].transpose(), ds[k].transpose()]);
+                let d = a.determinant().abs() / (ds[i].norm() * ds[j].norm() * ds[k].norm());
+                if d > best_det {
+                    best_det = d;
+                    best_t = (i, j, k);
+                }
+            }
+        }
+    }
+    let (i0, i1, i2) = best_t;
+    let a = Mat3::from_rows(&[ds[i0].transpose(), ds[i1].transpose(), ds[i2].transpose()]);
+    let a_inv = a.try_inverse()?;
+    let lam = cfg.lambda;
+    let range = |i: usize| -> (i64, i64) {
+        let reach = ds[i].norm() * (length + cfg.len_tol);
+        (
+            ((z[i] - reach) / lam).floor() as i64 - 1,
+            ((z[i] + reach) / lam).ceil() as i64 + 1,
+        )
+    };
+    let (r0, r1, r2) = (range(i0), range(i1), range(i2));
+    let mut best: [(f64, [i64; MAX_DD], Vec3); 2] =
+        [(f64::INFINITY, [0; MAX_DD], Vec3::zeros()); 2];
+    for n0 in r0.0..=r0.1 {
+        for n1 in r1.0..=r1.1 {
+            for n2 in r2.0..=r2.1 {
+                let y = Vec3::new(
+                    z[i0] - lam * n0 as f64,
+                    z[i1] - lam * n1 as f64,
+                    z[i2] - lam * n2 as f64,
+                );
+                let b = a_inv * y;
+                if (b.norm() - length).abs() > cfg.len_tol {
+                    continue;
+                }
+                let mut n = [0i64; MAX_DD];
+                for i in 0..m {
+                    n[i] = ((z[i] - ds[i].dot(&b)) / lam).round() as i64;
+                }
+                let Some((bf, ssr)) = fixed_ls(&ds[..m], &z[..m], &n[..m], lam, &w) else {
+                    continue;
+                };
+                if (bf.norm() - length).abs() > cfg.len_tol {
+                    continue;
+                }
+                if (best[0].0.is_finite() && best[0].1[..m] == n[..m])
+                    || (best[1].0.is_finite() && best[1].1[..m] == n[..m])
+                {
+                    continue;
+                }
+                if ssr < best[0].0 {
+                    best[1] = best[0];
+                    best[0] = (ssr, n, bf);
+                } else if ssr < best[1].0 {
+                    best[1] = (ssr, n, bf);
+                }
+            }
+        }
+    }
+    if !best[0].0.is_finite() {
+        return None;
+    }
+    Some(BaselineFix {
+        method: FixMethod::ConstrainedSearch,
+        n_dd: best[0].1,
+        m,
+        b_n: best[0].2,
+        ratio: if best[0].0 > 0.0 {
+            best[1].0 / best[0].0
+        } else {
+            f64::INFINITY
+        },
+    })
+}
+
+/// LAMBDA on the float filter of one baseline; the fixed baseline is the
+/// conditional `b̌ = b̂ − P_ba P_aa⁻¹ (â − λ ž)` (Teunissen 1995).
+pub fn lambda_on_float(f: &BaselineFilter, cfg: &FixConfig) -> Option<BaselineFix> {
+    let (a, q, m) = f.ambiguities();
+    if !(1..=MAX_DD).contains(&m) {
+        return None;
+    }
+    let lam = cfg.lambda;
+    let mut ac = [0.0; MAX_DD];
+    let mut qc = [0.0; MAX_DD * MAX_DD];
+    for i in 0..m {
+        ac[i] = a[i] / lam;
+        for j in 0..m {
+            qc[i * m + j] = q[(i, j)] / (lam * lam);
+        }
+    }
+    let res = crate::lambda::lambda(&ac[..m], &qc[..m * m], m, 2).ok()?;
+    let mut n = [0i64; MAX_DD];
+    let mut da = DdVec::zeros();
+    let mut qa = DdMat::identity();
+    for i in 0..m {
+        n[i] = res.fixed[0][i] as i64;
+        da[i] = a[i] - lam * res.fixed[0][i];
+        for j in 0..m {
+            qa[(i, j)] = q[(i, j)];
+        }
+    }
+    let sol = qa.cholesky()?.solve(&da);
+    let mut b = f.baseline();
+    for c in 0..3 {
+        for i in 0..m {
+            b[c] -= f.p[(c, 6 + i)] * sol[i];
+        }
+    }
+    Some(BaselineFix {
+        method: FixMethod::LambdaFloat,
+        n_dd: n,
+        m,
+        b_n: b,
+        ratio: res.ratio(),
+    })
+}
+
 /// Attitude output of one epoch.
 #[derive(Clone, Copy, Debug, PartialEq, Default)]
 pub struct CpAttSolution {
@@ -395,17 +845,26 @@ pub struct CpAttSolution {
     /// Float baselines, ENU [m].
     pub b_n_float: [Vec3; MAX_BASELINES],
     pub n_sats: usize,
+    /// Fixed solution when every baseline passed the ratio test and the
+    /// integrity checks: Wahba/SVD attitude with the known body geometry.
+    pub rpy_fixed: Option<Vec3>,
+    pub fixes: [BaselineFix; MAX_BASELINES],
+    /// Why the fix was rejected (0 none, 1 ratio/no candidate, 2 length, 3 angle).
+    pub reject: u8,
 }
 
 /// The seed 003 estimator: one float filter per baseline and the paper's
-/// least-squares attitude.
+/// least-squares attitude; optionally integer fixing + Wahba.
 #[derive(Clone, Debug)]
 pub struct CpAttitude {
     pub cfg: CpAttConfig,
+    pub fix: Option<FixConfig>,
     /// Body-frame baselines (slave − master) [m].
     pub b_b: [Vec3; MAX_BASELINES],
     pub n_baselines: usize,
     pub filters: [BaselineFilter; MAX_BASELINES],
+    pub fixed_kf: [FixedBaselineKf; MAX_BASELINES],
+    coast: u32,
 }
 
 impl CpAttitude {
@@ -416,13 +875,23 @@ impl CpAttitude {
         bb[..n].copy_from_slice(&b_b[..n]);
         CpAttitude {
             cfg,
+            fix: None,
             b_b: bb,
             n_baselines: n,
             filters: core::array::from_fn(|_| BaselineFilter::default()),
+            fixed_kf: [FixedBaselineKf::default(); MAX_BASELINES],
+            coast: 0,
         }
     }
 
-    /// Feed one epoch; returns the float attitude (NaN when fewer than 3 baselines).
+    /// Enable integer fixing.
+    pub fn with_fixing(mut self, fix: FixConfig) -> Self {
+        self.fix = Some(fix);
+        self
+    }
+
+    /// Feed one epoch; returns the float attitude (NaN when fewer than 3
+    /// baselines) and, with fixing enabled, the fixed one.
     pub fn update(&mut self, ep: &CpEpoch) -> CpAttSolution {
         let nb = self.n_baselines.min(ep.n_baselines);
         let mut sol = CpAttSolution {
@@ -440,7 +909,138 @@ impl CpAttitude {
                 sol.rpy_float = paper_euler(&c);
             }
         }
+        if let Some(fc) = self.fix {
+            self.fix_epoch(ep, nb, &fc, &mut sol);
+        }
         sol
+    }
+
+    fn fix_epoch(&mut self, ep: &CpEpoch, nb: usize, fc: &FixConfig, sol: &mut CpAttSolution) {
+        let n = ep.n_sats;
+        if n < 5 || nb < 2 {
+            sol.reject = 1;
+            return;
+        }
+        let m = n - 1;
+        let mut ds = [Vec3::zeros(); MAX_DD];
+        for i in 0..m {
+            ds[i] = ep.los_enu[i] - ep.los_enu[i + 1];
+        }
+        let r = dd_covariance(&ep.sigma[..n], self.cfg.dd_noise);
+        let mut b_fix = [Vec3::zeros(); MAX_BASELINES];
+        let mut z_all = [[0.0; MAX_DD]; MAX_BASELINES];
+        for k in 0..nb {
+            for i in 0..m {
+                z_all[k][i] = ep.sd_phase[k][i] - ep.sd_phase[k][i + 1];
+            }
+        }
+        let mut w = DdMat::zeros();
+        if let Some(inv) = r.try_inverse() {
+            for i in 0..m {
+                for j in 0..m {
+                    w[(i, j)] = inv[(i, j)];
+                }
+            }
+        }
+        let ok = self.fix_baselines(ep, nb, fc, sol, &ds[..m], &z_all, &r, &mut b_fix);
+        if !ok {
+            self.coast += 1;
+            if self.coast > fc.max_coast {
+                for f in self.fixed_kf.iter_mut() {
+                    f.active = false;
+                }
+            }
+            return;
+        }
+        self.coast = 0;
+        // Fixed baselines re-estimated with all DDs (weights W), information per baseline.
+        let mut info = [Mat3::identity(); MAX_BASELINES];
+        for k in 0..nb {
+            let f = &sol.fixes[k];
+            if let Some((b, _, inf)) =
+                fixed_ls_info(&ds[..m], &z_all[k][..m], &f.n_dd[..m], fc.lambda, &w)
+            {
+                b_fix[k] = b;
+                info[k] = inf;
+            }
+        }
+        let mut b_use = b_fix;
+        let mut w_use = info;
+        if fc.q_fixed > 0.0 {
+            for k in 0..nb {
+                if self.fixed_kf[k]
+                    .update(ep.t, &b_fix[k], &info[k], fc.q_fixed)
+                    .is_some()
+                {
+                    b_use[k] = self.fixed_kf[k].baseline();
+                    w_use[k] = self.fixed_kf[k].cov().try_inverse().unwrap_or(info[k]);
+                }
+            }
+        }
+        if let Some(c) = wahba_weighted_nb(&self.b_b[..nb], &b_use[..nb], &w_use[..nb]) {
+            sol.rpy_fixed = Some(paper_euler(&c));
+        }
+    }
+
+    /// Fix every baseline (LAMBDA on the float filter, else the constrained
+    /// search), then check lengths and inter-baseline angles.
+    #[allow(clippy::too_many_arguments)]
+    fn fix_baselines(
+        &self,
+        ep: &CpEpoch,
+        nb: usize,
+        fc: &FixConfig,
+        sol: &mut CpAttSolution,
+        ds: &[Vec3],
+        z_all: &[[f64; MAX_DD]; MAX_BASELINES],
+        r: &DdMat,
+        b_fix: &mut [Vec3; MAX_BASELINES],
+    ) -> bool {
+        let n = ep.n_sats;
+        let m = ds.len();
+        for k in 0..nb {
+            let len = self.b_b[k].norm();
+            let mut fx = None;
+            if fc.use_float_lambda && self.filters[k].n_sats == n {
+                if let Some(f) = lambda_on_float(&self.filters[k], fc) {
+                    let _ = n;
+                    if f.ratio >= fc.ratio_min && (f.b_n.norm() - len).abs() <= fc.len_tol {
+                        fx = Some(f);
+                    }
+                }
+            }
+            if fx.is_none() && fc.use_search {
+                if let Some(f) = constrained_search(ds, &z_all[k][..m], r, len, fc) {
+                    if f.ratio >= fc.ratio_min {
+                        fx = Some(f);
+                    }
+                }
+            }
+            let Some(f) = fx else {
+                sol.reject = 1;
+                return false;
+            };
+            if (f.b_n.norm() - len).abs() > fc.len_tol {
+                sol.reject = 2;
+                return false;
+            }
+            sol.fixes[k] = f;
+            b_fix[k] = f.b_n;
+        }
+        // Integrity: inter-baseline angles against the body geometry.
+        for i in 0..nb {
+            for j in i + 1..nb {
+                let ang =
+                    |a: &Vec3, b: &Vec3| (a.dot(b) / (a.norm() * b.norm())).clamp(-1.0, 1.0).acos();
+                if (ang(&b_fix[i], &b_fix[j]) - ang(&self.b_b[i], &self.b_b[j])).abs()
+                    > fc.angle_tol
+                {
+                    sol.reject = 3;
+                    return false;
+                }
+            }
+        }
+        true
     }
 }
 
@@ -462,6 +1062,46 @@ mod tests {
         assert!((c[(0, 0)] - (cp * cy - sp * st * sy)).abs() < 1e-12);
         let e = paper_euler(&c);
         assert!((e - Vec3::new(r, p, y)).norm() < 1e-12);
+    }
+
+    #[test]
+    fn chi2_quantiles() {
+        // χ²(10) upper 1 % ≈ 23.21, χ²(4) upper 0.1 % ≈ 18.47.
+        assert!((chi2_quantile(10.0, 0.01) - 23.21).abs() < 0.2);
+        assert!((chi2_quantile(4.0, 0.001) - 18.47).abs() < 0.5);
+    }
+
+    /// The constrained search finds the true integers in one noise-free epoch,
+    /// and the integrity/length rules reject a wrong body length.
+    #[test]
+    fn constrained_search_single_epoch() {
+        const LAM: f64 = 0.190293673;
+        let b = Vec3::new(0.3, -0.8, 0.52).normalize();
+        let mut ds = [Vec3::zeros(); 8];
+        let mut z = [0.0; 8];
+        let mut n_true = [0i64; 8];
+        let mut prev = Vec3::z();
+        for i in 0..9 {
+            let el = 1.4 - 0.14 * i as f64;
+            let az = 1.9 * i as f64;
+            let s = Vec3::new(el.cos() * az.sin(), el.cos() * az.cos(), el.sin());
+            if i > 0 {
+                ds[i - 1] = prev - s;
+                n_true[i - 1] = (i as i64 * 37) % 11 - 5;
+                z[i - 1] = ds[i - 1].dot(&b) + LAM * n_true[i - 1] as f64;
+            }
+            prev = s;
+        }
+        let r = dd_covariance(&[0.002; 9], DdNoise::PaperDiagonal);
+        let cfg = FixConfig::default();
+        let f = constrained_search(&ds, &z, &r, 1.0, &cfg).unwrap();
+        assert_eq!(&f.n_dd[..8], &n_true);
+        assert!((f.b_n - b).norm() < 1e-9);
+        assert!(f.ratio > 100.0, "{}", f.ratio);
+        // With a body length 20 cm off no candidate has the true integers.
+        if let Some(g) = constrained_search(&ds, &z, &r, 1.2, &cfg) {
+            assert_ne!(&g.n_dd[..8], &n_true);
+        }
     }
 
     #[test]

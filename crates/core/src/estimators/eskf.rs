@@ -132,8 +132,13 @@ pub struct ZuptConfig {
     pub window: usize,
     /// Standstill if the std of |f| over the window is below this [m/s²] …
     pub max_accel_std: f64,
-    /// … and the std of each gyro axis over the window is below this [rad/s].
+    /// … and the std of each gyro axis over the window is below this [rad/s] …
     pub max_gyro_std: f64,
+    /// … and the window-mean specific force is within this of gravity at the
+    /// current attitude [m/s²] (catches smooth acceleration) …
+    pub max_accel_dev: f64,
+    /// … and the filter's speed is below this [m/s].
+    pub max_speed: f64,
     /// 1-σ of the zero-velocity pseudo-measurement [m/s].
     pub vel_std: f64,
     /// 1-σ of the window-mean angular rate for ZARU [rad/s]; `None`: no ZARU.
@@ -156,6 +161,15 @@ pub struct EskfConfig {
     pub scale_factors: bool,
     /// χ² gate probability for GNSS and constraint updates (e.g. 0.9999); `None`: no gate.
     pub gate_probability: Option<f64>,
+    /// Innovations with NIS between the gate and this multiple of it are
+    /// applied with R scaled by NIS/gate instead of rejected (robust
+    /// de-weighting of a filter that is briefly overconfident); beyond it they
+    /// are rejected and counted. 1: plain gate.
+    pub gate_deweight_factor: f64,
+    /// After this many consecutive gated-out GNSS positions the next one is
+    /// applied without the gate (recovers from a filter that has drifted away
+    /// and become overconfident); 0: never.
+    pub gnss_force_after: u32,
     /// Use the GNSS velocity when a fix carries one.
     pub use_gnss_velocity: bool,
     /// After this time [s] the GNSS horizontal position is no longer used: only
@@ -190,6 +204,8 @@ impl EskfConfig {
             lever_arm_b: Vec3::zeros(),
             scale_factors: false,
             gate_probability: None,
+            gnss_force_after: 0,
+            gate_deweight_factor: 1.0,
             use_gnss_velocity: true,
             position_until: None,
             nhc: None,
@@ -207,6 +223,11 @@ pub struct EskfStats {
     pub imu_rejected_bad: u64,
     pub gnss_pos_used: u64,
     pub gnss_pos_rejected_gate: u64,
+    /// Updates beyond the gate but within `gate_deweight_factor` × gate,
+    /// applied with an inflated R.
+    pub deweighted: u64,
+    /// Fixes applied without the gate after `gnss_force_after` rejections.
+    pub gnss_pos_forced: u64,
     /// Fixes dropped because they were older than the filter time or not finite.
     pub gnss_rejected_bad: u64,
     pub gnss_vel_used: u64,
@@ -459,7 +480,7 @@ impl FSparse {
 /// Standstill detector over a ring buffer of the last samples (no allocation).
 #[derive(Clone, Copy, Debug)]
 struct StandstillDetector {
-    f_norm: [f64; ZUPT_MAX_WINDOW],
+    f: [Vec3; ZUPT_MAX_WINDOW],
     w: [Vec3; ZUPT_MAX_WINDOW],
     len: usize,
     head: usize,
@@ -468,31 +489,33 @@ struct StandstillDetector {
 impl StandstillDetector {
     fn new() -> Self {
         StandstillDetector {
-            f_norm: [0.0; ZUPT_MAX_WINDOW],
+            f: [Vec3::zeros(); ZUPT_MAX_WINDOW],
             w: [Vec3::zeros(); ZUPT_MAX_WINDOW],
             len: 0,
             head: 0,
         }
     }
-    fn push(&mut self, f_norm: f64, w: Vec3, window: usize) {
+    fn push(&mut self, f: Vec3, w: Vec3, window: usize) {
         let window = window.clamp(2, ZUPT_MAX_WINDOW);
-        self.f_norm[self.head] = f_norm;
+        self.f[self.head] = f;
         self.w[self.head] = w;
         self.head = (self.head + 1) % window;
         self.len = (self.len + 1).min(window);
     }
-    /// (std |f|, max per-axis gyro std, mean gyro) when the window is full.
-    fn stats(&self, window: usize) -> Option<(f64, f64, Vec3)> {
+    /// (std |f|, max per-axis gyro std, mean gyro, mean f) when the window is full.
+    fn stats(&self, window: usize) -> Option<(f64, f64, Vec3, Vec3)> {
         let window = window.clamp(2, ZUPT_MAX_WINDOW);
         if self.len < window {
             return None;
         }
         let n = window as f64;
-        let (mut sf, mut sf2) = (0.0, 0.0);
+        let (mut sf, mut sf2, mut fsum) = (0.0, 0.0, Vec3::zeros());
         let (mut sw, mut sw2) = (Vec3::zeros(), Vec3::zeros());
         for i in 0..window {
-            sf += self.f_norm[i];
-            sf2 += self.f_norm[i] * self.f_norm[i];
+            let fn_ = self.f[i].norm();
+            fsum += self.f[i];
+            sf += fn_;
+            sf2 += fn_ * fn_;
             sw += self.w[i];
             sw2 += self.w[i].component_mul(&self.w[i]);
         }
@@ -500,7 +523,7 @@ impl StandstillDetector {
         let vf = (sf2 / n - mf * mf).max(0.0);
         let mw = sw / n;
         let vw = (sw2 / n - mw.component_mul(&mw)).map(|v| v.max(0.0));
-        Some((vf.sqrt(), vw.max().sqrt(), mw))
+        Some((vf.sqrt(), vw.max().sqrt(), mw, fsum / n))
     }
 }
 
@@ -523,6 +546,7 @@ pub struct Eskf {
     pending: Option<GnssFix>,
     last_nhc: f64,
     last_zupt: f64,
+    gnss_consecutive_rejects: u32,
     last_zaru: f64,
     last_dt: f64,
     standstill: bool,
@@ -609,6 +633,7 @@ impl Eskf {
             pending: None,
             last_nhc: f64::NEG_INFINITY,
             last_zupt: f64::NEG_INFINITY,
+            gnss_consecutive_rejects: 0,
             last_zaru: f64::NEG_INFINITY,
             last_dt: 0.01,
             standstill: false,
@@ -926,8 +951,8 @@ impl Eskf {
             return Err(UpdateReject::Singular);
         }
         let u: SMatrix<f64, NX, M> = self.p * h.transpose();
-        let s: SMatrix<f64, M, M> = h * u + r;
-        let Some(s_inv) = s.try_inverse() else {
+        let mut s: SMatrix<f64, M, M> = h * u + r;
+        let Some(mut s_inv) = s.try_inverse() else {
             self.stats.singular += 1;
             return Err(UpdateReject::Singular);
         };
@@ -938,15 +963,44 @@ impl Eskf {
         }
         if gate {
             if let Some(pg) = self.cfg.gate_probability {
-                if nis > chi2_gate(M, pg) {
-                    return Err(UpdateReject::Gate);
+                let g = chi2_gate(M, pg);
+                if nis > g {
+                    let hard = g * self.cfg.gate_deweight_factor;
+                    if nis > hard {
+                        return Err(UpdateReject::Gate);
+                    }
+                    // Robust de-weighting: R ← R·NIS/g so the innovation sits
+                    // on the gate (Huber-type M-estimation; Groves §17.3.3).
+                    let rs = r * (nis / g);
+                    s = h * u + rs;
+                    let Some(si) = s.try_inverse() else {
+                        self.stats.singular += 1;
+                        return Err(UpdateReject::Singular);
+                    };
+                    s_inv = si;
+                    self.stats.deweighted += 1;
+                    let k: SMatrix<f64, NX, M> = u * s_inv;
+                    return Ok(self.apply_update(&k, &s, &u, dz, nis));
                 }
             }
         }
+        let k: SMatrix<f64, NX, M> = u * s_inv;
+        Ok(self.apply_update(&k, &s, &u, dz, nis))
+    }
+
+    /// Joseph-form covariance update and feedback for gain `k`, innovation
+    /// covariance `s`, `u = P Hᵀ`.
+    fn apply_update<const M: usize>(
+        &mut self,
+        k: &SMatrix<f64, NX, M>,
+        s: &SMatrix<f64, M, M>,
+        u: &SMatrix<f64, NX, M>,
+        dz: &SVector<f64, M>,
+        nis: f64,
+    ) -> f64 {
         if self.cfg.smoother_every > 0 && self.rec_p_prior.is_none() {
             self.rec_p_prior = Some(self.p);
         }
-        let k: SMatrix<f64, NX, M> = u * s_inv;
         let dx: StateVec = k * dz;
         // Joseph form, expanded: (I−KH)P(I−KH)ᵀ + KRKᵀ = P − KUᵀ − UKᵀ + K S Kᵀ.
         let ks = k * s;
@@ -956,7 +1010,7 @@ impl Eskf {
         apply_correction(&mut self.nav, &mut self.err, &dx);
         self.rec_dx += dx;
         self.rec_updated = true;
-        Ok(nis)
+        nis
     }
 
     /// GNSS updates for `fix` at the current state time.
@@ -978,9 +1032,20 @@ impl Eskf {
                 .copy_from(&Mat3::identity());
             h.fixed_view_mut::<3, 3>(0, I_ATT).copy_from(&skew(&l_n));
             let r = Mat3::from_diagonal(&std.component_mul(&std));
-            match self.update(&h, &r, &dz_pos, true) {
-                Ok(_) => self.stats.gnss_pos_used += 1,
-                Err(UpdateReject::Gate) => self.stats.gnss_pos_rejected_gate += 1,
+            let force = self.cfg.gnss_force_after > 0
+                && self.gnss_consecutive_rejects >= self.cfg.gnss_force_after;
+            match self.update(&h, &r, &dz_pos, !force) {
+                Ok(_) => {
+                    self.stats.gnss_pos_used += 1;
+                    if force {
+                        self.stats.gnss_pos_forced += 1;
+                    }
+                    self.gnss_consecutive_rejects = 0;
+                }
+                Err(UpdateReject::Gate) => {
+                    self.stats.gnss_pos_rejected_gate += 1;
+                    self.gnss_consecutive_rejects += 1;
+                }
                 Err(UpdateReject::Singular) => {}
             }
         } else {
@@ -1022,10 +1087,17 @@ impl Eskf {
     fn vehicle_updates(&mut self) {
         let t = self.t;
         if let Some(z) = self.cfg.zupt {
-            let f_norm = self.f_b.norm();
-            self.detector.push(f_norm, self.w_ib_b, z.window);
+            self.detector.push(self.f_b, self.w_ib_b, z.window);
+            let c_nb = self.nav.c_bn().transpose();
+            let e = EarthAt::new(self.nav.lat, self.nav.h);
+            let f_rest_b = c_nb * Vec3::new(0.0, 0.0, -e.g);
             self.standstill = match self.detector.stats(z.window) {
-                Some((sf, sw, _)) => sf < z.max_accel_std && sw < z.max_gyro_std,
+                Some((sf, sw, _, f_mean)) => {
+                    sf < z.max_accel_std
+                        && sw < z.max_gyro_std
+                        && (f_mean - f_rest_b).norm() < z.max_accel_dev
+                        && self.nav.v_n.norm() < z.max_speed
+                }
                 None => false,
             };
             if self.standstill && t - self.last_zupt >= z.interval {
@@ -1035,13 +1107,20 @@ impl Eskf {
                     .copy_from(&Mat3::identity());
                 let r = Mat3::identity() * (z.vel_std * z.vel_std);
                 let dz = self.nav.v_n;
-                match self.update(&h, &r, &dz, true) {
-                    Ok(_) => self.stats.zupt_used += 1,
-                    Err(UpdateReject::Gate) => self.stats.zupt_rejected_gate += 1,
-                    Err(UpdateReject::Singular) => {}
-                }
-                if let (Some(zs), Some((_, _, w_mean))) =
-                    (z.zaru_std, self.detector.stats(z.window))
+                let zupt_ok = match self.update(&h, &r, &dz, true) {
+                    Ok(_) => {
+                        self.stats.zupt_used += 1;
+                        true
+                    }
+                    Err(UpdateReject::Gate) => {
+                        self.stats.zupt_rejected_gate += 1;
+                        false
+                    }
+                    Err(UpdateReject::Singular) => false,
+                };
+                // ZARU only when the zero-velocity test passed too.
+                if let (true, Some(zs), Some((_, _, w_mean, _))) =
+                    (zupt_ok, z.zaru_std, self.detector.stats(z.window))
                 {
                     // Window-mean compensated rate minus the earth rate = δb_g.
                     let w_ie_b = self.nav.c_bn().transpose() * earth::omega_ie_n(self.nav.lat);
@@ -1052,7 +1131,7 @@ impl Eskf {
                     let r = Mat3::identity() * (zs * zs);
                     // The window mean holds the bias of its samples: one ZARU per window.
                     let window_s = z.window as f64 * self.last_dt;
-                    if t - self.last_zaru >= window_s && self.update(&h, &r, &dz, false).is_ok() {
+                    if t - self.last_zaru >= window_s && self.update(&h, &r, &dz, true).is_ok() {
                         self.last_zaru = t;
                         self.stats.zaru_used += 1;
                     }
