@@ -76,7 +76,7 @@ pub fn parse_nav(text: &str, name: &str) -> Result<Vec<KeplerOrbit>, ReadError> 
     let mut version = 2.0;
     while i < lines.len() {
         let l = lines[i];
-        if l.len() >= 60 && l[60..].starts_with("RINEX VERSION") {
+        if l.get(60..).is_some_and(|r| r.starts_with("RINEX VERSION")) {
             version = field(l, 0, 9).trim().parse().unwrap_or(2.0);
         }
         i += 1;
