@@ -928,3 +928,20 @@ mod regressions_rinex {
         run_rinex_nav(line.as_bytes());
     }
 }
+
+mod regressions_rinex_obs {
+    //! Found by `fuzz_rinex_obs` (case 379645 of the 1,000,000 run): an epoch
+    //! line whose satellite count read as `inf` sized a Vec (capacity
+    //! overflow panic); counts are now checked to be 0..999.
+    use super::*;
+
+    #[test]
+    fn rinex_obs_satellite_count_that_is_not_a_count() {
+        let b = include_bytes!("fuzz_regressions/rinex_obs_capacity.txt");
+        run_rinex_obs(b);
+        let mut hand = RINEX_OBS.replace(" 0  2G 3R 7", " 0inf 3R 7");
+        run_rinex_obs(hand.as_bytes());
+        hand = RINEX_OBS.replace(" 0  2G 3R 7", " 01e9 3R 7");
+        run_rinex_obs(hand.as_bytes());
+    }
+}
