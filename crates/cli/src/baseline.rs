@@ -96,6 +96,8 @@ pub struct EpochOut {
     pub float_b: Vec3,
     pub fixed_b: Option<Vec3>,
     pub ratio: f64,
+    /// Position dilution of precision of the rover's satellites used.
+    pub pdop: f64,
 }
 
 /// Processing summary.
@@ -377,12 +379,22 @@ pub fn process(
                 }
             }
         }
+        let mut g = nalgebra::Matrix4::<f64>::zeros();
+        for s in &sats {
+            let row = nalgebra::Vector4::new(-s.e_r.x, -s.e_r.y, -s.e_r.z, 1.0);
+            g += row * row.transpose();
+        }
+        let pdop = g
+            .try_inverse()
+            .map(|q| (q[(0, 0)] + q[(1, 1)] + q[(2, 2)]).sqrt())
+            .unwrap_or(f64::INFINITY);
         out.epochs.push(EpochOut {
             t: be.t,
             n_sats: sats.len(),
             float_b,
             fixed_b,
             ratio,
+            pdop,
         });
     }
     Ok(out)
@@ -413,6 +425,9 @@ pub struct Stats {
     pub last_ratio: f64,
     pub rms_fixed_3d: f64,
     pub rms_float_3d: f64,
+    /// RMS 3D over fixed epochs with PDOP ≤ 10, and their count.
+    pub rms_fixed_3d_pdop10: f64,
+    pub n_fixed_pdop10: usize,
 }
 
 pub fn stats(sum: &Summary, reference: &Vec3) -> Stats {
@@ -427,8 +442,11 @@ pub fn stats(sum: &Summary, reference: &Vec3) -> Stats {
         last_ratio: f64::NAN,
         rms_fixed_3d: f64::NAN,
         rms_float_3d: f64::NAN,
+        rms_fixed_3d_pdop10: f64::NAN,
+        n_fixed_pdop10: 0,
     };
     let (mut sf, mut nf, mut sfl) = (0.0, 0usize, 0.0);
+    let mut sp = 0.0;
     for (k, e) in sum.epochs.iter().enumerate() {
         sfl += (e.float_b - reference).norm_squared();
         if let Some(b) = e.fixed_b {
@@ -443,6 +461,10 @@ pub fn stats(sum: &Summary, reference: &Vec3) -> Stats {
             }
             sf += err * err;
             nf += 1;
+            if e.pdop <= 10.0 {
+                sp += err * err;
+                st.n_fixed_pdop10 += 1;
+            }
         }
     }
     if let Some(e) = sum.epochs.last() {
@@ -452,6 +474,9 @@ pub fn stats(sum: &Summary, reference: &Vec3) -> Stats {
     }
     if nf > 0 {
         st.rms_fixed_3d = (sf / nf as f64).sqrt();
+    }
+    if st.n_fixed_pdop10 > 0 {
+        st.rms_fixed_3d_pdop10 = (sp / st.n_fixed_pdop10 as f64).sqrt();
     }
     if st.n > 0 {
         st.rms_float_3d = (sfl / st.n as f64).sqrt();
@@ -489,7 +514,7 @@ pub fn geonet_part(dir: &Path) -> Result<serde_json::Value, String> {
         reference.norm()
     );
     println!(
-        "{:>12} | {:>8} | {:>26} | {:>8} | {:>9} | {:>6} | {:>6} | {:>9}",
+        "{:>12} | {:>8} | {:>26} | {:>8} | {:>9} | {:>6} | {:>6} | {:>9} | {:>12}",
         "mode",
         "first fix",
         "fixed err ENU [mm] (last)",
@@ -497,7 +522,8 @@ pub fn geonet_part(dir: &Path) -> Result<serde_json::Value, String> {
         "float mm",
         "ratio",
         "fix %",
-        "RMS3D mm"
+        "RMS3D mm",
+        "PDOP≤10 (n)"
     );
     let mut obj = serde_json::Map::new();
     for (label, kin, l2) in [
@@ -515,7 +541,7 @@ pub fn geonet_part(dir: &Path) -> Result<serde_json::Value, String> {
         let st = stats(&sum, &reference);
         let fe = st.last_fixed_err.map(|e| enu_at(&base, &e));
         println!(
-            "{:>12} | {:>8} | {:>26} | {:>8} | {:>9.1} | {:>6.1} | {:>6.1} | {:>9.1}",
+            "{:>12} | {:>8} | {:>26} | {:>8} | {:>9.1} | {:>6.1} | {:>6.1} | {:>9.1} | {:>6.1} ({:>3})",
             label,
             st.first_correct_fix_epoch
                 .map(|k| k.to_string())
@@ -528,7 +554,9 @@ pub fn geonet_part(dir: &Path) -> Result<serde_json::Value, String> {
             st.last_float_err.norm() * 1e3,
             st.last_ratio,
             100.0 * st.fixed as f64 / st.n.max(1) as f64,
-            st.rms_fixed_3d * 1e3
+            st.rms_fixed_3d * 1e3,
+            st.rms_fixed_3d_pdop10 * 1e3,
+            st.n_fixed_pdop10
         );
         let key = label
             .replace(' ', "_")
@@ -546,8 +574,10 @@ pub fn geonet_part(dir: &Path) -> Result<serde_json::Value, String> {
                 "first_fix_epoch": st.first_fix_epoch,
                 "first_correct_fix_epoch": st.first_correct_fix_epoch,
                 "fix_rate": st.fixed as f64 / st.n.max(1) as f64,
-                "wrong_fixed_epochs": st.wrong_fixed,
+                "fixed_epochs_over_5cm": st.wrong_fixed,
                 "rms_fixed_3d_m": st.rms_fixed_3d,
+                "rms_fixed_3d_pdop_le_10_m": st.rms_fixed_3d_pdop10,
+                "fixed_epochs_pdop_le_10": st.n_fixed_pdop10,
                 "unpaired_epochs": sum.unpaired,
                 "slips": sum.slips,
             }),
@@ -565,6 +595,10 @@ pub fn geonet_part(dir: &Path) -> Result<serde_json::Value, String> {
     );
     obj.insert("fix_rate".into(), s["fix_rate"].clone());
     obj.insert("kinematic_rms_m".into(), k["rms_fixed_3d_m"].clone());
+    obj.insert(
+        "kinematic_rms_pdop_le_10_m".into(),
+        k["rms_fixed_3d_pdop_le_10_m"].clone(),
+    );
     Ok(serde_json::Value::Object(obj))
 }
 
@@ -594,8 +628,17 @@ pub fn run(args: Args) -> Result<(), String> {
             let f = e.fixed_b.unwrap_or(Vec3::repeat(f64::NAN));
             writeln!(
                 w,
-                "{:.3},{},{:.4},{:.4},{:.4},{:.4},{:.4},{:.4},{:.2}",
-                e.t, e.n_sats, e.float_b.x, e.float_b.y, e.float_b.z, f.x, f.y, f.z, e.ratio
+                "{:.3},{},{:.2},{:.4},{:.4},{:.4},{:.4},{:.4},{:.4},{:.2}",
+                e.t,
+                e.n_sats,
+                e.pdop,
+                e.float_b.x,
+                e.float_b.y,
+                e.float_b.z,
+                f.x,
+                f.y,
+                f.z,
+                e.ratio
             )
             .map_err(io)?;
         }
@@ -637,12 +680,14 @@ pub fn run(args: Args) -> Result<(), String> {
         let reference = Vec3::new(r[0], r[1], r[2]);
         let st = stats(&sum, &reference);
         println!(
-            "against the reference: first fix epoch {:?} (correct {:?}), last float error {:.1} mm, last fixed error {} mm, RMS 3D over fixed epochs {:.1} mm, wrong fixed epochs {}",
+            "against the reference: first fix epoch {:?} (correct {:?}), last float error {:.1} mm, last fixed error {} mm, RMS 3D over fixed epochs {:.1} mm ({:.1} mm over the {} with PDOP ≤ 10), epochs > 5 cm off {}",
             st.first_fix_epoch,
             st.first_correct_fix_epoch,
             st.last_float_err.norm() * 1e3,
             st.last_fixed_err.map(|e| format!("{:.1}", e.norm() * 1e3)).unwrap_or("-".into()),
             st.rms_fixed_3d * 1e3,
+            st.rms_fixed_3d_pdop10 * 1e3,
+            st.n_fixed_pdop10,
             st.wrong_fixed
         );
     }

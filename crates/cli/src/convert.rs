@@ -52,33 +52,43 @@ pub struct Args {
     pub gps_week: u32,
 }
 
-pub fn run(args: Args) -> Result<(), String> {
-    let fin = match args.from {
+/// The input format: as given, else from the file's extension.
+pub fn input_format(from: Option<From>, path: &std::path::Path) -> Result<InFormat, String> {
+    Ok(match from {
         Some(From::Pos) => InFormat::Pos,
         Some(From::Nav) => InFormat::Nav,
         Some(From::Csv) => InFormat::Csv,
         Some(From::KfginsGnss) => InFormat::KfGinsGnss,
-        None => InFormat::from_path(&args.input).ok_or_else(|| {
+        None => InFormat::from_path(path).ok_or_else(|| {
             format!(
                 "{}: cannot tell the input format from the extension; give --from (pos, nav, csv, kfgins-gnss)",
-                args.input.display()
+                path.display()
             )
         })?,
-    };
-    let fout = match args.to {
+    })
+}
+
+/// The output format: as given, else from the file's extension.
+pub fn output_format(to: Option<To>, path: &std::path::Path) -> Result<OutFormat, String> {
+    Ok(match to {
         Some(To::Csv) => OutFormat::Csv,
         Some(To::Nav) => OutFormat::Nav,
         Some(To::Geojson) => OutFormat::GeoJson,
         Some(To::Kml) => OutFormat::Kml,
         Some(To::Gpx) => OutFormat::Gpx,
         Some(To::Nmea) => OutFormat::Nmea,
-        None => OutFormat::from_path(&args.output).ok_or_else(|| {
+        None => OutFormat::from_path(path).ok_or_else(|| {
             format!(
                 "{}: cannot tell the output format from the extension; give --to (csv, nav, geojson, kml, gpx, nmea)",
-                args.output.display()
+                path.display()
             )
         })?,
-    };
+    })
+}
+
+pub fn run(args: Args) -> Result<(), String> {
+    let fin = input_format(args.from, &args.input)?;
+    let fout = output_format(args.to, &args.output)?;
     if fout == OutFormat::Nmea && matches!(fin, InFormat::Pos | InFormat::KfGinsGnss) {
         return fixes_to_nmea(&args, fin);
     }

@@ -56,12 +56,12 @@ enum Command {
     Baseline(baseline::Args),
     /// Reproduce a seed paper's experiment and print its table beside ours.
     Experiment(experiment::Args),
-    /// Fuse live GNSS (gpsd, NMEA) and IMU streams; solutions at the IMU rate.
-    Live(live::Args),
     /// Compensate GNSS positions with the seed 002 algorithm (or a SIR particle filter).
     SmoothGps(smooth_gps::Args),
     /// Self-contained HTML report and SVG plots of a run directory.
     Report(report::Args),
+    /// Fuse live GNSS (gpsd, NMEA) and IMU streams; solutions at the IMU rate.
+    Live(live::Args),
 }
 
 fn main() -> ExitCode {
@@ -78,9 +78,9 @@ fn main() -> ExitCode {
         Command::Attitude(a) => attitude::run(a),
         Command::Baseline(a) => baseline::run(a),
         Command::Experiment(a) => experiment::run(a),
-        Command::Live(a) => live::run(a),
         Command::SmoothGps(a) => smooth_gps::run(a),
         Command::Report(a) => report::run(a),
+        Command::Live(a) => live::run(a),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

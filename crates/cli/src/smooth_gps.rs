@@ -12,7 +12,7 @@ use clap::{Args as ClapArgs, ValueEnum};
 use navfuse_core::estimators::pf_lc::compensation::Compensator;
 use navfuse_core::estimators::pf_lc::{CompensationConfig, SirConfig, SirPf};
 use navfuse_core::geodesy::{Geodetic, PlanePoint, SmallAreaPlane};
-use navfuse_io::trajectory::{create_writer, open_nav_source, InFormat, OutFormat};
+use navfuse_io::trajectory::{create_writer, open_nav_source};
 use std::path::PathBuf;
 
 /// Particles of the SIR method.
@@ -60,32 +60,8 @@ pub struct Args {
 }
 
 pub fn run(args: Args) -> Result<(), String> {
-    let fin = match args.from {
-        Some(From::Pos) => InFormat::Pos,
-        Some(From::Nav) => InFormat::Nav,
-        Some(From::Csv) => InFormat::Csv,
-        Some(From::KfginsGnss) => InFormat::KfGinsGnss,
-        None => InFormat::from_path(&args.input).ok_or_else(|| {
-            format!(
-                "{}: cannot tell the input format from the extension; give --from",
-                args.input.display()
-            )
-        })?,
-    };
-    let fout = match args.to {
-        Some(To::Csv) => OutFormat::Csv,
-        Some(To::Nav) => OutFormat::Nav,
-        Some(To::Geojson) => OutFormat::GeoJson,
-        Some(To::Kml) => OutFormat::Kml,
-        Some(To::Gpx) => OutFormat::Gpx,
-        Some(To::Nmea) => OutFormat::Nmea,
-        None => OutFormat::from_path(&args.output).ok_or_else(|| {
-            format!(
-                "{}: cannot tell the output format from the extension; give --to",
-                args.output.display()
-            )
-        })?,
-    };
+    let fin = crate::convert::input_format(args.from, &args.input)?;
+    let fout = crate::convert::output_format(args.to, &args.output)?;
     let mut cc = CompensationConfig::default();
     if let Some(s) = args.span {
         cc.span = s;
@@ -209,7 +185,7 @@ mod tests {
         for method in [Method::Paper, Method::Sir] {
             run(args(method)).unwrap();
             let text = std::fs::read_to_string(&out).unwrap();
-            let mut src = open_nav_source(&out, InFormat::Csv, 0).unwrap();
+            let mut src = open_nav_source(&out, navfuse_io::trajectory::InFormat::Csv, 0).unwrap();
             let mut err = 0.0;
             let mut n = 0;
             for s in src.by_ref() {

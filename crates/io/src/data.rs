@@ -13,11 +13,9 @@ pub fn data_dir() -> PathBuf {
     if let Some(d) = std::env::var_os("NAVFUSE_DATA") {
         return PathBuf::from(d);
     }
-    // crates/io → workspace root → its parent.
-    Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("../../../shared/data")
-        .components()
-        .collect()
+    // crates/io → workspace root → its parent; shown resolved when it exists.
+    let p = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../../shared/data");
+    p.canonicalize().unwrap_or(p)
 }
 
 /// Path of `rel` under the data root; panics naming the path and the
