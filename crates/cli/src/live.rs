@@ -734,6 +734,95 @@ mod tests {
         assert!(make_estimator("nope").is_err());
     }
 
+    /// File sources end to end: malformed lines and a gap survive, every
+    /// line is accounted for, and the output is the batch-order result.
+    #[test]
+    fn live_over_files_with_bad_lines() {
+        use navfuse_core::types::Vec3;
+        let dir = std::env::temp_dir().join(format!("navfuse_live_{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let week = 2374u32;
+        let tow0 = 243_300.0;
+        // IMU 100 Hz for 3 s with a 0.5 s gap and three bad lines.
+        let mut imu = String::new();
+        for k in 0..300 {
+            let tow = tow0 + k as f64 * 0.01;
+            if (100..150).contains(&k) {
+                continue;
+            }
+            imu.push_str(&format!("{tow:.3} 0 0 0 0 0 -0.098\n"));
+            if k == 20 {
+                imu.push_str("garbage line\n");
+                imu.push_str(&format!("{tow:.3} 0 0 0 0 0 -0.098\n")); // duplicate time
+                imu.push_str("1 2 3\n");
+            }
+        }
+        // GNSS 4 Hz as NMEA, plus a corrupted sentence.
+        let mut nmea = Vec::new();
+        {
+            let mut w = NmeaWriter::new(&mut nmea);
+            for k in 0..12 {
+                let f = GnssFix {
+                    t: navfuse_io::time::gps_seconds(week, tow0 + 0.25 * k as f64 + 0.005),
+                    lat: 0.7 + 1e-7 * k as f64,
+                    lon: -1.8,
+                    h: 1600.0 + k as f64,
+                    std_ned: Vec3::new(0.01, 0.01, 0.02),
+                    quality: 1,
+                    num_sats: 9,
+                    ..Default::default()
+                };
+                w.write_fix(&f).unwrap();
+            }
+        }
+        nmea.extend_from_slice(b"$GNGGA,broken*00\r\n");
+        std::fs::write(dir.join("imu.txt"), imu).unwrap();
+        std::fs::write(dir.join("gnss.nmea"), nmea).unwrap();
+        let args = Args {
+            gnss: format!("nmea:{}", dir.join("gnss.nmea").display()),
+            imu: dir.join("imu.txt").display().to_string(),
+            gps_week: week,
+            imu_rate: 100.0,
+            estimator: "hold".into(),
+            kfgins_config: None,
+            enhanced: false,
+            out: Some(dir.join("out.jsonl")),
+            format: Format::Json,
+            max_wait: 1e9,
+            idle: 0.1,
+            reconnect_for: 0.0,
+            summary_json: Some(dir.join("summary.json")),
+        };
+        run(args).unwrap();
+        let out = std::fs::read_to_string(dir.join("out.jsonl")).unwrap();
+        let sols: Vec<serde_json::Value> = out
+            .lines()
+            .map(|l| serde_json::from_str(l).unwrap())
+            .collect();
+        // 250 IMU samples; the first fix (tow0 + 0.005) precedes sample 1.
+        assert_eq!(sols.len(), 249);
+        // Each solution holds the last fix at or before its time (+1 ms lead).
+        for s in &sols {
+            let tow = s["tow"].as_f64().unwrap();
+            let k = ((tow - tow0 - 0.005 + 1e-3) / 0.25).floor() as i64;
+            let h = s["h"].as_f64().unwrap();
+            assert!(
+                (h - (1600.0 + k.min(11) as f64)).abs() < 1e-3,
+                "tow {tow}: h {h}"
+            );
+        }
+        let sum: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(dir.join("summary.json")).unwrap())
+                .unwrap();
+        assert_eq!(sum["imu"]["lines"], 253);
+        assert_eq!(sum["imu"]["used"], 250);
+        assert_eq!(sum["imu"]["rejected"]["duplicate time"], 1);
+        assert_eq!(sum["gnss"]["rejected"]["bad checksum"], 1);
+        assert_eq!(sum["gnss_in"], 12);
+        assert_eq!(sum["imu_released_by_timeout"], 0);
+        let _ = std::fs::remove_dir_all(&dir);
+    }
+
     #[test]
     fn json_line_is_json() {
         let s = NavSolution::unknown_at(1_435_000_000.25);

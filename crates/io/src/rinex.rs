@@ -76,7 +76,7 @@ pub fn parse_nav(text: &str, name: &str) -> Result<Vec<KeplerOrbit>, ReadError> 
     let mut version = 2.0;
     while i < lines.len() {
         let l = lines[i];
-        if l.len() >= 60 && l[60..].starts_with("RINEX VERSION") {
+        if l.get(60..).is_some_and(|r| r.starts_with("RINEX VERSION")) {
             version = field(l, 0, 9).trim().parse().unwrap_or(2.0);
         }
         i += 1;
@@ -404,7 +404,17 @@ pub fn parse_obs(text: &str, name: &str) -> Result<ObsFile, ReadError> {
                 .map_err(|_| err(name, ln, fname, format!("not a number: `{s}`")))
         };
         let flag = num(28, 29, "epoch flag")? as u8;
-        let nsat = num(29, 32, "number of satellites")? as usize;
+        // A 3-digit count (a value like `inf` or `1e9` must not size a Vec).
+        let nsat = num(29, 32, "number of satellites")?;
+        if !(0.0..=999.0).contains(&nsat) || nsat.fract() != 0.0 {
+            return Err(err(
+                name,
+                ln,
+                "number of satellites",
+                format!("not a count 0..999: {nsat}"),
+            ));
+        }
+        let nsat = nsat as usize;
         if flag > 1 {
             // Event records: `nsat` header lines follow.
             i += 1 + nsat;

@@ -451,6 +451,68 @@ fn run_imu_lines(b: &[u8]) -> usize {
     out.len()
 }
 
+fn run_rinex_obs(b: &[u8]) -> usize {
+    let text = String::from_utf8_lossy(b);
+    navfuse_io::rinex::parse_obs(&text, "f").map_or(0, |f| f.epochs.len())
+}
+fn run_rinex_nav(b: &[u8]) -> usize {
+    let text = String::from_utf8_lossy(b);
+    navfuse_io::rinex::parse_nav(&text, "f").map_or(0, |v| v.len())
+}
+
+/// RINEX seeds: a synthetic header + epoch, and (with the data) the real
+/// header followed by a random window of the body.
+fn rinex_seeds(synth: &str, rel: &[&str]) -> Vec<Vec<u8>> {
+    let mut out = vec![synth.as_bytes().to_vec()];
+    for r in rel {
+        let Ok(b) = std::fs::read(navfuse_io::data::data_dir().join(r)) else {
+            continue;
+        };
+        let lines: Vec<&[u8]> = b.split_inclusive(|&c| c == b'\n').collect();
+        let Some(h) = lines
+            .iter()
+            .position(|l| l.windows(13).any(|w| w == b"END OF HEADER"))
+        else {
+            continue;
+        };
+        let head = lines[..=h].concat();
+        let body = &lines[h + 1..];
+        let mut rng = Rng(body.len() as u64);
+        for _ in 0..100 {
+            let a = rng.below(body.len());
+            let e = (a + 1 + rng.below(60)).min(body.len());
+            let mut v = head.clone();
+            v.extend(body[a..e].concat());
+            out.push(v);
+        }
+    }
+    out
+}
+
+const RINEX_OBS: &str =
+    "     2.10           OBSERVATION DATA    G (GPS)             RINEX VERSION / TYPE
+0759                                                        MARKER NAME
+ -3976219.5082  3382372.5671  3652512.9849                  APPROX POSITION XYZ
+     4    L1    C1    L2    P2                              # / TYPES OF OBSERV
+                                                            END OF HEADER
+ 05  4  2  0  0  0.0000000  0  2G 3R 7
+  55923622.160    24767686.375    43647388.2424   24767684.8224
+   -691177.898    24361933.475     -537007.1404   24361930.5994
+";
+
+const RINEX_NAV: &str =
+    "     2              NAVIGATION DATA                         RINEX VERSION / TYPE
+                                                            END OF HEADER
+ 1 10  7  1  0  0  0.0-0.136290676892D-03-0.397903932026D-11 0.000000000000D+00
+    0.630000000000D+02-0.897500000000D+02 0.468055210664D-08-0.307674634178D+01
+   -0.476092100143D-05 0.483528291807D-02 0.545941293240D-05 0.515480139732D+04
+    0.345600000000D+06 0.558793544769D-08 0.292603518708D+01-0.931322574615D-07
+    0.958292979765D+00 0.226531250000D+03 0.106590540059D+01-0.808748830624D-08
+    0.132505519310D-09 0.100000000000D+01 0.158700000000D+04 0.000000000000D+00
+    0.200000000000D+01 0.000000000000D+00 0.465661287308D-08 0.630000000000D+02
+    0.338418000000D+06 0.400000000000D+01
+";
+
 // ------------------------------------------------------------ seeds & fix-ups
 
 fn nmea_seed() -> Vec<Vec<u8>> {
@@ -755,6 +817,24 @@ fn fuzz_live_imu_lines() {
     fuzz("live_imu_lines", run_imu_lines, s, None);
 }
 
+#[test]
+fn fuzz_rinex_obs() {
+    let s = rinex_seeds(
+        RINEX_OBS,
+        &["gnss/rinex/07590920.05o", "gnss/rinex/30400920.05o"],
+    );
+    fuzz("rinex_obs", run_rinex_obs, s, None);
+}
+
+#[test]
+fn fuzz_rinex_nav() {
+    let s = rinex_seeds(
+        RINEX_NAV,
+        &["gnss/rinex/brdc1820.10n", "gnss/rinex/07590920.05n"],
+    );
+    fuzz("rinex_nav", run_rinex_nav, s, None);
+}
+
 mod structured {
     //! proptest strategies that build well-formed frames/sentences around
     //! arbitrary content, so the field parsers behind the checksums are hit.
@@ -795,7 +875,8 @@ mod structured {
         #[test]
         fn arbitrary_bytes_every_reader(b in proptest::collection::vec(any::<u8>(), 0..2000)) {
             for run in [run_kfgins_imu, run_kfgins_gnss, run_kfgins_nav, run_pos, run_csv_imu,
-                        run_nav_csv, run_nmea, run_ubx, run_gpsd, run_imu_lines] {
+                        run_nav_csv, run_nmea, run_ubx, run_gpsd, run_imu_lines, run_rinex_obs,
+                        run_rinex_nav] {
                 run(&b);
             }
         }
@@ -829,5 +910,38 @@ mod regressions_found {
             let _ = x;
         }
         assert!(r.stats().is_balanced(), "{}", r.stats());
+    }
+}
+
+mod regressions_rinex {
+    //! Found by `fuzz_rinex_nav`: a multi-byte character across column 60 made
+    //! the RINEX nav header scan slice inside a character (panic).
+    use super::*;
+
+    #[test]
+    fn rinex_nav_label_column_inside_a_character() {
+        let b = include_bytes!("fuzz_regressions/rinex_nav_char_boundary.txt");
+        run_rinex_nav(b);
+        // The same through the obs parser, and a minimal hand-made case.
+        run_rinex_obs(b);
+        let line = format!("{}é RINEX VERSION / TYPE\n", " ".repeat(59));
+        run_rinex_nav(line.as_bytes());
+    }
+}
+
+mod regressions_rinex_obs {
+    //! Found by `fuzz_rinex_obs` (case 379645 of the 1,000,000 run): an epoch
+    //! line whose satellite count read as `inf` sized a Vec (capacity
+    //! overflow panic); counts are now checked to be 0..999.
+    use super::*;
+
+    #[test]
+    fn rinex_obs_satellite_count_that_is_not_a_count() {
+        let b = include_bytes!("fuzz_regressions/rinex_obs_capacity.txt");
+        run_rinex_obs(b);
+        let mut hand = RINEX_OBS.replace(" 0  2G 3R 7", " 0inf 3R 7");
+        run_rinex_obs(hand.as_bytes());
+        hand = RINEX_OBS.replace(" 0  2G 3R 7", " 01e9 3R 7");
+        run_rinex_obs(hand.as_bytes());
     }
 }
