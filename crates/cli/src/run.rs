@@ -4,14 +4,16 @@
 //! the input loading shared with `kf-gins` and `bench`.
 
 use clap::Args as ClapArgs;
+use navfuse_core::estimators::accel_dr::{AccelDr, AccelDrConfig};
 use navfuse_core::estimators::eskf::{rts_smooth, Eskf, EskfConfig, ImuErrors, InitStd};
+use navfuse_core::estimators::pf_lc::{PfLc, PfLcConfig};
 use navfuse_core::ins::align;
 use navfuse_core::ins::mech::{q_bn_from_rpy, NavState};
 use navfuse_core::types::{Estimator, Event, GnssFix, ImuSample, NavSolution};
 use navfuse_core::Vec3;
 use navfuse_io::kfgins::{KfGinsGnssReader, KfGinsImuOptions, KfGinsImuReader};
 use navfuse_io::kfgins_yaml::KfGinsConfig;
-use navfuse_io::writers::{KfGinsNavWriter, TrajectoryWriter};
+use navfuse_io::trajectory::{create_writer, OutFormat};
 use serde::{Deserialize, Serialize};
 use std::path::Path;
 use std::path::PathBuf;
@@ -25,6 +27,15 @@ pub struct Args {
     /// Output folder (default: `output` from the config, else `./navfuse-out`).
     #[arg(long)]
     pub output: Option<PathBuf>,
+    /// Estimator (overrides `[filter] estimator`): eskf, pf-lc (seed 002), gps-acc (seed 004).
+    #[arg(long)]
+    pub estimator: Option<String>,
+    /// Also write the HTML report (OUTPUT/report/index.html and SVG plots).
+    #[arg(long)]
+    pub report: bool,
+    /// Reference trajectory for the report's errors (.nav, .pos, .csv).
+    #[arg(long)]
+    pub truth: Option<PathBuf>,
 }
 
 /// `navfuse run` configuration (TOML). Units: degrees, metres, seconds.
@@ -41,7 +52,8 @@ pub struct Args {
 /// attitude = [-1.17, -0.04, -2.89]      # roll, pitch, yaw [deg]
 ///
 /// [filter]
-/// preset = "enhanced"        # "kf-gins" | "enhanced" | "seed001"
+/// estimator = "eskf"         # "eskf" | "pf-lc" | "gps-acc" (the others use their defaults)
+/// preset = "enhanced"        # "kf-gins" | "enhanced" | "seed001" (eskf)
 /// noise_yaml = "kf.yaml"     # optional: take the IMU noise from a KF-GINS YAML
 /// lever_arm = [0.0, -0.05, 0.0]
 /// smooth = true
@@ -50,6 +62,9 @@ pub struct Args {
 /// start = 120.0
 /// length = 30.0
 /// period = 90.0
+///
+/// # top level, optional: extra solution formats besides solution.nav
+/// formats = ["csv", "geojson", "kml", "gpx", "nmea"]
 /// ```
 #[derive(Clone, Debug, Deserialize, Serialize)]
 #[serde(deny_unknown_fields)]
@@ -61,6 +76,9 @@ pub struct RunConfig {
     pub filter: FilterCfg,
     pub outage: Option<OutageCfg>,
     pub output: Option<String>,
+    /// Extra solution formats (extensions) written besides `solution.nav`.
+    #[serde(default)]
+    pub formats: Vec<String>,
 }
 
 #[derive(Clone, Debug, Deserialize, Serialize)]
@@ -87,6 +105,9 @@ pub struct InitCfg {
 #[derive(Clone, Debug, Deserialize, Serialize)]
 #[serde(deny_unknown_fields)]
 pub struct FilterCfg {
+    /// "eskf" (default), "pf-lc" or "gps-acc".
+    #[serde(default)]
+    pub estimator: Option<String>,
     #[serde(default = "default_preset")]
     pub preset: String,
     pub noise_yaml: Option<String>,
@@ -99,6 +120,7 @@ pub struct FilterCfg {
 impl Default for FilterCfg {
     fn default() -> Self {
         FilterCfg {
+            estimator: None,
             preset: default_preset(),
             noise_yaml: None,
             lever_arm: [0.0; 3],
@@ -200,6 +222,35 @@ pub fn run(args: Args) -> Result<(), String> {
         gnss.retain(|g| g.t < t0 || (g.t - t0) % o.period >= o.length);
     }
     let cut = n_gnss - gnss.len();
+    let out_dir = args
+        .output
+        .clone()
+        .or(cfg.output.as_deref().map(rel))
+        .unwrap_or_else(|| PathBuf::from("navfuse-out"));
+    let formats = out_formats(&cfg.formats)
+        .map_err(|e| format!("{}: formats: {e}", args.config.display()))?;
+    let estimator = args
+        .estimator
+        .clone()
+        .or(cfg.filter.estimator.clone())
+        .unwrap_or_else(|| "eskf".into());
+    if estimator != "eskf" {
+        let run = OtherRun {
+            cfg: &cfg,
+            imu,
+            gnss: &gnss,
+            n_gnss,
+            cut,
+            seconds_read,
+            out_dir: &out_dir,
+            formats: &formats,
+        };
+        run_other(&estimator, &run)?;
+        if args.report {
+            run_report(&out_dir, args.truth.as_deref(), &rel(&cfg.input.gnss))?;
+        }
+        return Ok(());
+    }
 
     // Filter model.
     let mut ecfg = match &cfg.filter.noise_yaml {
@@ -328,11 +379,6 @@ pub fn run(args: Args) -> Result<(), String> {
     };
     let mut eskf = Eskf::new(ecfg, nav, errors, &std);
 
-    let out_dir = args
-        .output
-        .clone()
-        .or(cfg.output.as_deref().map(rel))
-        .unwrap_or_else(|| PathBuf::from("navfuse-out"));
     std::fs::create_dir_all(&out_dir).map_err(|e| format!("{}: {e}", out_dir.display()))?;
     let t_filter = Instant::now();
     let mut g = gnss.partition_point(|x| x.t <= imu[k_start].t);
@@ -352,24 +398,19 @@ pub fn run(args: Args) -> Result<(), String> {
     }
     let seconds_filter = t_filter.elapsed().as_secs_f64();
     let mut outputs = Vec::new();
-    let write_nav = |name: &str, sols: &[NavSolution]| -> Result<String, String> {
-        let p = out_dir.join(name);
-        let f = std::fs::File::create(&p).map_err(|e| format!("{}: {e}", p.display()))?;
-        let mut w = KfGinsNavWriter::new(std::io::BufWriter::new(f));
-        for s in sols {
-            w.write(s).map_err(|e| format!("{}: {e}", p.display()))?;
-        }
-        w.finish().map_err(|e| format!("{}: {e}", p.display()))?;
-        Ok(p.display().to_string())
-    };
-    outputs.push(write_nav("solution.nav", &sols)?);
+    outputs.extend(write_solutions(&out_dir, "solution", &sols, &formats)?);
     if cfg.filter.smooth {
         let mut sm = Vec::with_capacity(records.len());
         rts_smooth(&records, |e| {
             sm.push(crate::kf_gins::check::smoothed_solution(e))
         });
         sm.reverse();
-        outputs.push(write_nav("solution_smoothed.nav", &sm)?);
+        outputs.extend(write_solutions(
+            &out_dir,
+            "solution_smoothed",
+            &sm,
+            &formats,
+        )?);
     }
     let st = eskf.stats();
     let summary = Summary {
@@ -412,6 +453,141 @@ pub fn run(args: Args) -> Result<(), String> {
         summary.alignment,
         p.display()
     );
+    if args.report {
+        run_report(&out_dir, args.truth.as_deref(), &rel(&cfg.input.gnss))?;
+    }
+    Ok(())
+}
+
+/// The extra output formats named in the config (by extension: csv, nav,
+/// geojson, kml, gpx, nmea).
+fn out_formats(names: &[String]) -> Result<Vec<OutFormat>, String> {
+    names
+        .iter()
+        .map(|n| {
+            OutFormat::from_path(Path::new(&format!("x.{n}")))
+                .ok_or_else(|| format!("unknown format {n:?} (csv, nav, geojson, kml, gpx, nmea)"))
+        })
+        .collect()
+}
+
+/// Write `STEM.nav` (KF-GINS layout, always) and `STEM.<ext>` for every extra
+/// format; returns the paths written.
+fn write_solutions(
+    dir: &Path,
+    stem: &str,
+    sols: &[NavSolution],
+    formats: &[OutFormat],
+) -> Result<Vec<String>, String> {
+    let mut written = Vec::new();
+    let mut all = vec![OutFormat::Nav];
+    all.extend(formats.iter().copied().filter(|f| *f != OutFormat::Nav));
+    for fmt in all {
+        let p = dir.join(format!("{stem}.{}", fmt.extension()));
+        let io = |e: std::io::Error| format!("{}: {e}", p.display());
+        let mut w = create_writer(&p, fmt).map_err(io)?;
+        for s in sols {
+            w.write(s).map_err(io)?;
+        }
+        w.finish().map_err(io)?;
+        written.push(p.display().to_string());
+    }
+    Ok(written)
+}
+
+/// Inputs of a run of an estimator other than the ESKF.
+struct OtherRun<'a> {
+    cfg: &'a RunConfig,
+    imu: &'a [ImuSample],
+    gnss: &'a [GnssFix],
+    n_gnss: usize,
+    cut: usize,
+    seconds_read: f64,
+    out_dir: &'a Path,
+    formats: &'a [OutFormat],
+}
+
+/// Run PF-LC (seed 002) or GPS-ACC (seed 004) with their default
+/// configurations over the time-ordered events (a fix goes before the first
+/// IMU sample ending at or after it); they initialise
+/// themselves from GNSS. Writes the solutions and `summary.json`.
+fn run_other(name: &str, r: &OtherRun) -> Result<(), String> {
+    let (mut est, config): (Box<dyn Estimator>, String) = match name {
+        "pf-lc" => {
+            let c = PfLcConfig::default();
+            (Box::new(PfLc::new(c)), format!("{c:?}"))
+        }
+        "gps-acc" => {
+            let c = AccelDrConfig::rate_scaled();
+            (Box::new(AccelDr::new(c)), format!("{c:?}"))
+        }
+        other => {
+            return Err(format!(
+                "estimator {other:?}: expected eskf, pf-lc or gps-acc"
+            ))
+        }
+    };
+    std::fs::create_dir_all(r.out_dir).map_err(|e| format!("{}: {e}", r.out_dir.display()))?;
+    let t_filter = Instant::now();
+    let mut sols = Vec::with_capacity(r.imu.len());
+    let mut g = r.gnss.partition_point(|x| x.t < r.imu[0].t - r.imu[0].dt);
+    let mut gnss_fed = 0usize;
+    for s in r.imu {
+        // Strict time order: a fix goes before the first IMU sample ending at
+        // or after it (these estimators do not split IMU intervals).
+        while g < r.gnss.len() && r.gnss[g].t <= s.t {
+            if let Some(sol) = est.push(&Event::Gnss(r.gnss[g])) {
+                sols.push(sol);
+            }
+            gnss_fed += 1;
+            g += 1;
+        }
+        if let Some(sol) = est.push(&Event::Imu(*s)) {
+            sols.push(sol);
+        }
+    }
+    let seconds_filter = t_filter.elapsed().as_secs_f64();
+    let outputs = write_solutions(r.out_dir, "solution", &sols, r.formats)?;
+    let summary = serde_json::json!({
+        "config": r.cfg,
+        "estimator": est.name(),
+        "filter": config,
+        "imu_samples_read": r.imu.len(),
+        "gnss_fixes_read": r.n_gnss,
+        "gnss_fixes_cut_by_outage": r.cut,
+        "gnss_fixes_outside_imu_span": r.n_gnss - r.cut - gnss_fed,
+        "used_rejected": {"imu_fed": r.imu.len(), "gnss_fed": gnss_fed},
+        "solutions": sols.len(),
+        "seconds_read": r.seconds_read,
+        "seconds_filter": seconds_filter,
+        "outputs": outputs,
+    });
+    let p = r.out_dir.join("summary.json");
+    let json = serde_json::to_string_pretty(&summary).map_err(|e| e.to_string())?;
+    std::fs::write(&p, json).map_err(|e| format!("{}: {e}", p.display()))?;
+    eprintln!(
+        "navfuse run: {} ({}) {} solutions from {} IMU samples and {gnss_fed} GNSS fixes; summary {}",
+        est.name(),
+        name,
+        sols.len(),
+        r.imu.len(),
+        p.display()
+    );
+    Ok(())
+}
+
+/// The HTML report of a run folder (solutions, summary), with the GNSS input
+/// as the fixes and an optional reference.
+fn run_report(out_dir: &Path, truth: Option<&Path>, gnss: &Path) -> Result<(), String> {
+    let opt = navfuse_report::LoadOptions {
+        truth: truth.map(Path::to_path_buf),
+        fixes: Some(gnss.to_path_buf()),
+        ..Default::default()
+    };
+    let mut inp = navfuse_report::load_run_dir(out_dir, &opt)?;
+    inp.title = format!("navfuse run — {}", out_dir.display());
+    let sum = navfuse_report::write_report(&out_dir.join("report"), &inp)?;
+    eprintln!("report: {}", sum.html.display());
     Ok(())
 }
 
@@ -588,6 +764,92 @@ pub fn read_kfgins(cfg: &KfGinsConfig) -> Result<RunInput, String> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn out_formats_by_extension_and_unknown_named() {
+        let f = out_formats(&["csv".into(), "geojson".into(), "gpx".into()]).unwrap();
+        assert_eq!(f, [OutFormat::Csv, OutFormat::GeoJson, OutFormat::Gpx]);
+        let e = out_formats(&["shp".into()]).unwrap_err();
+        assert!(e.contains("\"shp\""), "{e}");
+    }
+
+    /// A 60 s drive north at 5 m/s in KF-GINS text (level, 100 Hz IMU with
+    /// gravity only, 1 Hz fixes), run with `--estimator` pf-lc and gps-acc:
+    /// every estimator writes its solutions in the extra formats and a
+    /// summary naming it and accounting for every fix.
+    #[test]
+    fn run_other_estimators_write_solutions_and_summary() {
+        use std::fmt::Write as _;
+        let dir = std::env::temp_dir().join(format!("navfuse-run-other-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let (lat0, lon0, h) = (40.0f64.to_radians(), -105.0f64.to_radians(), 1600.0);
+        let (rm, _) = navfuse_core::earth::radii(lat0);
+        let (t0, v, g) = (1000.0, 5.0, 9.8);
+        let mut imu = String::new();
+        for k in 1..=6000 {
+            let t = t0 + k as f64 * 0.01;
+            let _ = writeln!(imu, "{t:.3} 0 0 0 0 0 {:.6}", -g * 0.01);
+        }
+        let mut gnss = String::new();
+        for k in 0..=60 {
+            let t = t0 + k as f64;
+            let lat = lat0 + v * (t - t0) / (rm + h);
+            let _ = writeln!(
+                gnss,
+                "{t:.3} {:.9} {:.9} {h:.3} 0.5 0.5 1.0",
+                lat.to_degrees(),
+                lon0.to_degrees()
+            );
+        }
+        std::fs::write(dir.join("imu.txt"), imu).unwrap();
+        std::fs::write(dir.join("gnss.txt"), gnss).unwrap();
+        std::fs::write(
+            dir.join("run.toml"),
+            "formats = [\"csv\", \"geojson\"]\n[input]\nimu = \"imu.txt\"\ngnss = \"gnss.txt\"\n",
+        )
+        .unwrap();
+        for name in ["pf-lc", "gps-acc"] {
+            let out = dir.join(name);
+            run(Args {
+                config: dir.join("run.toml"),
+                output: Some(out.clone()),
+                estimator: Some(name.into()),
+                report: false,
+                truth: None,
+            })
+            .unwrap();
+            for f in [
+                "solution.nav",
+                "solution.csv",
+                "solution.geojson",
+                "summary.json",
+            ] {
+                assert!(out.join(f).exists(), "{name}: {f}");
+            }
+            let summary = std::fs::read_to_string(out.join("summary.json")).unwrap();
+            assert!(
+                summary.contains(&format!("\"estimator\": \"{name}\"")),
+                "{summary}"
+            );
+            assert!(summary.contains("\"gnss_fed\": 61"), "{summary}");
+            let nav = std::fs::read_to_string(out.join("solution.nav")).unwrap();
+            assert!(
+                nav.lines().count() > 1000,
+                "{name}: {} lines",
+                nav.lines().count()
+            );
+        }
+        let e = run(Args {
+            config: dir.join("run.toml"),
+            output: Some(dir.join("x")),
+            estimator: Some("kalman-magic".into()),
+            report: false,
+            truth: None,
+        })
+        .unwrap_err();
+        assert!(e.contains("kalman-magic"), "{e}");
+        let _ = std::fs::remove_dir_all(&dir);
+    }
 
     #[test]
     #[ignore = "real data: run with `cargo test --release -- --ignored`"]

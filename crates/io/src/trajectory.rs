@@ -71,6 +71,18 @@ impl OutFormat {
             _ => None,
         }
     }
+
+    /// The file extension written for this format (without the dot).
+    pub fn extension(self) -> &'static str {
+        match self {
+            OutFormat::Csv => "csv",
+            OutFormat::Nav => "nav",
+            OutFormat::GeoJson => "geojson",
+            OutFormat::Kml => "kml",
+            OutFormat::Gpx => "gpx",
+            OutFormat::Nmea => "nmea",
+        }
+    }
 }
 
 /// A GNSS fix as a navigation solution: position, σ, velocity when the fix
