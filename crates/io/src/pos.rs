@@ -301,20 +301,8 @@ impl<R: BufRead> Iterator for PosReader<R> {
         if self.done {
             return None;
         }
-        match self.read() {
-            Ok(Some(f)) => {
-                self.src.stats.used += 1;
-                Some(Ok(f))
-            }
-            Ok(None) => {
-                self.done = true;
-                None
-            }
-            Err(e) => {
-                self.done = true;
-                Some(Err(e))
-            }
-        }
+        let r = self.read();
+        crate::text::record_step(r, &mut self.done, &mut self.src.stats)
     }
 }
 

@@ -28,6 +28,29 @@ pub struct LineSource<R> {
     pub(crate) stats: RecordStats,
 }
 
+/// The shared iterator step of the record readers: a record is counted as
+/// used; the end of input or the first error ends the stream.
+pub(crate) fn record_step<T>(
+    r: Result<Option<T>, ReadError>,
+    done: &mut bool,
+    stats: &mut RecordStats,
+) -> Option<Result<T, ReadError>> {
+    match r {
+        Ok(Some(x)) => {
+            stats.used += 1;
+            Some(Ok(x))
+        }
+        Ok(None) => {
+            *done = true;
+            None
+        }
+        Err(e) => {
+            *done = true;
+            Some(Err(e))
+        }
+    }
+}
+
 fn is_ws(b: u8) -> bool {
     b == b' ' || b == b'\t'
 }
