@@ -1,0 +1,199 @@
+//! Proves that the per-step code never touches the heap: a counting global
+//! allocator records allocations made on the test's own thread while the
+//! Kalman step and every streaming estimator (ESKF, PF-LC, GPS-ACC, GPS hold)
+//! process a synthetic drive.
+
+use nalgebra::{SMatrix, SVector};
+use navfuse_core::estimators::accel_dr::{AccelDr, AccelDrConfig, GpsHold};
+use navfuse_core::estimators::eskf::{Eskf, EskfConfig, ImuErrors, InitStd};
+use navfuse_core::estimators::pf_lc::{PfLc, PfLcConfig};
+use navfuse_core::ins::mech::NavState;
+use navfuse_core::kalman::{chi2_quantile, predict, predict_sparse, update_joseph};
+use navfuse_core::{Estimator, Event, GnssFix, ImuSample, Vec3};
+use std::alloc::{GlobalAlloc, Layout, System};
+use std::cell::Cell;
+
+struct Counting;
+
+thread_local! {
+    static ALLOCS: Cell<usize> = const { Cell::new(0) };
+}
+
+// SAFETY: delegates every call unchanged to the system allocator.
+unsafe impl GlobalAlloc for Counting {
+    unsafe fn alloc(&self, layout: Layout) -> *mut u8 {
+        let _ = ALLOCS.try_with(|c| c.set(c.get() + 1));
+        System.alloc(layout)
+    }
+    unsafe fn alloc_zeroed(&self, layout: Layout) -> *mut u8 {
+        let _ = ALLOCS.try_with(|c| c.set(c.get() + 1));
+        System.alloc_zeroed(layout)
+    }
+    unsafe fn realloc(&self, ptr: *mut u8, layout: Layout, new_size: usize) -> *mut u8 {
+        let _ = ALLOCS.try_with(|c| c.set(c.get() + 1));
+        System.realloc(ptr, layout, new_size)
+    }
+    unsafe fn dealloc(&self, ptr: *mut u8, layout: Layout) {
+        System.dealloc(ptr, layout)
+    }
+}
+
+#[global_allocator]
+static GLOBAL: Counting = Counting;
+
+fn allocs() -> usize {
+    ALLOCS.with(|c| c.get())
+}
+
+#[test]
+fn predict_and_update_do_not_allocate() {
+    // The counter works: a Vec on this thread is seen.
+    let before = allocs();
+    let v: Vec<u8> = Vec::with_capacity(64);
+    assert!(allocs() > before, "counting allocator is not active");
+    drop(v);
+
+    let dt = 0.01;
+    let mut f = SMatrix::<f64, 15, 15>::identity();
+    for i in 0..3 {
+        f[(i, i + 3)] = dt;
+        f[(3 + i, 6 + (i + 1) % 3)] = 9.8 * dt;
+        f[(6 + i, 12 + i)] = -dt;
+        f[(3 + i, 9 + i)] = dt;
+    }
+    let q = SMatrix::<f64, 15, 15>::identity() * 1e-6;
+    let mut h = SMatrix::<f64, 6, 15>::zeros();
+    for i in 0..6 {
+        h[(i, i)] = 1.0;
+    }
+    let r = SMatrix::<f64, 6, 6>::identity() * 0.25;
+    let mut x = SVector::<f64, 15>::zeros();
+    let mut p = SMatrix::<f64, 15, 15>::identity();
+
+    let start = allocs();
+    let gate = chi2_quantile(6, 0.999);
+    let mut accepted = 0;
+    for k in 0..1000 {
+        if k % 2 == 0 {
+            predict(&mut p, &f, &q);
+        } else {
+            predict_sparse(&mut p, &f, &q);
+        }
+        if k % 100 == 99 {
+            let nu = SVector::<f64, 6>::from_fn(|i, _| ((k + i) % 5) as f64 * 0.1 - 0.2);
+            accepted += update_joseph(&mut x, &mut p, &h, &r, &nu, Some(gate)).accepted as usize;
+        }
+    }
+    let used = allocs() - start;
+    assert_eq!(used, 0, "{used} heap allocations in the Kalman loop");
+    assert_eq!(accepted, 10);
+    assert!(p.iter().all(|v| v.is_finite()));
+}
+
+#[test]
+fn push_does_not_allocate() {
+    let before = allocs();
+    let v: Vec<u8> = Vec::with_capacity(64);
+    assert!(allocs() > before, "counting allocator is not active");
+    drop(v);
+
+    let mut dr = AccelDr::new(AccelDrConfig::rate_scaled());
+    let mut lit = AccelDr::new(AccelDrConfig::paper_literal());
+    let mut hold = GpsHold::new();
+    let (mut lat, lon) = (0.6f64, 2.1f64);
+    let before = allocs();
+    let mut outputs = 0usize;
+    for k in 1..=3000u32 {
+        let t = k as f64 * 0.01;
+        // 2 m/s² forward then a right turn, readings in FRD.
+        let f_b = Vec3::new(2.0, if t > 10.0 { 1.0 } else { 0.0 }, -9.8);
+        let imu = Event::Imu(ImuSample {
+            t,
+            dt: 0.01,
+            dtheta_b: Vec3::zeros(),
+            dvel_b: f_b * 0.01,
+        });
+        for e in [&mut dr as &mut dyn Estimator, &mut lit, &mut hold] {
+            outputs += e.push(&imu).is_some() as usize;
+        }
+        if k % 100 == 0 {
+            lat += t * 2.0 / 6.4e6;
+            let fix = Event::Gnss(GnssFix {
+                t,
+                lat,
+                lon,
+                ..Default::default()
+            });
+            for e in [&mut dr as &mut dyn Estimator, &mut lit, &mut hold] {
+                outputs += e.push(&fix).is_some() as usize;
+            }
+        }
+    }
+    assert_eq!(allocs(), before, "push allocated");
+    assert!(outputs > 8000);
+}
+
+/// A level drive north at 10 m/s, 100 Hz IMU and 1 Hz fixes with velocity,
+/// through the ESKF (GNSS position + velocity updates, NHC/ZUPT as in the
+/// seed 001 preset) and PF-LC.
+#[test]
+fn eskf_and_pf_lc_push_do_not_allocate() {
+    let (lat0, lon0, h) = (0.7f64, -1.8f64, 100.0);
+    let (rm, _) = navfuse_core::earth::radii(lat0);
+    let v = 10.0;
+    let nav = NavState {
+        lat: lat0,
+        lon: lon0,
+        h,
+        v_n: Vec3::new(v, 0.0, 0.0),
+        ..Default::default()
+    };
+    let std = InitStd {
+        pos: Vec3::repeat(1.0),
+        vel: Vec3::repeat(0.1),
+        att: Vec3::repeat(0.01),
+        bg: Vec3::repeat(1e-4),
+        ba: Vec3::repeat(0.01),
+        sg: Vec3::repeat(1e-3),
+        sa: Vec3::repeat(1e-3),
+    };
+    let mut eskf = Eskf::new(EskfConfig::seed001(), nav, ImuErrors::default(), &std);
+    let mut pflc = PfLc::new(PfLcConfig::default());
+    let g = navfuse_core::earth::gravity(lat0, h);
+    let mut outputs = 0usize;
+    // Warm up: first fixes initialise PF-LC's plane and filters.
+    let mut events = Vec::with_capacity(6100);
+    for k in 1..=6000u32 {
+        let t = k as f64 * 0.01;
+        events.push(Event::Imu(ImuSample {
+            t,
+            dt: 0.01,
+            dtheta_b: Vec3::zeros(),
+            dvel_b: Vec3::new(0.0, 0.0, -g * 0.01),
+        }));
+        if k % 100 == 0 {
+            events.push(Event::Gnss(GnssFix {
+                t,
+                lat: lat0 + v * t / (rm + h),
+                lon: lon0,
+                h,
+                std_ned: Vec3::repeat(0.5),
+                v_n: Some(Vec3::new(v, 0.0, 0.0)),
+                std_v_n: Some(Vec3::repeat(0.05)),
+                quality: 1,
+                num_sats: 10,
+            }));
+        }
+    }
+    let (warm, rest) = events.split_at(1020);
+    for e in warm {
+        outputs += eskf.push(e).is_some() as usize + pflc.push(e).is_some() as usize;
+    }
+    let before = allocs();
+    for e in rest {
+        outputs += eskf.push(e).is_some() as usize + pflc.push(e).is_some() as usize;
+    }
+    assert_eq!(allocs(), before, "push allocated");
+    assert!(outputs > 10_000, "{outputs} solutions");
+    assert!(eskf.solution().lat.is_finite());
+}
