@@ -35,7 +35,8 @@
 //!   on top of the fix-anchored dead reckoning, so the displayed track starts
 //!   where the previous prediction ended (continuity) and reaches the
 //!   anchored track at the expected next fix ([`spread_weight`]).
-//! * Speed is a magnitude (eq. 15); the predicted speed is clamped at 0.
+//! * Speed is a magnitude (eq. 15); the predicted speed is clamped to
+//!   [0, `max_speed`].
 //!
 //! # navfuse extensions (config options; [`AccelDrConfig::paper_literal`]
 //! switches them off)
@@ -165,7 +166,8 @@ pub struct AccelDrConfig {
     /// Spread the fix error over the next interval (eq. 21–24). If false the
     /// output jumps to the fix.
     pub spread_error: bool,
-    /// Fixes implying a chord speed above this are rejected as outliers [m/s].
+    /// Fixes implying a chord speed above this are rejected as outliers, and
+    /// the dead-reckoned speed never exceeds it [m/s].
     pub max_speed: f64,
     /// How the GNSS chord (eq. 15, 19) restarts speed and heading at a fix.
     pub chord: ChordMode,
@@ -614,8 +616,9 @@ impl AccelDr {
             return None;
         };
         let h = last.h;
-        // eq. 18: speed from GNSS speed + Σ (a^H − a^REF) dt; clamped ≥ 0.
-        self.v = (self.v + (self.a_h - self.a_ref) * s.dt).max(0.0);
+        // eq. 18: speed from GNSS speed + Σ (a^H − a^REF) dt; clamped to
+        // [0, max_speed] so a long gap cannot integrate to an impossible speed.
+        self.v = (self.v + (self.a_h - self.a_ref) * s.dt).clamp(0.0, self.cfg.max_speed);
         // eq. 5–8, 20: heading change from the centripetal acceleration.
         if self.v >= self.cfg.min_turn_speed {
             let dh = heading_change(self.v, self.a_c, s.dt);
