@@ -109,6 +109,11 @@ pub struct Args {
     /// Override the compensation w_max (parameter study).
     #[arg(long)]
     pub w_max: Option<f64>,
+    /// Write an HTML report (DIR/index.html, DIR/plots/*.svg) of the first
+    /// seed's run on drive_0708 (with `--no-real`: of the simulation): raw
+    /// GPS, compensated GPS, original LC, proposed LC and ESKF against the truth.
+    #[arg(long, value_name = "DIR")]
+    pub report: Option<PathBuf>,
 }
 
 /// Where the simulated runs come from.
@@ -292,7 +297,31 @@ fn start_eskf(lc: &PfLc, sol: &NavSolution) -> Box<Eskf> {
 /// proposed, ESKF (NaN when a method has no output yet).
 type EpochErr = [f64; 6];
 
-fn run_methods(ds: &DataSet, cfg: &PfLcConfig, sir_seed: u64) -> Scores {
+/// Legend names of the [`Series`] kept for `--report`.
+const SERIES_NAMES: [&str; 5] = [
+    "raw GPS",
+    "compensated GPS",
+    "original LC",
+    "proposed LC",
+    "ESKF",
+];
+
+/// The solutions one run scores, kept for `--report`: per method of
+/// [`SERIES_NAMES`] the position it is scored with, and the truth at each fix.
+#[derive(Default)]
+struct Series {
+    sols: [Vec<NavSolution>; 5],
+    truth: Vec<NavSolution>,
+}
+
+/// Run every method on `ds` and score it; keep the scored solutions in
+/// `keep` when given.
+fn run_methods(
+    ds: &DataSet,
+    cfg: &PfLcConfig,
+    sir_seed: u64,
+    mut keep: Option<&mut Series>,
+) -> Scores {
     let first_fix = ds.events.iter().find_map(|e| match e {
         Event::Gnss(f) => Some(*f),
         _ => None,
@@ -339,7 +368,11 @@ fn run_methods(ds: &DataSet, cfg: &PfLcConfig, sir_seed: u64) -> Scores {
         match ev {
             Event::Imu(_) => {
                 if let (Some(k), Some(f)) = (eskf_pending.take(), eskf.as_ref()) {
-                    errs[k][5] = ned_err(&frame, &to_geo(&f.solution()), &ds.truth[k]);
+                    let s = f.solution();
+                    errs[k][5] = ned_err(&frame, &to_geo(&s), &ds.truth[k]);
+                    if let Some(r) = keep.as_deref_mut() {
+                        r.sols[4].push(s);
+                    }
                 }
             }
             Event::Gnss(f) => {
@@ -354,14 +387,26 @@ fn run_methods(ds: &DataSet, cfg: &PfLcConfig, sir_seed: u64) -> Scores {
                 let back = |n: f64, e: f64| plane.inverse(&PlanePoint { north: n, east: e }, f.h);
                 let mut e = [f64::NAN; 6];
                 e[0] = ned_err(&frame, &geo, &truth);
+                let at = |g: &Geodetic| crate::report::position_at(f.t, g.lat, g.lon, g.h);
+                if let Some(r) = keep.as_deref_mut() {
+                    r.truth.push(at(&truth));
+                    r.sols[0].push(at(&geo));
+                }
                 if let Some(c) = comp.push(f.t, p.north, p.east) {
-                    e[1] = ned_err(&frame, &back(c.north, c.east), &truth);
+                    let g = back(c.north, c.east);
+                    e[1] = ned_err(&frame, &g, &truth);
+                    if let Some(r) = keep.as_deref_mut() {
+                        r.sols[1].push(at(&g));
+                    }
                 }
                 if let Some(s) = sir.push(f.t, p.north, p.east) {
                     e[2] = ned_err(&frame, &back(s[0], s[1]), &truth);
                 }
                 if let Some(so) = so {
                     e[3] = ned_err(&frame, &to_geo(&so), &truth);
+                    if let Some(r) = keep.as_deref_mut() {
+                        r.sols[2].push(so);
+                    }
                     if eskf.is_none()
                         && lc_o.attitude().stats().course_updates >= ESKF_START_COURSES
                     {
@@ -370,6 +415,9 @@ fn run_methods(ds: &DataSet, cfg: &PfLcConfig, sir_seed: u64) -> Scores {
                 }
                 if let Some(sp) = sp {
                     e[4] = ned_err(&frame, &to_geo(&sp), &truth);
+                    if let Some(r) = keep.as_deref_mut() {
+                        r.sols[3].push(sp);
+                    }
                 }
                 if eskf.is_some() {
                     eskf_pending = Some(k);
@@ -966,11 +1014,21 @@ pub fn run(args: Args) -> Result<(), String> {
     );
 
     let seeds: Vec<u64> = (args.first_seed..args.first_seed + args.seeds as u64).collect();
+    // --report: the first seed's series of the real run (of the simulation with --no-real).
+    let mut sim_kept = (args.report.is_some() && args.no_real).then(Series::default);
+    let mut real_kept = (args.report.is_some() && !args.no_real).then(Series::default);
     let (sim_runs, sim_title, paper_corners) = match args.sim {
         SimSource::Builtin => (
             seeds
                 .iter()
-                .map(|&s| run_methods(&simulate(s, model), &cfg, s))
+                .map(|&s| {
+                    let keep = if s == seeds[0] {
+                        sim_kept.as_mut()
+                    } else {
+                        None
+                    };
+                    run_methods(&simulate(s, model), &cfg, s, keep)
+                })
                 .collect::<Vec<_>>(),
             "built-in campus loop, 20 km/h, 9 corners".to_string(),
             true,
@@ -981,10 +1039,16 @@ pub fn run(args: Args) -> Result<(), String> {
                 .map_err(|e| format!("{}: {e}", path.display()))?;
             let mut runs = Vec::with_capacity(seeds.len());
             for &s in &seeds {
+                let keep = if s == seeds[0] {
+                    sim_kept.as_mut()
+                } else {
+                    None
+                };
                 runs.push(run_methods(
                     &simulate_navfuse(&sc, s, args.gm_fraction)?,
                     &cfg,
                     s,
+                    keep,
                 ));
             }
             (
@@ -1025,7 +1089,10 @@ pub fn run(args: Args) -> Result<(), String> {
         let rs: Vec<u64> = (args.first_seed..args.first_seed + n_real as u64).collect();
         let runs: Vec<Scores> = rs
             .iter()
-            .map(|&s| run_methods(&real_dataset(&inp, s, model), &cfg, s))
+            .map(|&s| {
+                let keep = if s == rs[0] { real_kept.as_mut() } else { None };
+                run_methods(&real_dataset(&inp, s, model), &cfg, s, keep)
+            })
             .collect();
         let real_avg = average(&runs);
         print_table(
@@ -1071,6 +1138,27 @@ pub fn run(args: Args) -> Result<(), String> {
         let text = serde_json::to_string_pretty(&v).map_err(|e| e.to_string())?;
         std::fs::write(path, text).map_err(|e| format!("{}: cannot write: {e}", path.display()))?;
         println!("wrote {}", path.display());
+    }
+    if let Some(dir) = &args.report {
+        let (kept, what) = match (real_kept, sim_kept) {
+            (Some(k), _) => (k, "drive_0708 (KF-GINS imu.txt, RTK truth.nav degraded to 5 m CEP fixes), truth = RTK"),
+            (None, Some(k)) => (k, "simulation, truth = simulated"),
+            (None, None) => return Err("--report: no run was kept".into()),
+        };
+        crate::report::from_series(
+            dir,
+            format!(
+                "navfuse experiment seed002 — {what}; noise seed {}",
+                args.first_seed
+            ),
+            SERIES_NAMES
+                .iter()
+                .zip(kept.sols)
+                .map(|(n, s)| (n.to_string(), s))
+                .collect(),
+            kept.truth,
+            None,
+        )?;
     }
     Ok(())
 }
@@ -1129,7 +1217,7 @@ mod tests {
     #[test]
     fn sim_run_scores_are_sane() {
         let cfg = PfLcConfig::default();
-        let s = run_methods(&simulate(5, GnssErrModel::lowcost_4hz()), &cfg, 5);
+        let s = run_methods(&simulate(5, GnssErrModel::lowcost_4hz()), &cfg, 5, None);
         // 5 m CEP: mean radial error ≈ 1.2533 σ = 5.3 m, one short run varies.
         assert!(s.raw > 2.5 && s.raw < 9.0, "{s:?}");
         for v in [s.comp, s.sir, s.lc_orig, s.lc_prop] {
@@ -1137,7 +1225,12 @@ mod tests {
         }
         assert_eq!(s.corners.len(), 9);
         // White-only GNSS noise is what the smoothers can remove.
-        let w = run_methods(&simulate(5, GnssErrModel::lowcost_4hz_gm(0.0)), &cfg, 5);
+        let w = run_methods(
+            &simulate(5, GnssErrModel::lowcost_4hz_gm(0.0)),
+            &cfg,
+            5,
+            None,
+        );
         assert!(w.comp < 0.9 * w.raw && w.lc_orig < 0.7 * w.raw, "{w:?}");
     }
 
@@ -1150,13 +1243,49 @@ mod tests {
         let ds = real_dataset(&inp, 1, GnssErrModel::lowcost_4hz());
         assert!(ds.events.windows(2).all(|w| w[0].t() <= w[1].t()));
         assert!(ds.corners.len() >= 10, "{} corners", ds.corners.len());
-        let s = run_methods(&ds, &PfLcConfig::default(), 1);
+        let s = run_methods(&ds, &PfLcConfig::default(), 1, None);
         println!("{s:?}");
         assert!(s.raw > 3.0 && s.raw < 9.0, "{s:?}");
         // Honest bounds, not the result: every method stays within 1.5× raw.
         for v in [s.comp, s.sir, s.lc_orig, s.lc_prop] {
             assert!(v.is_finite() && v < 1.5 * s.raw, "{s:?}");
         }
+    }
+
+    /// `--report` with `--no-real`: the first simulated seed's series, each
+    /// method scored against the simulated truth on the page.
+    #[test]
+    fn report_of_the_first_simulated_seed_names_every_method() {
+        use clap::Parser;
+        #[derive(Parser)]
+        struct Cmd {
+            #[command(flatten)]
+            a: Args,
+        }
+        let dir =
+            std::env::temp_dir().join(format!("navfuse-seed002-report-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&dir);
+        let cmd = Cmd::try_parse_from([
+            "seed002".as_ref(),
+            "--seeds".as_ref(),
+            "1".as_ref(),
+            "--no-real".as_ref(),
+            "--report".as_ref(),
+            dir.as_os_str(),
+        ])
+        .unwrap();
+        run(cmd.a).unwrap();
+        let html = std::fs::read_to_string(dir.join("index.html")).unwrap();
+        assert!(html.contains("truth = simulated"));
+        for n in SERIES_NAMES {
+            // A column of the error summary: the method was scored against the truth.
+            assert!(
+                html.contains(&format!("<th colspan=\"3\">{n}</th>")),
+                "{n} missing"
+            );
+        }
+        assert!(dir.join("plots/track.svg").exists());
+        let _ = std::fs::remove_dir_all(&dir);
     }
 
     #[test]

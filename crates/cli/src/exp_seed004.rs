@@ -64,6 +64,58 @@ pub struct Args {
     /// Chord mode of the main configuration: literal, midpoint, displacement.
     #[arg(long, default_value = "displacement")]
     pub chord: String,
+    /// Write an HTML report (DIR/index.html, DIR/plots/*.svg) of the "GPS
+    /// every 10 s" row on drive_0708 (with `--no-real`: of the first
+    /// simulation seed): each column's solution and the fixes used, against the truth.
+    #[arg(long, value_name = "DIR")]
+    pub report: Option<PathBuf>,
+}
+
+/// The GPS interval [s] whose solutions `--report` shows.
+pub const REPORT_EVERY: u32 = 10;
+
+/// The solutions of one table row kept for `--report`: (legend, epochs)
+/// per column, the truth (t, lat, lon) they were scored against, the fixes used.
+#[derive(Default)]
+pub struct Kept {
+    pub series: Vec<(String, Vec<NavSolution>)>,
+    pub truth: Vec<(f64, f64, f64)>,
+    pub fixes: Vec<NavSolution>,
+}
+
+/// Legend names of the GPS+accel columns (main, default, literal) and the hold.
+const ACC_NAMES: [&str; 3] = [
+    "GPS+accel (main)",
+    "GPS+accel (default cfg)",
+    "GPS+accel (literal cfg)",
+];
+const HOLD_NAME: &str = "GPS-only (hold)";
+
+/// Keep the solutions of one row: the GPS+accel columns, the hold, the
+/// fixes passed at `every` s and the truth.
+fn keep_row(
+    k: &mut Kept,
+    acc: Vec<Vec<NavSolution>>,
+    hold: Vec<NavSolution>,
+    events: &[Event],
+    every: u32,
+    truth: &[(f64, f64, f64)],
+) {
+    for (n, s) in ACC_NAMES.iter().zip(acc) {
+        k.series.push((n.to_string(), s));
+    }
+    k.series.push((HOLD_NAME.to_string(), hold));
+    let t0 = first_fix_t(events);
+    k.fixes = events
+        .iter()
+        .filter_map(|e| match e {
+            Event::Gnss(f) if fix_used(t0, f.t, every) => {
+                Some(crate::report::position_at(f.t, f.lat, f.lon, f.h))
+            }
+            _ => None,
+        })
+        .collect();
+    k.truth = truth.to_vec();
 }
 
 /// GPS intervals of Tables 3 and 4 [s].
@@ -196,18 +248,11 @@ pub fn run_with_interval<E: Estimator>(
     events: &[Event],
     every: u32,
 ) -> Vec<NavSolution> {
-    let t0 = events
-        .iter()
-        .find_map(|e| match e {
-            Event::Gnss(f) => Some(f.t),
-            _ => None,
-        })
-        .unwrap_or(0.0);
+    let t0 = first_fix_t(events);
     let mut out = Vec::with_capacity(events.len());
     for ev in events {
         if let Event::Gnss(f) = ev {
-            let s = (f.t - t0).round();
-            if (f.t - t0 - s).abs() > 0.01 || (s as i64) % every as i64 != 0 {
+            if !fix_used(t0, f.t, every) {
                 continue;
             }
         }
@@ -221,6 +266,24 @@ pub fn run_with_interval<E: Estimator>(
         }
     }
     out
+}
+
+/// Time of the first fix of `events` (0 without one).
+fn first_fix_t(events: &[Event]) -> f64 {
+    events
+        .iter()
+        .find_map(|e| match e {
+            Event::Gnss(f) => Some(f.t),
+            _ => None,
+        })
+        .unwrap_or(0.0)
+}
+
+/// Whether the fix at `t` is used at interval `every` s: t0 + m·`every`
+/// whole seconds, within 0.01 s.
+fn fix_used(t0: f64, t: f64, every: u32) -> bool {
+    let s = (t - t0).round();
+    (t - t0 - s).abs() <= 0.01 && (s as i64) % every as i64 == 0
 }
 
 /// Position of `sols` at `t`, linearly interpolated (None outside).
@@ -325,6 +388,7 @@ pub fn table3(
     seed0: u64,
     seeds: u64,
     noise: Option<f64>,
+    mut keep: Option<&mut Kept>,
 ) -> Result<Vec<Row>, String> {
     let mut acc: Vec<[Vec<(f64, f64)>; 3]> = vec![Default::default(); INTERVALS.len()];
     let mut hold: Vec<Vec<(f64, f64)>> = vec![Vec::new(); INTERVALS.len()];
@@ -332,12 +396,19 @@ pub fn table3(
         let run = simulate(sc, seed, noise)?;
         let truth = &run.truth[1..];
         for (i, &every) in INTERVALS.iter().enumerate() {
+            let mut kept = Vec::new();
             for (c, cfg) in cfgs.all().iter().enumerate() {
                 let sols = run_with_interval(&mut AccelDr::new(*cfg), &run.events, every);
                 acc[i][c].push(mean_errors(&sols, truth));
+                kept.push(sols);
             }
             let sols = run_with_interval(&mut GpsHold::new(), &run.events, every);
             hold[i].push(mean_errors(&sols, truth));
+            if seed == seed0 && every == REPORT_EVERY {
+                if let Some(k) = keep.as_deref_mut() {
+                    keep_row(k, kept, sols, &run.events, every, truth);
+                }
+            }
         }
     }
     Ok(INTERVALS
@@ -432,17 +503,25 @@ pub fn load_drive_0708(
     })
 }
 
-/// Table 4 on drive_0708.
-pub fn table4(cfgs: &Configs, run: &RealRun) -> Vec<Row> {
+/// Table 4 on drive_0708 (the [`REPORT_EVERY`] row's solutions kept in `keep`).
+pub fn table4(cfgs: &Configs, run: &RealRun, mut keep: Option<&mut Kept>) -> Vec<Row> {
     INTERVALS
         .iter()
         .map(|&every| {
+            let mut kept = Vec::new();
             let e = cfgs.all().map(|cfg| {
                 let sols = run_with_interval(&mut AccelDr::new(cfg), &run.events, every);
-                mean_errors(&sols, &run.truth)
+                let e = mean_errors(&sols, &run.truth);
+                kept.push(sols);
+                e
             });
             let sols = run_with_interval(&mut GpsHold::new(), &run.events, every);
             let h = mean_errors(&sols, &run.truth);
+            if every == REPORT_EVERY {
+                if let Some(k) = keep.as_deref_mut() {
+                    keep_row(k, kept, sols, &run.events, every, &run.truth);
+                }
+            }
             Row {
                 interval_s: every,
                 gps_acc: cell(&[e[0]]),
@@ -462,10 +541,12 @@ pub type LonLat = (f64, f64);
 /// navfuse's ESKF on drive_0708 with the KF-GINS inputs of the data folder
 /// (`kfgins/kf-gins_full.yaml`: imu.txt in vehicle FRD, 1 Hz fixes at the
 /// same x.999 epochs), fixes used every `every` s; antenna position errors
-/// against the same 4 Hz RTK truth. Returns (plain, with NHC/ZUPT) per interval.
+/// against the same 4 Hz RTK truth. Returns (plain, with NHC/ZUPT) per
+/// interval; the [`REPORT_EVERY`] row's solutions are added to `keep`.
 pub fn eskf_rows(
     data_root: &std::path::Path,
     truth: &[(f64, f64, f64)],
+    mut keep: Option<&mut Kept>,
 ) -> Result<Vec<(LonLat, LonLat)>, String> {
     use navfuse_core::estimators::eskf::Eskf;
     let yaml = data_root.join("drive_0708/kfgins/kf-gins_full.yaml");
@@ -496,15 +577,20 @@ pub fn eskf_rows(
                 sols.push(sol);
             }
         }
-        mean_errors(&sols, truth)
+        (mean_errors(&sols, truth), sols)
     };
     Ok(INTERVALS
         .iter()
         .map(|&every| {
-            (
-                run_one(cfg.eskf_config(), every),
-                run_one(crate::kf_gins::enhanced(cfg.eskf_config()), every),
-            )
+            let (a, sa) = run_one(cfg.eskf_config(), every);
+            let (b, sb) = run_one(crate::kf_gins::enhanced(cfg.eskf_config()), every);
+            if every == REPORT_EVERY {
+                if let Some(k) = keep.as_deref_mut() {
+                    k.series.push(("ESKF (gyro)".into(), sa));
+                    k.series.push(("ESKF+NHC/ZUPT".into(), sb));
+                }
+            }
+            (a, b)
         })
         .collect())
 }
@@ -662,7 +748,15 @@ pub fn run(args: Args) -> Result<(), String> {
             .as_ref()
             .map_or("built-in".to_string(), |p| p.display().to_string())
     );
-    let t3 = table3(&cfgs, &sc, args.seed0, args.seeds, args.accel_noise)?;
+    let mut kept = args.report.as_ref().map(|_| Kept::default());
+    let t3 = table3(
+        &cfgs,
+        &sc,
+        args.seed0,
+        args.seeds,
+        args.accel_noise,
+        if args.no_real { kept.as_mut() } else { None },
+    )?;
     print_table(
         &format!(
             "Table 3 (simulation, accel noise {}, GPS {}; mean ± sd over {} seeds {}..{}): mean position error [m]",
@@ -680,9 +774,12 @@ pub fn run(args: Args) -> Result<(), String> {
     let t4 = match &real {
         Some(run) => {
             println!("drive_0708: {}", run.summary);
-            let mut t4 = table4(&cfgs, run);
+            let mut t4 = table4(&cfgs, run, kept.as_mut());
             let root = args.data.clone().unwrap_or_else(navfuse_io::data::data_dir);
-            for (r, (a, b)) in t4.iter_mut().zip(eskf_rows(&root, &run.truth)?) {
+            for (r, (a, b)) in t4
+                .iter_mut()
+                .zip(eskf_rows(&root, &run.truth, kept.as_mut())?)
+            {
                 r.eskf = Some(cell(&[a]));
                 r.eskf_nhc = Some(cell(&[b]));
             }
@@ -714,6 +811,29 @@ pub fn run(args: Args) -> Result<(), String> {
             .map_err(|e| format!("{}: cannot write: {e}", path.display()))?;
         println!("wrote {}", path.display());
     }
+    if let (Some(dir), Some(k)) = (&args.report, kept) {
+        // A horizontal method scored in longitude/latitude: positions only, h = 0.
+        let pos = |s: Vec<NavSolution>| -> Vec<NavSolution> {
+            s.iter()
+                .map(|e| crate::report::position_at(e.t, e.lat, e.lon, 0.0))
+                .collect()
+        };
+        let what = if real.is_some() {
+            "drive_0708, truth = 4 Hz RTK (gnss_1934_sf.pos); fixes: the 1 Hz RTK epochs GPS+accel and the hold use"
+        } else {
+            "simulation (first seed), truth = simulated"
+        };
+        crate::report::from_series(
+            dir,
+            format!("navfuse experiment seed004 — GPS every {REPORT_EVERY} s; {what}; horizontal only (h = 0)"),
+            k.series.into_iter().map(|(n, s)| (n, pos(s))).collect(),
+            k.truth
+                .iter()
+                .map(|&(t, lat, lon)| crate::report::position_at(t, lat, lon, 0.0))
+                .collect(),
+            Some(pos(k.fixes)),
+        )?;
+    }
     Ok(())
 }
 
@@ -737,6 +857,45 @@ mod tests {
         let sols = run_with_interval(&mut GpsHold::new(), &run.events, 1);
         let (lo, la) = mean_errors(&sols, &run.truth[1..]);
         assert!(lo < 1e-9 && la < 1e-9);
+    }
+
+    /// `--report` with `--no-real`: the first seed's "every 10 s" row, each
+    /// column scored against the simulated truth, the fixes used marked.
+    #[test]
+    fn report_of_the_first_simulated_seed_names_every_column() {
+        use clap::Parser;
+        #[derive(Parser)]
+        struct Cmd {
+            #[command(flatten)]
+            a: Args,
+        }
+        let dir =
+            std::env::temp_dir().join(format!("navfuse-seed004-report-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&dir);
+        let cmd = Cmd::try_parse_from([
+            "seed004".as_ref(),
+            "--seeds".as_ref(),
+            "1".as_ref(),
+            "--no-real".as_ref(),
+            "--report".as_ref(),
+            dir.as_os_str(),
+        ])
+        .unwrap();
+        run(cmd.a).unwrap();
+        let html = std::fs::read_to_string(dir.join("index.html")).unwrap();
+        assert!(html.contains("truth = simulated"));
+        for n in ACC_NAMES.iter().chain([&HOLD_NAME]) {
+            assert!(
+                html.contains(&format!("<th colspan=\"3\">{n}</th>")),
+                "{n} missing"
+            );
+        }
+        // The fixes used every 10 s of the 169 s run: t0, t0 + 10, …, t0 + 160.
+        assert!(
+            html.contains("<td>GNSS fixes</td><td>(in memory)</td><td>17 epochs</td>"),
+            "fixes used"
+        );
+        let _ = std::fs::remove_dir_all(&dir);
     }
 
     #[test]
@@ -771,7 +930,7 @@ mod tests {
             default: AccelDrConfig::default(),
             literal: AccelDrConfig::paper_literal(),
         };
-        let rows = table4(&cfgs, &run);
+        let rows = table4(&cfgs, &run, None);
         for r in &rows[1..] {
             let a = r.gps_acc.lon_m + r.gps_acc.lat_m;
             let h = r.gps_only.lon_m + r.gps_only.lat_m;

@@ -258,6 +258,55 @@ pub fn from_demo(out: &Path, outages: Vec<(f64, f64)>) -> Result<(), String> {
     stdout(&format!("report: {}\n", sum.html.display()))
 }
 
+/// The report of an experiment (`navfuse experiment … --report DIR`): solution
+/// series kept in memory (legend name, epochs), the truth and, if given, the
+/// GNSS fixes used, compared at the truth epochs (solutions interpolated). Each series is sorted by
+/// time and repeated epochs dropped, as [`navfuse_report::read_trajectory`] does.
+pub fn from_series(
+    dir: &Path,
+    title: String,
+    solutions: Vec<(String, Vec<NavSolution>)>,
+    truth: Vec<NavSolution>,
+    fixes: Option<Vec<NavSolution>>,
+) -> Result<(), String> {
+    let traj = |name: String, mut epochs: Vec<NavSolution>| {
+        epochs.sort_by(|a, b| a.t.total_cmp(&b.t));
+        epochs.dedup_by(|b, a| a.t == b.t);
+        Trajectory {
+            name,
+            path: None,
+            epochs,
+            records: None,
+        }
+    };
+    let inputs = Inputs {
+        title,
+        solutions: solutions
+            .into_iter()
+            .map(|(n, e)| traj(n, e))
+            .filter(|t| !t.epochs.is_empty())
+            .collect(),
+        truth: Some(traj("truth".into(), truth)),
+        fixes: fixes.map(|f| traj("GNSS fixes".into(), f)),
+        // Every series scored at the same instants, as `load_run_dir` does.
+        eval: EvalConfig {
+            align: Align::AtReference,
+            ..Default::default()
+        },
+        ..Default::default()
+    };
+    let sum = navfuse_report::write_report(dir, &inputs)?;
+    stdout(&format!("report: {}\n", sum.html.display()))
+}
+
+/// A position-only epoch (velocity, attitude and σ unknown = NaN).
+pub fn position_at(t: f64, lat: f64, lon: f64, h: f64) -> NavSolution {
+    let mut s = NavSolution::unknown_at(t);
+    (s.lat, s.lon, s.h) = (lat, lon, h);
+    s.v_n = navfuse_core::Vec3::repeat(f64::NAN);
+    s
+}
+
 /// Print to stdout; a closed pipe (`| head`) is not an error.
 fn stdout(s: &str) -> Result<(), String> {
     use std::io::Write;
