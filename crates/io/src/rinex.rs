@@ -1145,5 +1145,104 @@ an event with one header line                               COMMENT
         let obs = read_obs(&crate::data::require("gnss/rinex/07590920.05o")).unwrap();
         assert_eq!(obs.epochs.len(), 120);
         assert!(obs.epochs.iter().all(|e| e.sats.len() >= 7));
+        assert!(obs.version < 3.0 && obs.codes.is_empty());
+    }
+
+    /// Test-only RINEX 3.04 writer for a GPS [`ObsFile`] with RINEX 2 types.
+    fn to_rinex3(f: &ObsFile) -> String {
+        let v3 = |c: &str| match c {
+            "C1" => "C1C",
+            "P1" => "C1W",
+            "P2" => "C2W",
+            "C2" => "C2L",
+            "L1" | "D1" | "S1" => ["L1C", "D1C", "S1C"]["LDS".find(&c[..1]).unwrap()],
+            "L2" | "D2" | "S2" => ["L2W", "D2W", "S2W"]["LDS".find(&c[..1]).unwrap()],
+            _ => panic!("no RINEX 3 code for {c}"),
+        };
+        let h = |t: String, l: &str| format!("{t:<60}{l}\n");
+        let mut s = h(
+            format!("{:9.2}{:11}{:<20}{:<20}", 3.04, "", "O", "G"),
+            "RINEX VERSION / TYPE",
+        );
+        s += &h(f.marker.clone(), "MARKER NAME");
+        let p = f.approx_pos;
+        s += &h(
+            format!("{:14.4}{:14.4}{:14.4}", p[0], p[1], p[2]),
+            "APPROX POSITION XYZ",
+        );
+        let codes: String = f.types.iter().map(|c| format!(" {}", v3(c))).collect();
+        s += &h(
+            format!("G  {:3}{codes}", f.types.len()),
+            "SYS / # / OBS TYPES",
+        );
+        s += &h(String::new(), "END OF HEADER");
+        for e in &f.epochs {
+            // Back from GPS seconds to the calendar (the test's epochs are in 2005).
+            let d0 = gps_seconds(2005, 1, 1, 0, 0, 0.0);
+            let (mut day, sod) = (
+                ((e.t - d0) / 86_400.0).floor() as u32,
+                (e.t - d0).rem_euclid(86_400.0),
+            );
+            let mut mo = 1;
+            let ml = [31, 28, 31, 30, 31, 30, 31, 31, 30, 31, 30, 31];
+            while day >= ml[mo - 1] {
+                day -= ml[mo - 1];
+                mo += 1;
+            }
+            let (hh, mm, ss) = (
+                (sod / 3600.0) as u32,
+                ((sod % 3600.0) / 60.0) as u32,
+                sod % 60.0,
+            );
+            s += &format!(
+                "> 2005 {mo:02} {:02} {hh:02} {mm:02}{ss:11.7}  {}{:3}\n",
+                day + 1,
+                e.flag,
+                e.sats.len()
+            );
+            for (prn, vals) in &e.sats {
+                s += &format!("G{prn:02}");
+                for v in vals {
+                    s += &match v {
+                        Some(o) if o.lli != 0 => format!("{:14.3}{} ", o.value, o.lli),
+                        Some(o) => format!("{:14.3}  ", o.value),
+                        None => " ".repeat(16),
+                    };
+                }
+                s += "\n";
+            }
+        }
+        s
+    }
+
+    /// The GEONET RINEX 2.10 files written as RINEX 3.04 read back to the same
+    /// epochs, satellites and values (what the carrier-phase code consumes).
+    #[test]
+    #[ignore = "real data: run with `cargo test --release -- --ignored`"]
+    fn shared_rinex2_rewritten_as_rinex3_reads_the_same() {
+        for file in ["gnss/rinex/07590920.05o", "gnss/rinex/30400920.05o"] {
+            let f2 = read_obs(&crate::data::require(file)).unwrap();
+            let text = to_rinex3(&f2);
+            let f3 = parse_obs(&text, "rewritten.rnx").unwrap();
+            assert_eq!(f3.version, 3.04);
+            assert_eq!(f3.types, f2.types, "{file}");
+            assert_eq!(f3.epochs.len(), f2.epochs.len());
+            assert_eq!(f3.epochs.len(), 120);
+            let mut n = 0;
+            for (a, b) in f2.epochs.iter().zip(&f3.epochs) {
+                assert!((a.t - b.t).abs() < 1e-6, "{} {}", a.t, b.t);
+                assert_eq!(a.sats, b.sats, "{file} t={}", a.t);
+                n += a
+                    .sats
+                    .iter()
+                    .map(|(_, v)| v.iter().flatten().count())
+                    .sum::<usize>();
+            }
+            assert!(n > 120 * 7 * 3, "{n} values");
+            println!(
+                "{file}: {} epochs, {n} GPS values identical through RINEX 3",
+                f3.epochs.len()
+            );
+        }
     }
 }
