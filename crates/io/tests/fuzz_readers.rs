@@ -926,6 +926,14 @@ fn fuzz_rinex3_obs() {
     // Plus the RINEX 2 seeds: a version line mutated to 3.xx reaches the
     // RINEX 3 path with RINEX 2 records.
     let mut s = rinex3_obs_seeds(200);
+    // The generated seeds are valid files (so mutations start near valid input).
+    for (k, b) in s[2..].iter().enumerate() {
+        let t = std::str::from_utf8(b).unwrap();
+        if let Err(e) = navfuse_io::rinex::parse_obs(t, "seed") {
+            panic!("generated seed {k} does not parse: {e}\n{t}");
+        }
+    }
+    assert!(navfuse_io::rinex::parse_obs(std::str::from_utf8(&s[1]).unwrap(), "crx").is_err());
     s.extend(rinex_seeds(RINEX_OBS, &["gnss/rinex/07590920.05o"]));
     fuzz("rinex3_obs", run_rinex_obs, s, None);
 }
