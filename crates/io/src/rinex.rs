@@ -1,9 +1,12 @@
-//! RINEX 2.x GPS navigation and observation readers (RINEX 2.11 spec,
-//! Gurtner & Estey). Navigation records become [`KeplerOrbit`]s; observation
-//! epochs keep every observable in its header order, in the file's units
-//! (carrier phase in cycles, pseudorange in metres) with the loss-of-lock
-//! indicator. Times are GPS seconds since the GPS epoch. Errors name file,
-//! line and field. RINEX 3 navigation files (`G` records) are read too.
+//! RINEX GPS navigation and observation readers (RINEX 2.11, Gurtner &
+//! Estey; RINEX 3.04, IGS/RTCM). Navigation records become [`KeplerOrbit`]s;
+//! observation epochs keep every GPS observable in its header order, in the
+//! file's units (carrier phase in cycles, pseudorange in metres) with the
+//! loss-of-lock indicator. RINEX 3 observation codes are named as in RINEX 2
+//! ([`rinex2_name`]) so both versions look alike to the consumers; other
+//! constellations are counted per system and skipped. Times are GPS seconds
+//! since the GPS epoch. Errors name file, line and field. RINEX 3 navigation
+//! files (`G` records) are read too; Hatanaka (Compact RINEX) is refused.
 
 use crate::ReadError;
 use navfuse_core::gnss::{KeplerOrbit, SECONDS_PER_WEEK};
@@ -270,22 +273,34 @@ pub struct ObsValue {
 pub struct ObsEpoch {
     /// Time tag, GPS seconds (receiver clock).
     pub t: f64,
+    /// Epoch flag (0 OK, 1 power failure; events > 1 are skipped, not kept).
     pub flag: u8,
-    /// (PRN, one value per header observable, `None` when blank).
+    /// (PRN, one value per observable of [`ObsFile::types`], `None` when blank).
     pub sats: Vec<(u8, Vec<Option<ObsValue>>)>,
 }
 
-/// A RINEX 2 observation file.
+/// A RINEX 2.xx or 3.0x observation file, GPS satellites only.
 #[derive(Clone, Debug, PartialEq, Default)]
 pub struct ObsFile {
+    /// Format version from `RINEX VERSION / TYPE` (2.10, 2.11, 3.04, …).
+    pub version: f64,
     pub marker: String,
     /// Header APPROX POSITION XYZ, ECEF [m].
     pub approx_pos: [f64; 3],
-    /// Observable codes in order (`L1`, `C1`, `L2`, `P2`, …).
+    /// GPS observable codes in order, RINEX 2 names (`L1`, `C1`, `L2`, `P2`, …).
+    /// For RINEX 3 files each `SYS / # / OBS TYPES` GPS code is named by
+    /// [`rinex2_name`]'s mapping when it is the preferred code for that name,
+    /// else it keeps its 3-character RINEX 3 code (`L2L`, `C5Q`, …).
     pub types: Vec<String>,
+    /// RINEX 3 only: the original GPS codes, parallel to `types` (empty for RINEX 2).
+    pub codes: Vec<String>,
     pub epochs: Vec<ObsEpoch>,
-    /// Non-GPS satellite entries skipped.
+    /// Non-GPS satellite entries (one per satellite and epoch) skipped.
     pub skipped_non_gps: usize,
+    /// The same per system letter (`R`, `E`, `C`, `J`, `S`, `I`), sorted by letter.
+    pub other_systems: Vec<(char, u64)>,
+    /// Event records (epoch flag > 1) skipped.
+    pub events_skipped: usize,
 }
 
 impl ObsFile {
@@ -293,20 +308,120 @@ impl ObsFile {
     pub fn index(&self, code: &str) -> Option<usize> {
         self.types.iter().position(|t| t == code)
     }
+
+    /// Count of skipped satellite entries of system `sys`.
+    pub fn other_count(&self, sys: char) -> u64 {
+        self.other_systems
+            .iter()
+            .find(|(c, _)| *c == sys)
+            .map_or(0, |(_, n)| *n)
+    }
+
+    fn count_other(&mut self, sys: char) {
+        self.skipped_non_gps += 1;
+        match self.other_systems.binary_search_by(|(c, _)| c.cmp(&sys)) {
+            Ok(k) => self.other_systems[k].1 += 1,
+            Err(k) => self.other_systems.insert(k, (sys, 1)),
+        }
+    }
 }
 
-/// Read a RINEX 2 observation file (GPS satellites; others counted and skipped).
+/// RINEX 2 name of a RINEX 3 GPS observation code and its preference rank
+/// (lower wins when several codes map to one name). RINEX 3.04 Table 4 →
+/// RINEX 2.11 §5.1:
+///
+/// | RINEX 3 (GPS)                       | RINEX 2 |
+/// |-------------------------------------|---------|
+/// | `C1C`                               | `C1`    |
+/// | `C1W` > `C1P` > `C1Y`               | `P1`    |
+/// | `C2W` > `C2P` > `C2Y` > `C2D`       | `P2`    |
+/// | `C2L` > `C2X` > `C2S` > `C2C`       | `C2`    |
+/// | `C5Q` > `C5X` > `C5I`               | `C5`    |
+/// | `x1C` > `x1W` > `x1P` > `x1Y` > `x1S` > `x1L` > `x1X` > `x1M` > `x1N` | `x1` |
+/// | `x2W` > `x2P` > `x2Y` > `x2D` > `x2L` > `x2X` > `x2S` > `x2C` > `x2M` > `x2N` | `x2` |
+/// | `x5Q` > `x5X` > `x5I`               | `x5`    |
+///
+/// with `x` = `L` (phase), `D` (Doppler), `S` (signal strength). The L2
+/// phase prefers the P(Y)-tracked `L2W` so it pairs with `P2`; an L2C-only
+/// receiver gives `L2` from `L2L`/`L2X` and `C2`, but no `P2`.
+pub fn rinex2_name(code: &str) -> Option<(String, u8)> {
+    let b = code.as_bytes();
+    if b.len() != 3 {
+        return None;
+    }
+    let (kind, band, attr) = (b[0] as char, b[1] as char, b[2] as char);
+    let rank = |order: &str| order.find(attr).map(|r| r as u8);
+    let (name, r) = match (kind, band) {
+        ('C', '1') if attr == 'C' => ("C1".to_string(), Some(0)),
+        ('C', '1') => ("P1".to_string(), rank("WPY")),
+        ('C', '2') => match rank("WPYD") {
+            Some(r) => ("P2".to_string(), Some(r)),
+            None => ("C2".to_string(), rank("LXSC")),
+        },
+        ('C', '5') => ("C5".to_string(), rank("QXI")),
+        ('L' | 'D' | 'S', '1') => (format!("{kind}1"), rank("CWPYSLXMN")),
+        ('L' | 'D' | 'S', '2') => (format!("{kind}2"), rank("WPYDLXSCMN")),
+        ('L' | 'D' | 'S', '5') => (format!("{kind}5"), rank("QXI")),
+        _ => return None,
+    };
+    r.map(|r| (name, r))
+}
+
+/// The `types` list for RINEX 3 GPS `codes` (see [`rinex2_name`]).
+fn map_gps_codes(codes: &[String]) -> Vec<String> {
+    let mapped: Vec<Option<(String, u8)>> = codes.iter().map(|c| rinex2_name(c)).collect();
+    (0..codes.len())
+        .map(|i| match &mapped[i] {
+            Some((name, r)) => {
+                let best = mapped.iter().enumerate().all(|(j, m)| match m {
+                    Some((n2, r2)) if n2 == name && j != i => r < r2 || (r == r2 && i < j),
+                    _ => true,
+                });
+                if best {
+                    name.clone()
+                } else {
+                    codes[i].clone()
+                }
+            }
+            None => codes[i].clone(),
+        })
+        .collect()
+}
+
+/// File bytes as text; invalid UTF-8 is an error naming its line.
+fn text_of<'a>(bytes: &'a [u8], name: &str) -> Result<&'a str, ReadError> {
+    std::str::from_utf8(bytes).map_err(|e| {
+        let at = e.valid_up_to();
+        let line = bytes[..at].iter().filter(|&&c| c == b'\n').count() + 1;
+        err(
+            name,
+            line,
+            "<text>",
+            format!("not UTF-8 text (byte {at}): not a RINEX text file (compressed?)"),
+        )
+    })
+}
+
+/// Read a RINEX 2.xx or 3.0x observation file (GPS satellites kept; others
+/// counted per system and skipped).
 pub fn read_obs(path: &Path) -> Result<ObsFile, ReadError> {
     let name = path.display().to_string();
-    let text = std::fs::read_to_string(path)
-        .map_err(|e| err(&name, 0, "<file>", format!("cannot read: {e}")))?;
-    parse_obs(&text, &name)
+    let bytes =
+        std::fs::read(path).map_err(|e| err(&name, 0, "<file>", format!("cannot read: {e}")))?;
+    parse_obs(text_of(&bytes, &name)?, &name)
 }
 
-/// Parse RINEX 2 observation text.
+/// Parse RINEX 2.xx or 3.0x observation text (version from the
+/// `RINEX VERSION / TYPE` line). Hatanaka-compressed (Compact RINEX) text is
+/// recognised and refused with an error.
 pub fn parse_obs(text: &str, name: &str) -> Result<ObsFile, ReadError> {
     let lines: Vec<&str> = text.lines().collect();
-    let mut f = ObsFile::default();
+    let mut f = ObsFile {
+        version: 2.0,
+        ..ObsFile::default()
+    };
+    // RINEX 3: per system letter, its observation codes.
+    let mut sys_codes: Vec<(char, Vec<String>)> = Vec::new();
     let mut i = 0;
     let mut have_end = false;
     while i < lines.len() {
@@ -314,20 +429,39 @@ pub fn parse_obs(text: &str, name: &str) -> Result<ObsFile, ReadError> {
         let label = l.get(60..).unwrap_or("").trim();
         let ln = i + 1;
         i += 1;
+        if label.starts_with("CRINEX VERS") || (ln == 1 && l.contains("COMPACT RINEX")) {
+            return Err(err(
+                name,
+                ln,
+                "CRINEX VERS / TYPE",
+                "Hatanaka-compressed (Compact RINEX) observation file: not supported, \
+                 expand it with CRX2RNX first",
+            ));
+        }
         match label {
             "RINEX VERSION / TYPE" => {
                 let v: f64 = field(l, 0, 9)
                     .trim()
                     .parse()
                     .map_err(|_| err(name, ln, "RINEX version", "not a number"))?;
-                if v >= 3.0 {
+                if !(1.0..4.0).contains(&v) {
                     return Err(err(
                         name,
                         ln,
                         "RINEX version",
-                        format!("{v}: only RINEX 2 observation files are read"),
+                        format!("{v}: only RINEX 2.xx and 3.0x observation files are read"),
                     ));
                 }
+                let ty = field(l, 20, 21);
+                if ty != "O" {
+                    return Err(err(
+                        name,
+                        ln,
+                        "file type",
+                        format!("`{ty}`: not an observation (`O`) file"),
+                    ));
+                }
+                f.version = v;
             }
             "MARKER NAME" => f.marker = field(l, 0, 60).trim().to_string(),
             "APPROX POSITION XYZ" => {
@@ -343,7 +477,7 @@ pub fn parse_obs(text: &str, name: &str) -> Result<ObsFile, ReadError> {
                     })?;
                 }
             }
-            "# / TYPES OF OBSERV" if f.types.is_empty() => {
+            "# / TYPES OF OBSERV" if f.types.is_empty() && f.version < 3.0 => {
                 let n: usize = field(l, 0, 6)
                     .trim()
                     .parse()
@@ -376,6 +510,54 @@ pub fn parse_obs(text: &str, name: &str) -> Result<ObsFile, ReadError> {
                     i += 1;
                 }
             }
+            "SYS / # / OBS TYPES" if f.version >= 3.0 => {
+                const L: &str = "SYS / # / OBS TYPES";
+                let sys = l.chars().next().unwrap_or(' ');
+                if !"GRECJSI".contains(sys) {
+                    return Err(err(
+                        name,
+                        ln,
+                        L,
+                        format!("`{sys}` is not a satellite system (G R E C J S I)"),
+                    ));
+                }
+                if sys_codes.iter().any(|(s, _)| *s == sys) {
+                    return Err(err(name, ln, L, format!("system {sys} declared twice")));
+                }
+                let n: usize = field(l, 3, 6)
+                    .trim()
+                    .parse()
+                    .map_err(|_| err(name, ln, L, "bad count"))?;
+                let mut codes = Vec::with_capacity(n);
+                let mut cur = l;
+                loop {
+                    for k in 0..13 {
+                        if codes.len() == n {
+                            break;
+                        }
+                        let c = field(cur, 7 + k * 4, 10 + k * 4).trim();
+                        if !c.is_empty() {
+                            codes.push(c.to_string());
+                        }
+                    }
+                    if codes.len() >= n {
+                        break;
+                    }
+                    // Continuation: blank system column, same label.
+                    let next = lines.get(i).copied().unwrap_or("");
+                    if !next.starts_with(' ') || next.get(60..).unwrap_or("").trim() != L {
+                        return Err(err(
+                            name,
+                            i,
+                            L,
+                            format!("system {sys}: {n} codes announced, {} given", codes.len()),
+                        ));
+                    }
+                    cur = next;
+                    i += 1;
+                }
+                sys_codes.push((sys, codes));
+            }
             "END OF HEADER" => {
                 have_end = true;
                 break;
@@ -385,6 +567,17 @@ pub fn parse_obs(text: &str, name: &str) -> Result<ObsFile, ReadError> {
     }
     if !have_end {
         return Err(err(name, lines.len(), "<header>", "no END OF HEADER"));
+    }
+    if f.version >= 3.0 {
+        if sys_codes.is_empty() {
+            return Err(err(name, 1, "SYS / # / OBS TYPES", "missing from header"));
+        }
+        if let Some((_, c)) = sys_codes.iter().find(|(s, _)| *s == 'G') {
+            f.types = map_gps_codes(c);
+            f.codes = c.clone();
+        }
+        parse_obs_body_v3(&lines, i, name, &sys_codes, &mut f)?;
+        return Ok(f);
     }
     if f.types.is_empty() {
         return Err(err(name, 1, "# / TYPES OF OBSERV", "missing from header"));
@@ -417,6 +610,7 @@ pub fn parse_obs(text: &str, name: &str) -> Result<ObsFile, ReadError> {
         let nsat = nsat as usize;
         if flag > 1 {
             // Event records: `nsat` header lines follow.
+            f.events_skipped += 1;
             i += 1 + nsat;
             continue;
         }
@@ -473,7 +667,7 @@ pub fn parse_obs(text: &str, name: &str) -> Result<ObsFile, ReadError> {
             }
             i += lines_per_sat;
             if sys != 'G' && sys != ' ' {
-                f.skipped_non_gps += 1;
+                f.count_other(sys);
                 continue;
             }
             let prn: u8 = num_s.parse().map_err(|_| {
@@ -489,6 +683,137 @@ pub fn parse_obs(text: &str, name: &str) -> Result<ObsFile, ReadError> {
         f.epochs.push(ObsEpoch { t, flag, sats });
     }
     Ok(f)
+}
+
+/// RINEX 3.0x observation records (RINEX 3.04 §5.2, Table A3): an epoch line
+/// `> yyyy mm dd hh mm ss.sssssss  f nnn`, then one line per satellite,
+/// `snn` followed by 16-column fields (F14.3 value, LLI, SSI) in the order of
+/// that system's `SYS / # / OBS TYPES`. Event epochs (flag > 1) are skipped
+/// with their `nnn` special records (header lines, or cycle-slip records for
+/// flag 6), as in RINEX 2; header changes inside the file (flag 4) are not
+/// applied.
+fn parse_obs_body_v3(
+    lines: &[&str],
+    mut i: usize,
+    name: &str,
+    sys_codes: &[(char, Vec<String>)],
+    f: &mut ObsFile,
+) -> Result<(), ReadError> {
+    while i < lines.len() {
+        let l = lines[i];
+        let ln = i + 1;
+        if l.trim().is_empty() {
+            i += 1;
+            continue;
+        }
+        if !l.starts_with('>') {
+            return Err(err(
+                name,
+                ln,
+                "epoch line",
+                format!(
+                    "expected `>` record marker, found `{}`",
+                    field(l, 0, 20).trim_end()
+                ),
+            ));
+        }
+        let int = |a: usize, b: usize, fname: &str, lo: u32, hi: u32| -> Result<u32, ReadError> {
+            let s = field(l, a, b).trim();
+            match s.parse::<u32>() {
+                Ok(v) if (lo..=hi).contains(&v) => Ok(v),
+                _ => Err(err(
+                    name,
+                    ln,
+                    fname,
+                    format!("not an integer {lo}..{hi}: `{s}`"),
+                )),
+            }
+        };
+        let flag = int(31, 32, "epoch flag", 0, 6)? as u8;
+        let nsat = int(32, 35, "number of satellites", 0, 999)? as usize;
+        if flag > 1 {
+            f.events_skipped += 1;
+            i += 1 + nsat;
+            continue;
+        }
+        let sec_s = field(l, 18, 29).trim();
+        let sec = sec_s
+            .parse::<f64>()
+            .ok()
+            .filter(|s| (0.0..61.0).contains(s))
+            .ok_or_else(|| err(name, ln, "second", format!("not a second 0..61: `{sec_s}`")))?;
+        let t = gps_seconds(
+            int(2, 6, "year", 1980, 2200)? as i32,
+            int(7, 9, "month", 1, 12)?,
+            int(10, 12, "day", 1, 31)?,
+            int(13, 15, "hour", 0, 23)?,
+            int(16, 18, "minute", 0, 59)?,
+            sec,
+        );
+        let mut sats = Vec::with_capacity(nsat.min(64));
+        for k in 0..nsat {
+            let sl = i + 1 + k;
+            let s = match lines.get(sl) {
+                Some(s) if !s.starts_with('>') => *s,
+                next => {
+                    let where_ = if next.is_some() {
+                        format!("the next epoch starts at line {}", sl + 1)
+                    } else {
+                        "the file ends".to_string()
+                    };
+                    return Err(err(
+                        name,
+                        ln,
+                        "number of satellites",
+                        format!("{nsat} announced, {where_} after {k}"),
+                    ));
+                }
+            };
+            let sln = sl + 1;
+            let sys = s.chars().next().unwrap_or(' ');
+            let id = field(s, 0, 3);
+            let Some((_, codes)) = sys_codes.iter().find(|(c, _)| *c == sys) else {
+                return Err(err(
+                    name,
+                    sln,
+                    "satellite",
+                    format!("`{id}`: system not in SYS / # / OBS TYPES"),
+                ));
+            };
+            let prn: u8 = field(s, 1, 3)
+                .trim()
+                .parse()
+                .ok()
+                .filter(|p| *p > 0)
+                .ok_or_else(|| err(name, sln, "satellite", format!("not a satellite: `{id}`")))?;
+            let mut vals = Vec::with_capacity(codes.len());
+            for (j, code) in codes.iter().enumerate() {
+                let a = 3 + 16 * j;
+                let v = ffloat(field(s, a, a + 14)).map_err(|m| err(name, sln, code, m))?;
+                let lli_s = field(s, a + 14, a + 15);
+                let lli = match lli_s.trim() {
+                    "" => 0,
+                    d => d.parse::<u8>().map_err(|_| {
+                        err(
+                            name,
+                            sln,
+                            &format!("{code} LLI"),
+                            format!("not a digit: `{d}`"),
+                        )
+                    })?,
+                };
+                vals.push(v.map(|value| ObsValue { value, lli }));
+            }
+            if sys == 'G' {
+                sats.push((prn, vals));
+            } else {
+                f.count_other(sys);
+            }
+        }
+        i += 1 + nsat;
+        f.epochs.push(ObsEpoch { t, flag, sats });
+    }
+    Ok(())
 }
 
 #[cfg(test)]
@@ -578,6 +903,240 @@ mod tests {
         assert!(e.contains("END OF HEADER"), "{e}");
     }
 
+    /// RINEX 3.04, mixed: GPS (9 codes, two for L2), GLONASS, Galileo (16
+    /// codes: a continuation line), 3 epochs + 1 event record (flag 4).
+    const OBS3: &str =
+        "     3.04           OBSERVATION DATA    M (MIXED)           RINEX VERSION / TYPE
+TEST                                                        MARKER NAME
+ -3976219.5082  3382372.5671  3652512.9849                  APPROX POSITION XYZ
+G    9 C1C L1C D1C S1C C2W L2W C2L L2L C5Q                  SYS / # / OBS TYPES
+R    4 C1C L1C C2P L2P                                      SYS / # / OBS TYPES
+E   16 C1C L1C D1C S1C C5Q L5Q D5Q S5Q C7Q L7Q D7Q S7Q C8Q  SYS / # / OBS TYPES
+       L8Q D8Q S8Q                                          SYS / # / OBS TYPES
+                                                            END OF HEADER
+> 2020 06 30 00 00  0.0000000  0  4
+G05  20000000.125 7 105100710.028 7     -1234.567          45.250    20000003.250 5  81896657.165 5  20000003.625 6  81896657.415 6
+R03  21000000.500   112000000.250
+G12  23000000.750 7 120865819.718 7     -1234.567          45.250    23000003.875 5  94181158.222 5  23000004.250 6  94181158.472 6
+E11  25000000.000    25000001.000    25000002.000    25000003.000    25000004.000    25000005.000    25000006.000    25000007.000    25000008.000    25000009.000    25000010.000    25000011.000    25000012.000    25000013.000    25000014.000    25000015.000
+>                              4  1
+an event with one header line                               COMMENT
+> 2020 06 30 00 00 30.0000000  0  3
+G05  20003000.500 7 105116477.105 7     -1234.567          45.250    20003003.625 5  81908943.199 5  20003004.000 6  81908943.449 6
+E11  25001000.000
+G12  22998000.250 7 120855307.020 7     -1234.567          45.250    22998003.375 5  94172966.50915  22998003.750 6  94172966.759 6
+> 2020 06 30 00 01  0.0000000  0  3
+G12  22996000.000 7 120844795.635 7     -1234.567          45.250    22996003.125 5  94164775.820 5  22996003.500 6  94164776.070 6
+R03  21002000.500
+R04  21500000.500
+";
+
+    /// The same observations as RINEX 2.11 (types in another order).
+    const OBS2: &str =
+        "     2.11           OBSERVATION DATA    M (MIXED)           RINEX VERSION / TYPE
+TEST                                                        MARKER NAME
+ -3976219.5082  3382372.5671  3652512.9849                  APPROX POSITION XYZ
+     7    L1    L2    C1    P2    C2    D1    S1            # / TYPES OF OBSERV
+                                                            END OF HEADER
+ 20  6 30  0  0  0.0000000  0  4G05R03G12E11
+ 105100710.028 7  81896657.165 5  20000000.125 7  20000003.250 5  20000003.625 6
+     -1234.567          45.250
+ 112000000.250                    21000000.500
+
+ 120865819.718 7  94181158.222 5  23000000.750 7  23000003.875 5  23000004.250 6
+     -1234.567          45.250
+  25000001.000                    25000000.000
+  25000002.000    25000003.000
+                            4  1
+an event with one header line                               COMMENT
+ 20  6 30  0  0 30.0000000  0  3G05E11G12
+ 105116477.105 7  81908943.199 5  20003000.500 7  20003003.625 5  20003004.000 6
+     -1234.567          45.250
+                                  25001000.000
+
+ 120855307.020 7  94172966.50915  22998000.250 7  22998003.375 5  22998003.750 6
+     -1234.567          45.250
+ 20  6 30  0  1  0.0000000  0  3G12R03R04
+ 120844795.635 7  94164775.820 5  22996000.000 7  22996003.125 5  22996003.500 6
+     -1234.567          45.250
+                                  21002000.500
+
+                                  21500000.500
+
+";
+
+    fn val(f: &ObsFile, e: usize, s: usize, code: &str) -> Option<ObsValue> {
+        f.epochs[e].sats[s].1[f.index(code).unwrap()]
+    }
+
+    #[test]
+    fn parses_rinex3_obs() {
+        let f = parse_obs(OBS3, "t.rnx").unwrap();
+        assert_eq!(f.version, 3.04);
+        assert_eq!(f.marker, "TEST");
+        assert_eq!(f.approx_pos, [-3976219.5082, 3382372.5671, 3652512.9849]);
+        assert_eq!(
+            f.codes,
+            ["C1C", "L1C", "D1C", "S1C", "C2W", "L2W", "C2L", "L2L", "C5Q"]
+        );
+        assert_eq!(
+            f.types,
+            ["C1", "L1", "D1", "S1", "P2", "L2", "C2", "L2L", "C5"]
+        );
+        assert_eq!(f.epochs.len(), 3);
+        assert_eq!(f.events_skipped, 1);
+        let t0 = gps_seconds(2020, 6, 30, 0, 0, 0.0);
+        let ts: Vec<f64> = f.epochs.iter().map(|e| e.t - t0).collect();
+        assert_eq!(ts, [0.0, 30.0, 60.0]);
+        let prns: Vec<Vec<u8>> = f
+            .epochs
+            .iter()
+            .map(|e| e.sats.iter().map(|s| s.0).collect())
+            .collect();
+        assert_eq!(prns, [vec![5, 12], vec![5, 12], vec![12]]);
+        // Every GPS satellite line carries 9 fields, C5Q blank: 5 × 8 values.
+        let n: usize = f
+            .epochs
+            .iter()
+            .flat_map(|e| &e.sats)
+            .map(|(_, v)| {
+                assert_eq!(v.len(), 9);
+                v.iter().flatten().count()
+            })
+            .sum();
+        assert_eq!(n, 40);
+        assert_eq!(f.other_systems, [('E', 2), ('R', 3)]);
+        assert_eq!((f.other_count('R'), f.other_count('C')), (3, 0));
+        assert_eq!(f.skipped_non_gps, 5);
+        let v = |e, s, c| val(&f, e, s, c).unwrap();
+        assert_eq!(v(0, 0, "C1").value, 20000000.125);
+        assert_eq!(v(0, 0, "L1").value, 105100710.028);
+        assert_eq!(v(0, 0, "D1").value, -1234.567);
+        assert_eq!(v(0, 0, "S1").value, 45.25);
+        assert_eq!(v(0, 0, "P2").value, 20000003.25);
+        assert_eq!(v(0, 0, "L2").value, 81896657.165);
+        assert_eq!(v(0, 0, "C2").value, 20000003.625);
+        assert_eq!(v(0, 0, "L2L").value, 81896657.415);
+        assert!(val(&f, 0, 0, "C5").is_none());
+        assert_eq!(v(2, 0, "C1").value, 22996000.0);
+        // LLI kept (SSI digits do not leak into it).
+        assert_eq!(v(1, 1, "L2").lli, 1);
+        assert_eq!(v(1, 1, "L2").value, 94172966.509);
+        assert_eq!(v(1, 1, "L1").lli, 0);
+        assert_eq!(v(1, 0, "L2").lli, 0);
+    }
+
+    #[test]
+    fn rinex2_and_rinex3_give_the_same_gps_observations() {
+        let f3 = parse_obs(OBS3, "t.rnx").unwrap();
+        let f2 = parse_obs(OBS2, "t.o").unwrap();
+        assert_eq!(f2.version, 2.11);
+        assert!(f2.codes.is_empty());
+        assert_eq!(f2.epochs.len(), 3);
+        assert_eq!(f2.events_skipped, 1);
+        assert_eq!(f2.other_systems, f3.other_systems);
+        let mut compared = 0;
+        for (e2, e3) in f2.epochs.iter().zip(&f3.epochs) {
+            assert_eq!((e2.t, e2.flag), (e3.t, e3.flag));
+            assert_eq!(e2.sats.len(), e3.sats.len());
+            for ((p2, v2), (p3, v3)) in e2.sats.iter().zip(&e3.sats) {
+                assert_eq!(p2, p3);
+                for c in ["C1", "L1", "D1", "S1", "P2", "L2", "C2"] {
+                    let a = v2[f2.index(c).unwrap()];
+                    assert_eq!(a, v3[f3.index(c).unwrap()], "{c} G{p2}");
+                    assert!(a.is_some());
+                    compared += 1;
+                }
+            }
+        }
+        assert_eq!(compared, 5 * 7);
+    }
+
+    #[test]
+    fn rinex3_gps_codes_map_to_rinex2_names() {
+        let m = |c: &[&str]| map_gps_codes(&c.iter().map(|s| s.to_string()).collect::<Vec<_>>());
+        assert_eq!(m(&["C1C", "L1C", "L2W", "C2W"]), ["C1", "L1", "L2", "P2"]);
+        assert_eq!(m(&["L2X", "C2X", "C1W"]), ["L2", "C2", "P1"]);
+        // L2W wins over L2L whatever the order; the loser keeps its code.
+        assert_eq!(m(&["L2L", "C2L", "L2W", "C2W"]), ["L2L", "C2", "L2", "P2"]);
+        assert_eq!(
+            m(&["L1W", "L1C", "S5Q", "X1C", "C1"]),
+            ["L1W", "L1", "S5", "X1C", "C1"]
+        );
+        assert_eq!(rinex2_name("C2D"), Some(("P2".to_string(), 3)));
+        assert_eq!(rinex2_name("C1X"), None);
+    }
+
+    #[test]
+    fn rinex3_errors_name_line_and_field() {
+        let e = |t: &str| parse_obs(t, "t.rnx").unwrap_err().to_string();
+        // Truncated epoch line.
+        let bad = OBS3.replace("> 2020 06 30 00 00  0.0000000  0  4", "> 2020 06 30 00");
+        let m = e(&bad);
+        assert!(m.starts_with("t.rnx:9: field `epoch flag`: "), "{m}");
+        let bad = OBS3.replace(" 0.0000000  0  4", " 0.00x0000  0  4");
+        let m = e(&bad);
+        assert!(m.starts_with("t.rnx:9: field `second`: "), "{m}");
+        // Bad number in a field.
+        let m = e(&OBS3.replace("23000003.875", "2300x003.875"));
+        assert!(m.starts_with("t.rnx:12: field `C2W`: not a number"), "{m}");
+        let m = e(&OBS3.replace("94172966.50915", "94172966.509x5"));
+        assert!(
+            m.starts_with("t.rnx:19: field `L2W LLI`: not a digit"),
+            "{m}"
+        );
+        // Wrong satellite count, both ways.
+        let m = e(&OBS3.replace(" 0.0000000  0  4", " 0.0000000  0  5"));
+        assert!(
+            m.starts_with("t.rnx:9: field `number of satellites`: 5 announced, the next epoch starts at line 14 after 4"),
+            "{m}"
+        );
+        let m = e(&OBS3.replace(" 0.0000000  0  4", " 0.0000000  0  3"));
+        assert!(
+            m.starts_with("t.rnx:13: field `epoch line`: expected `>`"),
+            "{m}"
+        );
+        let trunc: String = OBS3.lines().take(10).map(|l| format!("{l}\n")).collect();
+        let m = e(&trunc);
+        assert!(
+            m.contains(":9: field `number of satellites`: 4 announced, the file ends after 1"),
+            "{m}"
+        );
+        // Satellite of an undeclared system; missing code continuation.
+        let m = e(&OBS3.replace("R04", "C04"));
+        assert!(m.starts_with("t.rnx:23: field `satellite`: `C04`"), "{m}");
+        let m = e(&OBS3.replace("       L8Q D8Q S8Q", "E      L8Q D8Q S8Q"));
+        assert!(
+            m.contains("field `SYS / # / OBS TYPES`: system E: 16 codes announced, 13 given"),
+            "{m}"
+        );
+        // Hatanaka and versions we do not read.
+        let crx =
+            "1.0                 COMPACT RINEX FORMAT                    CRINEX VERS   / TYPE\n";
+        let m = e(&format!("{crx}{OBS3}"));
+        assert!(
+            m.starts_with("t.rnx:1: field `CRINEX VERS / TYPE`: Hatanaka"),
+            "{m}"
+        );
+        let m = e(&OBS3.replacen("3.04", "4.01", 1));
+        assert!(m.starts_with("t.rnx:1: field `RINEX version`"), "{m}");
+        let m = e(&OBS3.replacen("OBSERVATION DATA", "NAVIGATION DATA ", 1));
+        assert!(m.starts_with("t.rnx:1: field `file type`"), "{m}");
+    }
+
+    #[test]
+    fn non_utf8_obs_file_is_an_error_naming_the_line() {
+        let mut b = OBS3.as_bytes().to_vec();
+        let at = OBS3.find("R03").unwrap(); // line 11
+        b[at + 1] = 0xFF;
+        let p = std::env::temp_dir().join(format!("navfuse_rinex3_{}.rnx", std::process::id()));
+        std::fs::write(&p, &b).unwrap();
+        let r = read_obs(&p);
+        let _ = std::fs::remove_file(&p);
+        let m = r.unwrap_err().to_string();
+        assert!(m.contains(".rnx:11: field `<text>`: not UTF-8"), "{m}");
+    }
+
     #[test]
     #[ignore = "real data: run with `cargo test --release -- --ignored`"]
     fn reads_shared_rinex() {
@@ -586,5 +1145,104 @@ mod tests {
         let obs = read_obs(&crate::data::require("gnss/rinex/07590920.05o")).unwrap();
         assert_eq!(obs.epochs.len(), 120);
         assert!(obs.epochs.iter().all(|e| e.sats.len() >= 7));
+        assert!(obs.version < 3.0 && obs.codes.is_empty());
+    }
+
+    /// Test-only RINEX 3.04 writer for a GPS [`ObsFile`] with RINEX 2 types.
+    fn to_rinex3(f: &ObsFile) -> String {
+        let v3 = |c: &str| match c {
+            "C1" => "C1C",
+            "P1" => "C1W",
+            "P2" => "C2W",
+            "C2" => "C2L",
+            "L1" | "D1" | "S1" => ["L1C", "D1C", "S1C"]["LDS".find(&c[..1]).unwrap()],
+            "L2" | "D2" | "S2" => ["L2W", "D2W", "S2W"]["LDS".find(&c[..1]).unwrap()],
+            _ => panic!("no RINEX 3 code for {c}"),
+        };
+        let h = |t: String, l: &str| format!("{t:<60}{l}\n");
+        let mut s = h(
+            format!("{:9.2}{:11}{:<20}{:<20}", 3.04, "", "O", "G"),
+            "RINEX VERSION / TYPE",
+        );
+        s += &h(f.marker.clone(), "MARKER NAME");
+        let p = f.approx_pos;
+        s += &h(
+            format!("{:14.4}{:14.4}{:14.4}", p[0], p[1], p[2]),
+            "APPROX POSITION XYZ",
+        );
+        let codes: String = f.types.iter().map(|c| format!(" {}", v3(c))).collect();
+        s += &h(
+            format!("G  {:3}{codes}", f.types.len()),
+            "SYS / # / OBS TYPES",
+        );
+        s += &h(String::new(), "END OF HEADER");
+        for e in &f.epochs {
+            // Back from GPS seconds to the calendar (the test's epochs are in 2005).
+            let d0 = gps_seconds(2005, 1, 1, 0, 0, 0.0);
+            let (mut day, sod) = (
+                ((e.t - d0) / 86_400.0).floor() as u32,
+                (e.t - d0).rem_euclid(86_400.0),
+            );
+            let mut mo = 1;
+            let ml = [31, 28, 31, 30, 31, 30, 31, 31, 30, 31, 30, 31];
+            while day >= ml[mo - 1] {
+                day -= ml[mo - 1];
+                mo += 1;
+            }
+            let (hh, mm, ss) = (
+                (sod / 3600.0) as u32,
+                ((sod % 3600.0) / 60.0) as u32,
+                sod % 60.0,
+            );
+            s += &format!(
+                "> 2005 {mo:02} {:02} {hh:02} {mm:02}{ss:11.7}  {}{:3}\n",
+                day + 1,
+                e.flag,
+                e.sats.len()
+            );
+            for (prn, vals) in &e.sats {
+                s += &format!("G{prn:02}");
+                for v in vals {
+                    s += &match v {
+                        Some(o) if o.lli != 0 => format!("{:14.3}{} ", o.value, o.lli),
+                        Some(o) => format!("{:14.3}  ", o.value),
+                        None => " ".repeat(16),
+                    };
+                }
+                s += "\n";
+            }
+        }
+        s
+    }
+
+    /// The GEONET RINEX 2.10 files written as RINEX 3.04 read back to the same
+    /// epochs, satellites and values (what the carrier-phase code consumes).
+    #[test]
+    #[ignore = "real data: run with `cargo test --release -- --ignored`"]
+    fn shared_rinex2_rewritten_as_rinex3_reads_the_same() {
+        for file in ["gnss/rinex/07590920.05o", "gnss/rinex/30400920.05o"] {
+            let f2 = read_obs(&crate::data::require(file)).unwrap();
+            let text = to_rinex3(&f2);
+            let f3 = parse_obs(&text, "rewritten.rnx").unwrap();
+            assert_eq!(f3.version, 3.04);
+            assert_eq!(f3.types, f2.types, "{file}");
+            assert_eq!(f3.epochs.len(), f2.epochs.len());
+            assert_eq!(f3.epochs.len(), 120);
+            let mut n = 0;
+            for (a, b) in f2.epochs.iter().zip(&f3.epochs) {
+                assert!((a.t - b.t).abs() < 1e-6, "{} {}", a.t, b.t);
+                assert_eq!(a.sats, b.sats, "{file} t={}", a.t);
+                n += a
+                    .sats
+                    .iter()
+                    .map(|(_, v)| v.iter().flatten().count())
+                    .sum::<usize>();
+            }
+            assert!(n > 120 * 7 * 3, "{n} values");
+            println!(
+                "{file}: {} epochs, {n} GPS values identical through RINEX 3",
+                f3.epochs.len()
+            );
+        }
     }
 }

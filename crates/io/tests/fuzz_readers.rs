@@ -500,6 +500,101 @@ const RINEX_OBS: &str =
    -691177.898    24361933.475     -537007.1404   24361930.5994
 ";
 
+/// RINEX 3 observation seed: mixed GPS/GLONASS/Galileo header (with a
+/// continuation line), one epoch, one event record.
+const RINEX3_OBS: &str =
+    "     3.04           OBSERVATION DATA    M (MIXED)           RINEX VERSION / TYPE
+TEST                                                        MARKER NAME
+ -3976219.5082  3382372.5671  3652512.9849                  APPROX POSITION XYZ
+G    9 C1C L1C D1C S1C C2W L2W C2L L2L C5Q                  SYS / # / OBS TYPES
+R    4 C1C L1C C2P L2P                                      SYS / # / OBS TYPES
+E   16 C1C L1C D1C S1C C5Q L5Q D5Q S5Q C7Q L7Q D7Q S7Q C8Q  SYS / # / OBS TYPES
+       L8Q D8Q S8Q                                          SYS / # / OBS TYPES
+                                                            END OF HEADER
+> 2020 06 30 00 00  0.0000000  0  4
+G05  20000000.125 7 105100710.028 7     -1234.567          45.250    20000003.250 5  81896657.165 5  20000003.625 6  81896657.415 6
+R03  21000000.500   112000000.250
+G12  23000000.750 7 120865819.718 7     -1234.567          45.250    23000003.875 5  94181158.222 5  23000004.250 6  94181158.472 6
+E11  25000000.000    25000001.000    25000002.000    25000003.000    25000004.000    25000005.000    25000006.000    25000007.000    25000008.000    25000009.000    25000010.000    25000011.000    25000012.000    25000013.000    25000014.000    25000015.000
+>                              4  1
+an event with one header line                               COMMENT
+> 2020 06 30 00 00 30.0000000  0  3
+";
+
+/// RINEX 3 observation seeds: the synthetic file, a Hatanaka header, and
+/// `n` generated well-formed files (random systems, codes, flags, satellite
+/// counts, values, blanks and LLI) so mutations start near valid input.
+fn rinex3_obs_seeds(n: usize) -> Vec<Vec<u8>> {
+    const CODES: &[&str] = &[
+        "C1C", "L1C", "D1C", "S1C", "C1W", "L1W", "C2W", "L2W", "C2L", "L2L", "C2X", "L2X", "C5Q",
+        "L5Q", "C7Q", "L7Q", "C2P", "L2P", "C6I", "X9Z",
+    ];
+    let mut out = vec![
+        RINEX3_OBS.as_bytes().to_vec(),
+        format!(
+            "{:<60}CRINEX VERS   / TYPE\n{RINEX3_OBS}",
+            "1.0                 COMPACT RINEX FORMAT"
+        )
+        .into_bytes(),
+    ];
+    let mut rng = Rng(0x52494E3);
+    let h = |t: &str, l: &str| format!("{t:<60}{l}\n");
+    for _ in 0..n {
+        let mut s = h(
+            "     3.04           OBSERVATION DATA    M (MIXED)",
+            "RINEX VERSION / TYPE",
+        );
+        let mut systems: Vec<(char, usize)> = Vec::new();
+        for sys in "GRECJSI".chars() {
+            if sys == 'G' || rng.chance(0.3) {
+                let nc = 1 + rng.below(20);
+                let codes: Vec<&str> = (0..nc).map(|_| CODES[rng.below(CODES.len())]).collect();
+                for (k, chunk) in codes.chunks(13).enumerate() {
+                    let head = if k == 0 {
+                        format!("{sys}  {nc:3}")
+                    } else {
+                        " ".repeat(6)
+                    };
+                    let body: String = chunk.iter().map(|c| format!(" {c}")).collect();
+                    s += &h(&format!("{head}{body}"), "SYS / # / OBS TYPES");
+                }
+                systems.push((sys, nc));
+            }
+        }
+        s += &h("", "END OF HEADER");
+        for ep in 0..1 + rng.below(5) {
+            let flag = [0, 0, 0, 1, 4, 6][rng.below(6)];
+            let nsat = rng.below(7);
+            s += &format!(
+                "> 2020 06 30 {:02} {:02}{:11.7}  {flag}{nsat:3}\n",
+                ep % 24,
+                rng.below(60),
+                rng.below(60_000_000) as f64 / 1e6
+            );
+            for _ in 0..nsat {
+                if flag == 4 {
+                    s += &h("a header line", "COMMENT");
+                    continue;
+                }
+                let (sys, nc) = systems[rng.below(systems.len())];
+                s += &format!("{sys}{:02}", 1 + rng.below(40));
+                for _ in 0..nc {
+                    if rng.chance(0.15) {
+                        s += &" ".repeat(16);
+                    } else {
+                        let v = (rng.next() % 2_000_000_000_000) as f64 / 1000.0 - 1e6;
+                        let lli = [" ", "0", "1", "4"][rng.below(4)];
+                        s += &format!("{v:14.3}{lli}{}", rng.below(10));
+                    }
+                }
+                s += "\n";
+            }
+        }
+        out.push(s.into_bytes());
+    }
+    out
+}
+
 const RINEX_NAV: &str =
     "     2              NAVIGATION DATA                         RINEX VERSION / TYPE
                                                             END OF HEADER
@@ -824,6 +919,23 @@ fn fuzz_rinex_obs() {
         &["gnss/rinex/07590920.05o", "gnss/rinex/30400920.05o"],
     );
     fuzz("rinex_obs", run_rinex_obs, s, None);
+}
+
+#[test]
+fn fuzz_rinex3_obs() {
+    // Plus the RINEX 2 seeds: a version line mutated to 3.xx reaches the
+    // RINEX 3 path with RINEX 2 records.
+    let mut s = rinex3_obs_seeds(200);
+    // The generated seeds are valid files (so mutations start near valid input).
+    for (k, b) in s[2..].iter().enumerate() {
+        let t = std::str::from_utf8(b).unwrap();
+        if let Err(e) = navfuse_io::rinex::parse_obs(t, "seed") {
+            panic!("generated seed {k} does not parse: {e}\n{t}");
+        }
+    }
+    assert!(navfuse_io::rinex::parse_obs(std::str::from_utf8(&s[1]).unwrap(), "crx").is_err());
+    s.extend(rinex_seeds(RINEX_OBS, &["gnss/rinex/07590920.05o"]));
+    fuzz("rinex3_obs", run_rinex_obs, s, None);
 }
 
 #[test]
