@@ -437,7 +437,9 @@ fn fixed9_into(out: &mut [u8; 32], x: f64) -> Option<usize> {
     n += 1;
     // Nine decimals as 4 + 5 digits (independent chains).
     let (hi, lo) = (frac / 100_000, frac % 100_000);
-    let f: &mut [u8; 9] = (&mut out[n..n + 9]).try_into().unwrap_or_else(|_| unreachable!());
+    let f: &mut [u8; 9] = (&mut out[n..n + 9])
+        .try_into()
+        .unwrap_or_else(|_| unreachable!());
     f[0..2].copy_from_slice(&PAIRS[(hi / 100) as usize]);
     f[2..4].copy_from_slice(&PAIRS[(hi % 100) as usize]);
     let (l1, l2) = (lo / 1000, lo % 1000);
@@ -699,7 +701,7 @@ mod tests {
         // Against the previous formatter's definition, `(|x|·1e9).round()`,
         // over many magnitudes and ties.
         let mut s = 0x2545_f491_4f6c_dd1du64;
-        for k in 0..200_000 {
+        for k in 0..200_000u32 {
             s ^= s << 13;
             s ^= s >> 7;
             s ^= s << 17;
