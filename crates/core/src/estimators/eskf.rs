@@ -33,6 +33,7 @@
 
 use crate::earth;
 use crate::ins::mech::{mechanize_with, quat_from_rotvec, EarthAt, NavState};
+use crate::kalman;
 #[allow(unused_imports)]
 use crate::prelude::*;
 use crate::types::{Estimator, Event, GnssFix, ImuSample, NavSolution};
@@ -316,25 +317,6 @@ pub fn apply_correction(nav: &mut NavState, errors: &mut ImuErrors, dx: &StateVe
     errors.ba += dx.fixed_rows::<3>(I_BA);
     errors.sg += dx.fixed_rows::<3>(I_SG);
     errors.sa += dx.fixed_rows::<3>(I_SA);
-}
-
-/// χ² quantiles for the gate (dof 1–6 at p = 0.99, 0.999, 0.9999); the
-/// nearest tabulated probability is used. (Private until `kalman::chi2_quantile`
-/// lands.)
-fn chi2_gate(dof: usize, p: f64) -> f64 {
-    const T: [[f64; 6]; 3] = [
-        [6.635, 9.210, 11.345, 13.277, 15.086, 16.812],
-        [10.828, 13.816, 16.266, 18.467, 20.515, 22.458],
-        [15.137, 18.421, 21.108, 23.513, 25.745, 27.856],
-    ];
-    let row = if p < 0.995 {
-        0
-    } else if p < 0.9995 {
-        1
-    } else {
-        2
-    };
-    T[row][dof.clamp(1, 6) - 1]
 }
 
 /// Non-zero 3×3 blocks of the continuous error model `F` at one epoch.
@@ -965,8 +947,12 @@ impl Eskf {
         }
     }
 
-    /// Joseph-form update with feedback; `dz = ẑ − z` (predicted minus measured).
-    /// Returns `Some(nis)` if applied, `None` if gated out or singular.
+    /// Joseph-form update ([`kalman::update_joseph`]) with feedback; `dz = ẑ − z`
+    /// (predicted minus measured, so `dz = H δx + v`). Returns the NIS if
+    /// applied. With `gate` and a configured gate probability, an innovation
+    /// beyond the χ² quantile `g` is de-weighted (`R ← R·NIS/g`, Huber-type
+    /// M-estimation; Groves §17.3.3) up to `g · gate_deweight_factor`, and
+    /// rejected beyond.
     fn update<const M: usize>(
         &mut self,
         h: &SMatrix<f64, M, NX>,
@@ -977,67 +963,44 @@ impl Eskf {
         if !dz.iter().all(|v| v.is_finite()) {
             return Err(UpdateReject::Singular);
         }
-        let u: SMatrix<f64, NX, M> = self.p * h.transpose();
-        let mut s: SMatrix<f64, M, M> = h * u + r;
-        let Some(mut s_inv) = s.try_inverse() else {
-            self.stats.singular += 1;
-            return Err(UpdateReject::Singular);
+        let p_prior = self.p;
+        let mut dx = StateVec::zeros();
+        let g = match (gate, self.cfg.gate_probability) {
+            (true, Some(pg)) => Some(kalman::chi2_quantile(M, pg)),
+            _ => None,
         };
-        let nis = (dz.transpose() * s_inv * dz)[(0, 0)];
-        if !nis.is_finite() {
+        let mut info = kalman::update_joseph(&mut dx, &mut self.p, h, r, dz, g);
+        if info.singular() {
             self.stats.singular += 1;
             return Err(UpdateReject::Singular);
         }
-        if gate {
-            if let Some(pg) = self.cfg.gate_probability {
-                let g = chi2_gate(M, pg);
-                if nis > g {
-                    let hard = g * self.cfg.gate_deweight_factor;
-                    if nis > hard {
-                        return Err(UpdateReject::Gate);
-                    }
-                    // Robust de-weighting: R ← R·NIS/g so the innovation sits
-                    // on the gate (Huber-type M-estimation; Groves §17.3.3).
-                    let rs = r * (nis / g);
-                    s = h * u + rs;
-                    let Some(si) = s.try_inverse() else {
-                        self.stats.singular += 1;
-                        return Err(UpdateReject::Singular);
-                    };
-                    s_inv = si;
-                    self.stats.deweighted += 1;
-                    let k: SMatrix<f64, NX, M> = u * s_inv;
-                    return Ok(self.apply_update(&k, &s, &u, dz, nis));
-                }
+        if !info.nis.is_finite() {
+            self.stats.singular += 1;
+            return Err(UpdateReject::Singular);
+        }
+        if !info.accepted {
+            // Gated: de-weight or reject.
+            let g = g.unwrap_or(f64::INFINITY);
+            if info.nis > g * self.cfg.gate_deweight_factor {
+                return Err(UpdateReject::Gate);
             }
+            let rs = r * (info.nis / g);
+            let nis = info.nis;
+            info = kalman::update_joseph(&mut dx, &mut self.p, h, &rs, dz, None);
+            if !info.accepted {
+                self.stats.singular += 1;
+                return Err(UpdateReject::Singular);
+            }
+            info.nis = nis;
+            self.stats.deweighted += 1;
         }
-        let k: SMatrix<f64, NX, M> = u * s_inv;
-        Ok(self.apply_update(&k, &s, &u, dz, nis))
-    }
-
-    /// Joseph-form covariance update and feedback for gain `k`, innovation
-    /// covariance `s`, `u = P Hᵀ`.
-    fn apply_update<const M: usize>(
-        &mut self,
-        k: &SMatrix<f64, NX, M>,
-        s: &SMatrix<f64, M, M>,
-        u: &SMatrix<f64, NX, M>,
-        dz: &SVector<f64, M>,
-        nis: f64,
-    ) -> f64 {
         if self.cfg.smoother_every > 0 && self.rec_p_prior.is_none() {
-            self.rec_p_prior = Some(self.p);
+            self.rec_p_prior = Some(p_prior);
         }
-        let dx: StateVec = k * dz;
-        // Joseph form, expanded: (I−KH)P(I−KH)ᵀ + KRKᵀ = P − KUᵀ − UKᵀ + K S Kᵀ.
-        let ks = k * s;
-        let kut = k * u.transpose();
-        self.p += ks * k.transpose() - kut - kut.transpose();
-        self.p = 0.5 * (self.p + self.p.transpose());
         apply_correction(&mut self.nav, &mut self.err, &dx);
         self.rec_dx += dx;
         self.rec_updated = true;
-        nis
+        Ok(info.nis)
     }
 
     /// GNSS updates for `fix` at the current state time.
