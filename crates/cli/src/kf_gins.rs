@@ -247,9 +247,10 @@ fn filter(
     let mut g = gnss.partition_point(|f| f.t <= start);
     let n = imu.len() - i0;
     let mut sols = Vec::with_capacity(n);
-    let mut nav = Vec::with_capacity(n * 180);
-    let mut err = Vec::with_capacity(n * 208);
-    let mut std = Vec::with_capacity(n * 350);
+    // Streamed through reused buffers (no file-sized allocations to fault in).
+    let mut nav = OutFile::create(out_dir, "KF_GINS_Navresult.nav")?;
+    let mut err = OutFile::create(out_dir, "KF_GINS_IMU_ERR.txt")?;
+    let mut std = OutFile::create(out_dir, "KF_GINS_STD.txt")?;
     let mut records = Vec::new();
     for (k, s) in imu[i0..].iter().enumerate() {
         if s.t > end {
@@ -272,9 +273,12 @@ fn filter(
                     s.t
                 ));
             }
-            write_nav_line(&mut nav, &sol);
-            write_err_line(&mut err, sol.t, eskf);
-            write_std_line(&mut std, sol.t, eskf);
+            write_nav_line(&mut nav.buf, &sol);
+            write_err_line(&mut err.buf, sol.t, eskf);
+            write_std_line(&mut std.buf, sol.t, eskf);
+            nav.flush_if_full()?;
+            err.flush_if_full()?;
+            std.flush_if_full()?;
             sols.push(sol);
         }
     }
@@ -282,9 +286,9 @@ fn filter(
         let p = out_dir.join(name);
         std::fs::write(&p, buf).map_err(|e| format!("{}: cannot write: {e}", p.display()))
     };
-    write("KF_GINS_Navresult.nav", &nav)?;
-    write("KF_GINS_IMU_ERR.txt", &err)?;
-    write("KF_GINS_STD.txt", &std)?;
+    nav.finish()?;
+    err.finish()?;
+    std.finish()?;
     let mut smoothed = Vec::new();
     if smooth {
         smoothed.reserve(records.len());
@@ -305,48 +309,144 @@ fn filter(
     Ok((sols, smoothed))
 }
 
-/// KF-GINS number layout: fixed 9 decimals, left-aligned in 15 columns, then a space.
-pub(crate) fn put(buf: &mut Vec<u8>, x: f64) {
-    let start = buf.len();
-    fixed9(buf, x);
-    while buf.len() - start < 15 {
-        buf.push(b' ');
+/// An output file written in chunks from a reused buffer.
+struct OutFile {
+    path: PathBuf,
+    file: std::fs::File,
+    buf: Vec<u8>,
+}
+
+impl OutFile {
+    const CHUNK: usize = 1 << 18;
+
+    fn create(dir: &Path, name: &str) -> Result<Self, String> {
+        let path = dir.join(name);
+        let file = std::fs::File::create(&path)
+            .map_err(|e| format!("{}: cannot write: {e}", path.display()))?;
+        Ok(OutFile {
+            path,
+            file,
+            buf: Vec::with_capacity(Self::CHUNK + 4096),
+        })
     }
-    buf.push(b' ');
+
+    fn write_out(&mut self) -> Result<(), String> {
+        use std::io::Write as _;
+        self.file
+            .write_all(&self.buf)
+            .map_err(|e| format!("{}: cannot write: {e}", self.path.display()))?;
+        self.buf.clear();
+        Ok(())
+    }
+
+    #[inline]
+    fn flush_if_full(&mut self) -> Result<(), String> {
+        if self.buf.len() >= Self::CHUNK {
+            self.write_out()?;
+        }
+        Ok(())
+    }
+
+    fn finish(mut self) -> Result<(), String> {
+        self.write_out()
+    }
+}
+
+/// KF-GINS number layout: fixed 9 decimals, left-aligned in 15 columns, then a space.
+#[inline]
+pub(crate) fn put(buf: &mut Vec<u8>, x: f64) {
+    let mut tmp = [b' '; 32];
+    match fixed9_into(&mut tmp, x) {
+        // Fixed-length copies (no memmove call for the common widths).
+        Some(n) if n <= 15 => buf.extend_from_slice(&tmp[..16]),
+        Some(n) if n <= 23 => buf.extend_from_slice(&tmp[..n + 1]),
+        _ => {
+            let start = buf.len();
+            buf.extend_from_slice(format!("{x:.9}").as_bytes());
+            while buf.len() - start < 15 {
+                buf.push(b' ');
+            }
+            buf.push(b' ');
+        }
+    }
 }
 
 /// Fast `{:.9}` for |x| < 9e9 (falls back to `format!` beyond, and for NaN).
+#[cfg(test)]
 fn fixed9(buf: &mut Vec<u8>, x: f64) {
-    if x.is_nan() || x.abs() >= 9.0e9 {
-        buf.extend_from_slice(format!("{x:.9}").as_bytes());
-        return;
+    let mut tmp = [b' '; 32];
+    match fixed9_into(&mut tmp, x) {
+        Some(n) => buf.extend_from_slice(&tmp[..n]),
+        None => buf.extend_from_slice(format!("{x:.9}").as_bytes()),
     }
-    let scaled = (x.abs() * 1e9).round() as u64;
+}
+
+/// "00" … "99".
+const PAIRS: [[u8; 2]; 100] = {
+    let mut t = [[0u8; 2]; 100];
+    let mut i = 0;
+    while i < 100 {
+        t[i] = [b'0' + (i / 10) as u8, b'0' + (i % 10) as u8];
+        i += 1;
+    }
+    t
+};
+
+/// `{:.9}` of `x` (rounded half away from zero at 1e-9, i.e. as
+/// `(|x|·1e9).round()`; `-0.000000000` printed without the sign) into `out`,
+/// returning its length; `None` for NaN and |x| ≥ 9e9. Writes at most 21
+/// bytes and leaves the rest of `out` untouched.
+#[inline(always)]
+fn fixed9_into(out: &mut [u8; 32], x: f64) -> Option<usize> {
+    if x.is_nan() || x.abs() >= 9.0e9 {
+        return None;
+    }
+    // round(|x|·1e9) half away from zero, exactly as f64::round (without the
+    // libm call): y < 9e18 fits u64; below 2^52 `y − ⌊y⌋` is exact, above y
+    // is an integer.
+    let y = x.abs() * 1e9;
+    let fl = y as u64;
+    let scaled = if y - fl as f64 >= 0.5 { fl + 1 } else { fl };
+    let mut n = 0;
     if x < 0.0 && scaled != 0 {
-        buf.push(b'-');
+        out[0] = b'-';
+        n = 1;
     }
     let int = scaled / 1_000_000_000;
-    let frac = scaled % 1_000_000_000;
-    let mut tmp = [0u8; 20];
-    let mut i = tmp.len();
+    let frac = (scaled % 1_000_000_000) as u32;
+    // Integer part (< 9e9, at most 10 digits), two digits at a time.
+    let mut digits = [b'0'; 10];
+    let mut i = digits.len();
     let mut v = int;
-    loop {
+    while v >= 100 {
+        i -= 2;
+        digits[i..i + 2].copy_from_slice(&PAIRS[(v % 100) as usize]);
+        v /= 100;
+    }
+    if v >= 10 {
+        i -= 2;
+        digits[i..i + 2].copy_from_slice(&PAIRS[v as usize]);
+    } else {
         i -= 1;
-        tmp[i] = b'0' + (v % 10) as u8;
-        v /= 10;
-        if v == 0 {
-            break;
-        }
+        digits[i] = b'0' + v as u8;
     }
-    buf.extend_from_slice(&tmp[i..]);
-    buf.push(b'.');
-    let mut f = [b'0'; 9];
-    let mut v = frac;
-    for d in f.iter_mut().rev() {
-        *d = b'0' + (v % 10) as u8;
-        v /= 10;
-    }
-    buf.extend_from_slice(&f);
+    let len = digits.len() - i;
+    out[n..n + len].copy_from_slice(&digits[i..]);
+    n += len;
+    out[n] = b'.';
+    n += 1;
+    // Nine decimals as 4 + 5 digits (independent chains).
+    let (hi, lo) = (frac / 100_000, frac % 100_000);
+    let f: &mut [u8; 9] = (&mut out[n..n + 9])
+        .try_into()
+        .unwrap_or_else(|_| unreachable!());
+    f[0..2].copy_from_slice(&PAIRS[(hi / 100) as usize]);
+    f[2..4].copy_from_slice(&PAIRS[(hi % 100) as usize]);
+    let (l1, l2) = (lo / 1000, lo % 1000);
+    f[4..6].copy_from_slice(&PAIRS[l1 as usize]);
+    f[6..8].copy_from_slice(&PAIRS[(l2 / 10) as usize]);
+    f[8] = b'0' + (l2 % 10) as u8;
+    Some(n + 9)
 }
 
 fn write_nav_line(buf: &mut Vec<u8>, s: &NavSolution) {
@@ -598,6 +698,40 @@ mod tests {
         let mut b = Vec::new();
         put(&mut b, 1.0);
         assert_eq!(b.len(), 16);
+        // Against the previous formatter's definition, `(|x|·1e9).round()`,
+        // over many magnitudes and ties.
+        let mut s = 0x2545_f491_4f6c_dd1du64;
+        for k in 0..200_000u32 {
+            s ^= s << 13;
+            s ^= s >> 7;
+            s ^= s << 17;
+            let mant = (s >> 11) as f64 / (1u64 << 53) as f64;
+            let x = match k % 4 {
+                0 => (mant - 0.5) * 10f64.powi((k % 19) as i32 - 9),
+                1 => ((s % 2_000_000_001) as f64 - 1e9) * 1e-9 + 0.5e-9,
+                2 => (mant - 0.5) * 1.7e10,
+                _ => f64::from_bits(s) % 8.9e9,
+            };
+            if !x.is_finite() {
+                continue;
+            }
+            let scaled = (x.abs() * 1e9).round() as u64;
+            let mut want = String::new();
+            if x < 0.0 && scaled != 0 {
+                want.push('-');
+            }
+            want += &format!("{}.{:09}", scaled / 1_000_000_000, scaled % 1_000_000_000);
+            if x.abs() >= 9.0e9 {
+                want = format!("{x:.9}");
+            }
+            let mut b = Vec::new();
+            fixed9(&mut b, x);
+            assert_eq!(String::from_utf8(b).unwrap(), want, "x = {x:e}");
+            let mut p = Vec::new();
+            put(&mut p, x);
+            assert!(p.len() >= 16 && p.starts_with(want.as_bytes()));
+            assert!(p[want.len()..].iter().all(|&c| c == b' '));
+        }
     }
 
     // ---- real-data checks (drive_0708) -----------------------------------

@@ -33,6 +33,7 @@
 
 use crate::earth;
 use crate::ins::mech::{mechanize_with, quat_from_rotvec, EarthAt, NavState};
+use crate::kalman;
 #[allow(unused_imports)]
 use crate::prelude::*;
 use crate::types::{Estimator, Event, GnssFix, ImuSample, NavSolution};
@@ -318,25 +319,6 @@ pub fn apply_correction(nav: &mut NavState, errors: &mut ImuErrors, dx: &StateVe
     errors.sa += dx.fixed_rows::<3>(I_SA);
 }
 
-/// χ² quantiles for the gate (dof 1–6 at p = 0.99, 0.999, 0.9999); the
-/// nearest tabulated probability is used. (Private until `kalman::chi2_quantile`
-/// lands.)
-fn chi2_gate(dof: usize, p: f64) -> f64 {
-    const T: [[f64; 6]; 3] = [
-        [6.635, 9.210, 11.345, 13.277, 15.086, 16.812],
-        [10.828, 13.816, 16.266, 18.467, 20.515, 22.458],
-        [15.137, 18.421, 21.108, 23.513, 25.745, 27.856],
-    ];
-    let row = if p < 0.995 {
-        0
-    } else if p < 0.9995 {
-        1
-    } else {
-        2
-    };
-    T[row][dof.clamp(1, 6) - 1]
-}
-
 /// Non-zero 3×3 blocks of the continuous error model `F` at one epoch.
 #[derive(Clone, Copy, Debug, Default)]
 struct FBlocks {
@@ -377,27 +359,44 @@ impl FSparse {
         }
     }
 
-    /// Fill from blocks: `rows[b]` lists the `(column offset, block)` pairs of
-    /// block-row `b` (position, velocity, attitude); bias/scale rows are `β` on
-    /// the diagonal for indices below `diag_end`.
+    /// Append block-row `b` (rows `3b..3b+3`) from `(column offset, block)`
+    /// pairs, skipping zero entries (branch-free; fixed sizes, so unrolled).
     #[inline(always)]
-    fn fill(&mut self, rows: [&[(usize, &Mat3)]; 3], beta: f64, diag_end: usize) {
-        let mut n = 0;
-        for (b, blocks) in rows.iter().enumerate() {
-            for r in 0..3 {
-                self.start[3 * b + r] = n;
-                for (c0, m) in blocks.iter() {
-                    for k in 0..3 {
-                        let v = m[(r, k)];
-                        if v != 0.0 {
-                            self.col[n] = c0 + k;
-                            self.val[n] = v;
-                            n += 1;
-                        }
-                    }
+    fn fill_rows<const NB: usize>(
+        &mut self,
+        mut n: usize,
+        b: usize,
+        blocks: [(usize, &Mat3); NB],
+    ) -> usize {
+        for r in 0..3 {
+            self.start[3 * b + r] = n;
+            for (c0, m) in blocks.iter() {
+                for k in 0..3 {
+                    let v = m[(r, k)];
+                    let i = n.min(F_MAX_NNZ - 1);
+                    self.col[i] = c0 + k;
+                    self.val[i] = v;
+                    n += (v != 0.0) as usize;
                 }
             }
         }
+        n
+    }
+
+    /// Fill from blocks (position, velocity, attitude block-rows); bias/scale
+    /// rows are `β` on the diagonal for indices below `diag_end`.
+    #[inline(always)]
+    fn fill(
+        &mut self,
+        pos: [(usize, &Mat3); 2],
+        vel: [(usize, &Mat3); 5],
+        att: [(usize, &Mat3); 5],
+        beta: f64,
+        diag_end: usize,
+    ) {
+        let n = self.fill_rows(0, 0, pos);
+        let n = self.fill_rows(n, 1, vel);
+        let mut n = self.fill_rows(n, 2, att);
         for i in I_BG..NX {
             self.start[i] = n;
             if beta != 0.0 && i < diag_end {
@@ -416,22 +415,20 @@ impl FSparse {
         let z = Mat3::zeros();
         let (vsa, asg) = if b.scale { (&b.vsa, &b.asg) } else { (&z, &z) };
         self.fill(
+            [(I_POS, &b.pp), (I_VEL, &id)],
             [
-                &[(I_POS, &b.pp), (I_VEL, &id)],
-                &[
-                    (I_POS, &b.vp),
-                    (I_VEL, &b.vv),
-                    (I_ATT, &b.va),
-                    (I_BA, &b.c_bn),
-                    (I_SA, vsa),
-                ],
-                &[
-                    (I_POS, &b.ap),
-                    (I_VEL, &b.av),
-                    (I_ATT, &b.aa),
-                    (I_BG, &nc),
-                    (I_SG, asg),
-                ],
+                (I_POS, &b.vp),
+                (I_VEL, &b.vv),
+                (I_ATT, &b.va),
+                (I_BA, &b.c_bn),
+                (I_SA, vsa),
+            ],
+            [
+                (I_POS, &b.ap),
+                (I_VEL, &b.av),
+                (I_ATT, &b.aa),
+                (I_BG, &nc),
+                (I_SG, asg),
             ],
             b.beta,
             if b.scale { NX } else { I_SG },
@@ -456,6 +453,37 @@ impl FSparse {
                 }
             }
             os[NX * i..NX * i + L].copy_from_slice(&acc);
+        }
+    }
+}
+
+impl FSparse {
+    /// Column `C` of the lower triangle of `X + dt (T + M) + dt² N` added into
+    /// `p` (rows `C..NX`), with `N = M Fᵀ` accumulated in registers in the
+    /// same order as [`FSparse::x_ft`] (so the result is bit-identical).
+    #[inline(always)]
+    fn lower_col<const C: usize>(
+        &self,
+        m: &[f64; NX * NX],
+        t: &[f64; NX * NX],
+        p: &mut [f64; NX * NX],
+        dt: f64,
+        dt2: f64,
+    ) {
+        let mut acc = [0.0f64; NX];
+        for j in self.start[C]..self.start[C + 1] {
+            let k = self.col[j].min(NX - 1);
+            let v = self.val[j];
+            let src: &[f64; NX] = m[NX * k..NX * k + NX]
+                .try_into()
+                .unwrap_or_else(|_| unreachable!());
+            for r in C..NX {
+                acc[r] += v * src[r];
+            }
+        }
+        let o = NX * C;
+        for r in C..NX {
+            p[o + r] += dt * (t[o + r] + m[o + r]) + dt2 * acc[r];
         }
     }
 }
@@ -548,7 +576,6 @@ pub struct Eskf {
     f_sparse: FSparse,
     scratch_t: Cov,
     scratch_m: Cov,
-    scratch_n: Cov,
     /// Last compensated angular rate [rad/s] and specific force [m/s²], body.
     w_ib_b: Vec3,
     f_b: Vec3,
@@ -635,7 +662,6 @@ impl Eskf {
             f_sparse: FSparse::new(),
             scratch_t: Cov::zeros(),
             scratch_m: Cov::zeros(),
-            scratch_n: Cov::zeros(),
             cfg,
         }
     }
@@ -876,20 +902,25 @@ impl Eskf {
                 }
             }
         }
-        // N = M Fᵀ = F X Fᵀ with the full F (lower triangle; N is symmetric):
-        // Φ X Φᵀ is then exact, so P stays positive semi-definite even at long
-        // steps or over days without updates (a truncated second-order term
-        // does not guarantee that).
-        let nmat = &mut self.scratch_n;
-        fs.x_ft::<NX>(m, nmat, NX);
+        // N = M Fᵀ = F X Fᵀ with the full F: Φ X Φᵀ is then exact, so P stays
+        // positive semi-definite even at long steps or over days without
+        // updates (a truncated second-order term does not guarantee that).
+        // Only the lower triangle of P is formed (fused with the sum
+        // X + dt (T + M) + dt² N), then mirrored: P stays exactly symmetric.
         let dt2 = dt * dt;
         {
-            let ps = p.as_mut_slice();
-            let (ts, ms, ns) = (t.as_slice(), m.as_slice(), nmat.as_slice());
-            for i in 0..NX * NX {
-                ps[i] += dt * (ts[i] + ms[i]) + dt2 * ns[i];
+            let ps: &mut [f64; NX * NX] = p
+                .as_mut_slice()
+                .try_into()
+                .unwrap_or_else(|_| unreachable!());
+            let ts: &[f64; NX * NX] = t.as_slice().try_into().unwrap_or_else(|_| unreachable!());
+            let ms: &[f64; NX * NX] = m.as_slice().try_into().unwrap_or_else(|_| unreachable!());
+            macro_rules! lower_cols {
+                ($($c:literal)*) => {
+                    $(fs.lower_col::<$c>(ms, ts, ps, dt, dt2);)*
+                };
             }
-            // N is symmetric only up to rounding: keep P exactly symmetric.
+            lower_cols!(0 1 2 3 4 5 6 7 8 9 10 11 12 13 14 15 16 17 18 19 20);
             for c in 0..NX {
                 for r in c + 1..NX {
                     ps[NX * r + c] = ps[NX * c + r];
@@ -916,8 +947,12 @@ impl Eskf {
         }
     }
 
-    /// Joseph-form update with feedback; `dz = ẑ − z` (predicted minus measured).
-    /// Returns `Some(nis)` if applied, `None` if gated out or singular.
+    /// Joseph-form update ([`kalman::update_joseph`]) with feedback; `dz = ẑ − z`
+    /// (predicted minus measured, so `dz = H δx + v`). Returns the NIS if
+    /// applied. With `gate` and a configured gate probability, an innovation
+    /// beyond the χ² quantile `g` is de-weighted (`R ← R·NIS/g`, Huber-type
+    /// M-estimation; Groves §17.3.3) up to `g · gate_deweight_factor`, and
+    /// rejected beyond.
     fn update<const M: usize>(
         &mut self,
         h: &SMatrix<f64, M, NX>,
@@ -928,67 +963,44 @@ impl Eskf {
         if !dz.iter().all(|v| v.is_finite()) {
             return Err(UpdateReject::Singular);
         }
-        let u: SMatrix<f64, NX, M> = self.p * h.transpose();
-        let mut s: SMatrix<f64, M, M> = h * u + r;
-        let Some(mut s_inv) = s.try_inverse() else {
-            self.stats.singular += 1;
-            return Err(UpdateReject::Singular);
+        let p_prior = self.p;
+        let mut dx = StateVec::zeros();
+        let g = match (gate, self.cfg.gate_probability) {
+            (true, Some(pg)) => Some(kalman::chi2_quantile(M, pg)),
+            _ => None,
         };
-        let nis = (dz.transpose() * s_inv * dz)[(0, 0)];
-        if !nis.is_finite() {
+        let mut info = kalman::update_joseph(&mut dx, &mut self.p, h, r, dz, g);
+        if info.singular() {
             self.stats.singular += 1;
             return Err(UpdateReject::Singular);
         }
-        if gate {
-            if let Some(pg) = self.cfg.gate_probability {
-                let g = chi2_gate(M, pg);
-                if nis > g {
-                    let hard = g * self.cfg.gate_deweight_factor;
-                    if nis > hard {
-                        return Err(UpdateReject::Gate);
-                    }
-                    // Robust de-weighting: R ← R·NIS/g so the innovation sits
-                    // on the gate (Huber-type M-estimation; Groves §17.3.3).
-                    let rs = r * (nis / g);
-                    s = h * u + rs;
-                    let Some(si) = s.try_inverse() else {
-                        self.stats.singular += 1;
-                        return Err(UpdateReject::Singular);
-                    };
-                    s_inv = si;
-                    self.stats.deweighted += 1;
-                    let k: SMatrix<f64, NX, M> = u * s_inv;
-                    return Ok(self.apply_update(&k, &s, &u, dz, nis));
-                }
+        if !info.nis.is_finite() {
+            self.stats.singular += 1;
+            return Err(UpdateReject::Singular);
+        }
+        if !info.accepted {
+            // Gated: de-weight or reject.
+            let g = g.unwrap_or(f64::INFINITY);
+            if info.nis > g * self.cfg.gate_deweight_factor {
+                return Err(UpdateReject::Gate);
             }
+            let rs = r * (info.nis / g);
+            let nis = info.nis;
+            info = kalman::update_joseph(&mut dx, &mut self.p, h, &rs, dz, None);
+            if !info.accepted {
+                self.stats.singular += 1;
+                return Err(UpdateReject::Singular);
+            }
+            info.nis = nis;
+            self.stats.deweighted += 1;
         }
-        let k: SMatrix<f64, NX, M> = u * s_inv;
-        Ok(self.apply_update(&k, &s, &u, dz, nis))
-    }
-
-    /// Joseph-form covariance update and feedback for gain `k`, innovation
-    /// covariance `s`, `u = P Hᵀ`.
-    fn apply_update<const M: usize>(
-        &mut self,
-        k: &SMatrix<f64, NX, M>,
-        s: &SMatrix<f64, M, M>,
-        u: &SMatrix<f64, NX, M>,
-        dz: &SVector<f64, M>,
-        nis: f64,
-    ) -> f64 {
         if self.cfg.smoother_every > 0 && self.rec_p_prior.is_none() {
-            self.rec_p_prior = Some(self.p);
+            self.rec_p_prior = Some(p_prior);
         }
-        let dx: StateVec = k * dz;
-        // Joseph form, expanded: (I−KH)P(I−KH)ᵀ + KRKᵀ = P − KUᵀ − UKᵀ + K S Kᵀ.
-        let ks = k * s;
-        let kut = k * u.transpose();
-        self.p += ks * k.transpose() - kut - kut.transpose();
-        self.p = 0.5 * (self.p + self.p.transpose());
         apply_correction(&mut self.nav, &mut self.err, &dx);
         self.rec_dx += dx;
         self.rec_updated = true;
-        nis
+        Ok(info.nis)
     }
 
     /// GNSS updates for `fix` at the current state time.
