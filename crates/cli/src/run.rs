@@ -5,7 +5,7 @@
 
 use clap::Args as ClapArgs;
 use navfuse_core::estimators::accel_dr::{AccelDr, AccelDrConfig};
-use navfuse_core::estimators::eskf::{rts_smooth, Eskf, EskfConfig, ImuErrors, InitStd};
+use navfuse_core::estimators::eskf::{rts_smooth, Eskf, EskfConfig, ImuErrors, InitStd, UpdateLog};
 use navfuse_core::estimators::pf_lc::{PfLc, PfLcConfig};
 use navfuse_core::ins::align;
 use navfuse_core::ins::mech::{q_bn_from_rpy, NavState};
@@ -384,14 +384,17 @@ pub fn run(args: Args) -> Result<(), String> {
     let mut g = gnss.partition_point(|x| x.t <= imu[k_start].t);
     let mut sols = Vec::with_capacity(imu.len());
     let mut records = Vec::new();
+    let mut innovations = Vec::new();
     for s in &imu[k_start..] {
         while g < gnss.len() && gnss[g].t <= s.t + 1e-3 {
             eskf.push(&Event::Gnss(gnss[g]));
+            innovations.extend_from_slice(eskf.updates());
             g += 1;
         }
         if let Some(sol) = eskf.push(&Event::Imu(*s)) {
             sols.push(sol);
         }
+        innovations.extend_from_slice(eskf.updates());
         if let Some(r) = eskf.take_record() {
             records.push(r);
         }
@@ -399,6 +402,10 @@ pub fn run(args: Args) -> Result<(), String> {
     let seconds_filter = t_filter.elapsed().as_secs_f64();
     let mut outputs = Vec::new();
     outputs.extend(write_solutions(&out_dir, "solution", &sols, &formats)?);
+    outputs.push(write_innovations(
+        &out_dir.join("solution.innovations.csv"),
+        &innovations,
+    )?);
     if cfg.filter.smooth {
         let mut sm = Vec::with_capacity(records.len());
         rts_smooth(&records, |e| {
@@ -457,6 +464,30 @@ pub fn run(args: Args) -> Result<(), String> {
         run_report(&out_dir, args.truth.as_deref(), &rel(&cfg.input.gnss))?;
     }
     Ok(())
+}
+
+/// Every measurement update the ESKF tried (`t,kind,nis,dof,accepted`), the
+/// report's innovation monitor input.
+fn write_innovations(path: &Path, log: &[UpdateLog]) -> Result<String, String> {
+    use std::io::Write as _;
+    let io = |e: std::io::Error| format!("{}: {e}", path.display());
+    let f = std::fs::File::create(path).map_err(io)?;
+    let mut w = std::io::BufWriter::new(f);
+    writeln!(w, "t,kind,nis,dof,accepted").map_err(io)?;
+    for u in log {
+        writeln!(
+            w,
+            "{:.4},{},{:.6},{},{}",
+            u.t,
+            u.kind.name(),
+            u.nis,
+            u.dof,
+            u.accepted as u8
+        )
+        .map_err(io)?;
+    }
+    w.flush().map_err(io)?;
+    Ok(path.display().to_string())
 }
 
 /// The extra output formats named in the config (by extension: csv, nav,

@@ -538,10 +538,57 @@ impl StandstillDetector {
     }
 }
 
+/// Which measurement an update used.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum UpdateKind {
+    GnssPosition,
+    GnssVelocity,
+    Height,
+    Zupt,
+    Zaru,
+    Nhc,
+}
+
+impl UpdateKind {
+    /// Short stable name (`gnss_pos`, `gnss_vel`, `height`, `zupt`, `zaru`, `nhc`).
+    pub fn name(self) -> &'static str {
+        match self {
+            UpdateKind::GnssPosition => "gnss_pos",
+            UpdateKind::GnssVelocity => "gnss_vel",
+            UpdateKind::Height => "height",
+            UpdateKind::Zupt => "zupt",
+            UpdateKind::Zaru => "zaru",
+            UpdateKind::Nhc => "nhc",
+        }
+    }
+}
+
+/// One measurement update tried during the last `push`: its normalised
+/// innovation squared and whether it was applied (false: rejected by the χ²
+/// gate). For innovation monitoring (NIS against χ²(dof) bounds).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct UpdateLog {
+    /// Filter time of the update [s].
+    pub t: f64,
+    pub kind: UpdateKind,
+    /// νᵀ S⁻¹ ν with the unscaled R.
+    pub nis: f64,
+    /// Measurement dimension.
+    pub dof: u8,
+    pub accepted: bool,
+}
+
+/// Updates one `push` can try at most (GNSS position, height, velocity,
+/// ZUPT, ZARU, NHC, with room to spare).
+const JOURNAL_LEN: usize = 8;
+
 /// The seed 001 / KF-GINS error-state filter. See the module documentation.
 #[derive(Clone, Debug)]
 pub struct Eskf {
     cfg: EskfConfig,
+    /// The updates of the last `push` (first `journal_len` entries).
+    journal: [UpdateLog; JOURNAL_LEN],
+    journal_len: usize,
     nav: NavState,
     err: ImuErrors,
     p: Cov,
@@ -649,6 +696,14 @@ impl Eskf {
             standstill: false,
             detector: StandstillDetector::new(),
             stats: EskfStats::default(),
+            journal: [UpdateLog {
+                t: 0.0,
+                kind: UpdateKind::GnssPosition,
+                nis: 0.0,
+                dof: 0,
+                accepted: false,
+            }; JOURNAL_LEN],
+            journal_len: 0,
             rec_phi_t: Cov::identity(),
             rec_p_post: p,
             rec_dx: StateVec::zeros(),
@@ -689,6 +744,23 @@ impl Eskf {
     /// Time of the current state [s] (NaN before the first IMU sample).
     pub fn time(&self) -> f64 {
         self.t
+    }
+    /// The measurement updates tried during the last `push`, in order
+    /// (singular ones are not listed; they are counted in the stats).
+    pub fn updates(&self) -> &[UpdateLog] {
+        &self.journal[..self.journal_len]
+    }
+    fn log_update(&mut self, kind: UpdateKind, dof: usize, nis: f64, accepted: bool) {
+        if self.journal_len < JOURNAL_LEN {
+            self.journal[self.journal_len] = UpdateLog {
+                t: self.t,
+                kind,
+                nis,
+                dof: dof as u8,
+                accepted,
+            };
+            self.journal_len += 1;
+        }
     }
     /// Whether the standstill detector currently reports standstill.
     pub fn is_standstill(&self) -> bool {
@@ -959,6 +1031,7 @@ impl Eskf {
         r: &SMatrix<f64, M, M>,
         dz: &SVector<f64, M>,
         gate: bool,
+        kind: UpdateKind,
     ) -> Result<f64, UpdateReject> {
         if !dz.iter().all(|v| v.is_finite()) {
             return Err(UpdateReject::Singular);
@@ -982,6 +1055,7 @@ impl Eskf {
             // Gated: de-weight or reject.
             let g = g.unwrap_or(f64::INFINITY);
             if info.nis > g * self.cfg.gate_deweight_factor {
+                self.log_update(kind, M, info.nis, false);
                 return Err(UpdateReject::Gate);
             }
             let rs = r * (info.nis / g);
@@ -1000,6 +1074,7 @@ impl Eskf {
         apply_correction(&mut self.nav, &mut self.err, &dx);
         self.rec_dx += dx;
         self.rec_updated = true;
+        self.log_update(kind, M, info.nis, true);
         Ok(info.nis)
     }
 
@@ -1024,7 +1099,7 @@ impl Eskf {
             let r = Mat3::from_diagonal(&std.component_mul(&std));
             let force = self.cfg.gnss_force_after > 0
                 && self.gnss_consecutive_rejects >= self.cfg.gnss_force_after;
-            match self.update(&h, &r, &dz_pos, !force) {
+            match self.update(&h, &r, &dz_pos, !force, UpdateKind::GnssPosition) {
                 Ok(_) => {
                     self.stats.gnss_pos_used += 1;
                     if force {
@@ -1046,7 +1121,7 @@ impl Eskf {
                 .copy_from(&skew(&l_n).fixed_view::<1, 3>(2, 0));
             let r = SMatrix::<f64, 1, 1>::new(std.z * std.z);
             let dz = SVector::<f64, 1>::new(dz_pos.z);
-            match self.update(&h, &r, &dz, true) {
+            match self.update(&h, &r, &dz, true, UpdateKind::Height) {
                 Ok(_) => self.stats.height_used += 1,
                 Err(UpdateReject::Gate) => self.stats.height_rejected_gate += 1,
                 Err(UpdateReject::Singular) => {}
@@ -1064,7 +1139,7 @@ impl Eskf {
                 h.fixed_view_mut::<3, 3>(0, I_ATT)
                     .copy_from(&skew(&lever_v));
                 let r = Mat3::from_diagonal(&sv.component_mul(&sv));
-                match self.update(&h, &r, &dz, true) {
+                match self.update(&h, &r, &dz, true, UpdateKind::GnssVelocity) {
                     Ok(_) => self.stats.gnss_vel_used += 1,
                     Err(UpdateReject::Gate) => self.stats.gnss_vel_rejected_gate += 1,
                     Err(UpdateReject::Singular) => {}
@@ -1097,7 +1172,7 @@ impl Eskf {
                     .copy_from(&Mat3::identity());
                 let r = Mat3::identity() * (z.vel_std * z.vel_std);
                 let dz = self.nav.v_n;
-                let zupt_ok = match self.update(&h, &r, &dz, true) {
+                let zupt_ok = match self.update(&h, &r, &dz, true, UpdateKind::Zupt) {
                     Ok(_) => {
                         self.stats.zupt_used += 1;
                         true
@@ -1121,7 +1196,9 @@ impl Eskf {
                     let r = Mat3::identity() * (zs * zs);
                     // The window mean holds the bias of its samples: one ZARU per window.
                     let window_s = z.window as f64 * self.last_dt;
-                    if t - self.last_zaru >= window_s && self.update(&h, &r, &dz, true).is_ok() {
+                    if t - self.last_zaru >= window_s
+                        && self.update(&h, &r, &dz, true, UpdateKind::Zaru).is_ok()
+                    {
                         self.last_zaru = t;
                         self.stats.zaru_used += 1;
                     }
@@ -1150,7 +1227,7 @@ impl Eskf {
             }
             let r = SMatrix::<f64, 2, 2>::identity() * (n.std * n.std);
             let dz = SVector::<f64, 2>::new(v_b.y, v_b.z);
-            match self.update(&h, &r, &dz, true) {
+            match self.update(&h, &r, &dz, true, UpdateKind::Nhc) {
                 Ok(_) => self.stats.nhc_used += 1,
                 Err(UpdateReject::Gate) => self.stats.nhc_rejected_gate += 1,
                 Err(UpdateReject::Singular) => {}
@@ -1304,6 +1381,7 @@ impl Estimator for Eskf {
         "eskf"
     }
     fn push(&mut self, ev: &Event) -> Option<NavSolution> {
+        self.journal_len = 0;
         match ev {
             Event::Imu(s) => self.push_imu(s),
             Event::Gnss(g) => {
@@ -1465,6 +1543,7 @@ mod tests {
         let mut f = Eskf::new(config(), truth, ImuErrors::default(), &std0());
         let dt = 0.01;
         let mut injected = 0;
+        let mut journal_rejected = 0usize;
         for k in 1..=15_000u64 {
             let s = static_sample(k, dt, &Vec3::zeros(), &Vec3::zeros());
             if k % 100 == 0 {
@@ -1482,9 +1561,28 @@ mod tests {
                 )));
             }
             f.push(&Event::Imu(s));
+            // The fix is applied inside the IMU interval that contains it: the
+            // journal of that push lists its position update with the gate
+            // decision the stats count, and other pushes list none.
+            let pos: Vec<&UpdateLog> = f
+                .updates()
+                .iter()
+                .filter(|u| u.kind == UpdateKind::GnssPosition)
+                .collect();
+            assert_eq!(
+                pos.len(),
+                (k % 100 == 0) as usize,
+                "k {k}: {:?}",
+                f.updates()
+            );
+            if let Some(u) = pos.first() {
+                assert!(u.nis.is_finite() && u.dof == 3);
+                journal_rejected += !u.accepted as usize;
+            }
         }
         assert!(injected > 10);
         assert_eq!(f.stats().gnss_pos_rejected_gate, injected);
+        assert_eq!(journal_rejected as u64, injected);
         let (rm, rn) = earth::radii(LAT);
         let sol = f.solution();
         let dn = (sol.lat - LAT) * rm;
