@@ -8,8 +8,8 @@
 use crate::run::{self as ingest, RunInput};
 use clap::Args as ClapArgs;
 use navfuse_core::estimators::eskf::{
-    rts_smooth, Eskf, EskfConfig, EskfStats, NhcConfig, SmoothedEpoch, ZuptConfig, I_ATT, I_BA,
-    I_BG, I_POS, I_SA, I_SG, I_VEL,
+    rts_smooth, Eskf, EskfConfig, EskfStats, ImuErrors, NhcConfig, SmoothedEpoch, ZuptConfig,
+    I_ATT, I_BA, I_BG, I_POS, I_SA, I_SG, I_VEL, NX,
 };
 use navfuse_core::types::{Estimator, Event, GnssFix, NavSolution};
 use navfuse_io::kfgins_yaml::KfGinsConfig;
@@ -247,48 +247,85 @@ fn filter(
     let mut g = gnss.partition_point(|f| f.t <= start);
     let n = imu.len() - i0;
     let mut sols = Vec::with_capacity(n);
-    // Streamed through reused buffers (no file-sized allocations to fault in).
-    let mut nav = OutFile::create(out_dir, "KF_GINS_Navresult.nav")?;
-    let mut err = OutFile::create(out_dir, "KF_GINS_IMU_ERR.txt")?;
-    let mut std = OutFile::create(out_dir, "KF_GINS_STD.txt")?;
     let mut records = Vec::new();
-    for (k, s) in imu[i0..].iter().enumerate() {
-        if s.t > end {
-            break;
-        }
-        while g < gnss.len() && gnss[g].t <= s.t + 1e-3 {
-            eskf.push(&Event::Gnss(gnss[g]));
-            g += 1;
-        }
-        let sol = eskf.push(&Event::Imu(*s));
-        if let Some(r) = eskf.take_record() {
-            records.push(r);
-        }
-        // KF-GINS writes from the second sample on (the first only initialises).
-        if let (Some(sol), true) = (sol, k > 0) {
-            if !(sol.lat.is_finite() && sol.h.is_finite() && sol.v_n.iter().all(|v| v.is_finite()))
-            {
-                return Err(format!(
-                    "filter diverged (non-finite state) at t = {:.3} s",
-                    s.t
-                ));
+    // The three files are formatted and written on a second thread, fed in
+    // batches, while the filter runs (output identical to a serial write).
+    let (tx, rx) = std::sync::mpsc::sync_channel::<Vec<OutRow>>(4);
+    let filtered = std::thread::scope(|scope| -> Result<(), String> {
+        let writer = scope.spawn(move || -> Result<(), String> {
+            // Streamed through reused buffers (no file-sized allocations to fault in).
+            let mut nav = OutFile::create(out_dir, "KF_GINS_Navresult.nav")?;
+            let mut err = OutFile::create(out_dir, "KF_GINS_IMU_ERR.txt")?;
+            let mut std = OutFile::create(out_dir, "KF_GINS_STD.txt")?;
+            for batch in rx {
+                for row in &batch {
+                    write_nav_line(&mut nav.buf, &row.sol);
+                    write_err_line(&mut err.buf, row.sol.t, &row.err);
+                    write_std_line(&mut std.buf, row.sol.t, &row.p_diag);
+                    nav.flush_if_full()?;
+                    err.flush_if_full()?;
+                    std.flush_if_full()?;
+                }
             }
-            write_nav_line(&mut nav.buf, &sol);
-            write_err_line(&mut err.buf, sol.t, eskf);
-            write_std_line(&mut std.buf, sol.t, eskf);
-            nav.flush_if_full()?;
-            err.flush_if_full()?;
-            std.flush_if_full()?;
-            sols.push(sol);
+            nav.finish()?;
+            err.finish()?;
+            std.finish()
+        });
+        let mut batch = Vec::with_capacity(OutRow::BATCH);
+        let mut result = Ok(());
+        for (k, s) in imu[i0..].iter().enumerate() {
+            if s.t > end {
+                break;
+            }
+            while g < gnss.len() && gnss[g].t <= s.t + 1e-3 {
+                eskf.push(&Event::Gnss(gnss[g]));
+                g += 1;
+            }
+            let sol = eskf.push(&Event::Imu(*s));
+            if let Some(r) = eskf.take_record() {
+                records.push(r);
+            }
+            // KF-GINS writes from the second sample on (the first only initialises).
+            if let (Some(sol), true) = (sol, k > 0) {
+                if !(sol.lat.is_finite()
+                    && sol.h.is_finite()
+                    && sol.v_n.iter().all(|v| v.is_finite()))
+                {
+                    result = Err(format!(
+                        "filter diverged (non-finite state) at t = {:.3} s",
+                        s.t
+                    ));
+                    break;
+                }
+                let p = eskf.covariance();
+                batch.push(OutRow {
+                    sol,
+                    err: *eskf.imu_errors(),
+                    p_diag: core::array::from_fn(|i| p[(i, i)]),
+                });
+                if batch.len() == OutRow::BATCH {
+                    let full = std::mem::replace(&mut batch, Vec::with_capacity(OutRow::BATCH));
+                    if tx.send(full).is_err() {
+                        break; // the writer failed: its error is reported below
+                    }
+                }
+                sols.push(sol);
+            }
         }
-    }
+        if result.is_ok() && !batch.is_empty() {
+            let _ = tx.send(batch);
+        }
+        drop(tx);
+        let written = writer
+            .join()
+            .unwrap_or_else(|_| Err("output writer thread panicked".into()));
+        result.and(written)
+    });
+    filtered?;
     let write = |name: &str, buf: &[u8]| {
         let p = out_dir.join(name);
         std::fs::write(&p, buf).map_err(|e| format!("{}: cannot write: {e}", p.display()))
     };
-    nav.finish()?;
-    err.finish()?;
-    std.finish()?;
     let mut smoothed = Vec::new();
     if smooth {
         smoothed.reserve(records.len());
@@ -307,6 +344,18 @@ fn filter(
         write("KF_GINS_Navresult_smoothed.nav", &buf)?;
     }
     Ok((sols, smoothed))
+}
+
+/// What one output line of the three files needs.
+struct OutRow {
+    sol: NavSolution,
+    err: ImuErrors,
+    /// Diagonal of the error-state covariance.
+    p_diag: [f64; NX],
+}
+
+impl OutRow {
+    const BATCH: usize = 1024;
 }
 
 /// An output file written in chunks from a reused buffer.
@@ -469,8 +518,7 @@ fn write_nav_line(buf: &mut Vec<u8>, s: &NavSolution) {
 
 const DEG_H: f64 = 180.0 / std::f64::consts::PI * 3600.0;
 
-fn write_err_line(buf: &mut Vec<u8>, t: f64, eskf: &Eskf) {
-    let e = eskf.imu_errors();
+fn write_err_line(buf: &mut Vec<u8>, t: f64, e: &ImuErrors) {
     put(buf, t);
     for v in e.bg.iter() {
         put(buf, v * DEG_H);
@@ -487,9 +535,8 @@ fn write_err_line(buf: &mut Vec<u8>, t: f64, eskf: &Eskf) {
     buf.push(b'\n');
 }
 
-fn write_std_line(buf: &mut Vec<u8>, t: f64, eskf: &Eskf) {
-    let p = eskf.covariance();
-    let sd = |i: usize| p[(i, i)].max(0.0).sqrt();
+fn write_std_line(buf: &mut Vec<u8>, t: f64, p_diag: &[f64; NX]) {
+    let sd = |i: usize| p_diag[i].max(0.0).sqrt();
     put(buf, t);
     for (i0, k) in [
         (I_POS, 1.0),
