@@ -473,21 +473,7 @@ mod tests {
 
     /// Replace field `k` of data line `l` (0-based, counting every line).
     fn with_field(text: &str, l: usize, k: usize, v: &[u8]) -> Vec<u8> {
-        let mut out = Vec::new();
-        for (i, line) in text.lines().enumerate() {
-            if i == l {
-                for (j, x) in line.split(',').enumerate() {
-                    if j > 0 {
-                        out.push(b',');
-                    }
-                    out.extend_from_slice(if j == k { v } else { x.as_bytes() });
-                }
-            } else {
-                out.extend_from_slice(line.as_bytes());
-            }
-            out.push(b'\n');
-        }
-        out
+        crate::testutil::with_field(text, Some(','), l, k, v)
     }
 
     #[test]

@@ -428,22 +428,7 @@ mod tests {
     }
     /// Replace field `k` (0-based) of line `l` (0-based) of `text`.
     fn with_field(text: &str, l: usize, k: usize, v: &[u8]) -> Vec<u8> {
-        let mut out = Vec::new();
-        for (i, line) in text.lines().enumerate() {
-            if i == l {
-                let f: Vec<&str> = line.split_whitespace().collect();
-                for (j, x) in f.iter().enumerate() {
-                    if j > 0 {
-                        out.push(b' ');
-                    }
-                    out.extend_from_slice(if j == k { v } else { x.as_bytes() });
-                }
-            } else {
-                out.extend_from_slice(line.as_bytes());
-            }
-            out.push(b'\n');
-        }
-        out
+        crate::testutil::with_field(text, None, l, k, v)
     }
 
     #[test]

@@ -58,3 +58,28 @@ pub fn token_lines() -> impl Strategy<Value = Vec<u8>> {
             b
         })
 }
+
+/// `text` with field `k` of line `l` (0-based) replaced by the bytes `v`.
+/// Fields are split at `sep`, or at runs of white space when `sep` is `None`
+/// (then rejoined with one space).
+pub fn with_field(text: &str, sep: Option<char>, l: usize, k: usize, v: &[u8]) -> Vec<u8> {
+    let mut out = Vec::new();
+    for (i, line) in text.lines().enumerate() {
+        if i == l {
+            let fields: Vec<&str> = match sep {
+                Some(c) => line.split(c).collect(),
+                None => line.split_whitespace().collect(),
+            };
+            for (j, x) in fields.iter().enumerate() {
+                if j > 0 {
+                    out.push(sep.unwrap_or(' ') as u8);
+                }
+                out.extend_from_slice(if j == k { v } else { x.as_bytes() });
+            }
+        } else {
+            out.extend_from_slice(line.as_bytes());
+        }
+        out.push(b'\n');
+    }
+    out
+}
