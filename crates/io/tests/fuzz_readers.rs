@@ -500,26 +500,9 @@ const RINEX_OBS: &str =
    -691177.898    24361933.475     -537007.1404   24361930.5994
 ";
 
-/// RINEX 3 observation seed: mixed GPS/GLONASS/Galileo header (with a
-/// continuation line), one epoch, one event record.
-const RINEX3_OBS: &str =
-    "     3.04           OBSERVATION DATA    M (MIXED)           RINEX VERSION / TYPE
-TEST                                                        MARKER NAME
- -3976219.5082  3382372.5671  3652512.9849                  APPROX POSITION XYZ
-G    9 C1C L1C D1C S1C C2W L2W C2L L2L C5Q                  SYS / # / OBS TYPES
-R    4 C1C L1C C2P L2P                                      SYS / # / OBS TYPES
-E   16 C1C L1C D1C S1C C5Q L5Q D5Q S5Q C7Q L7Q D7Q S7Q C8Q  SYS / # / OBS TYPES
-       L8Q D8Q S8Q                                          SYS / # / OBS TYPES
-                                                            END OF HEADER
-> 2020 06 30 00 00  0.0000000  0  4
-G05  20000000.125 7 105100710.028 7     -1234.567          45.250    20000003.250 5  81896657.165 5  20000003.625 6  81896657.415 6
-R03  21000000.500   112000000.250
-G12  23000000.750 7 120865819.718 7     -1234.567          45.250    23000003.875 5  94181158.222 5  23000004.250 6  94181158.472 6
-E11  25000000.000    25000001.000    25000002.000    25000003.000    25000004.000    25000005.000    25000006.000    25000007.000    25000008.000    25000009.000    25000010.000    25000011.000    25000012.000    25000013.000    25000014.000    25000015.000
->                              4  1
-an event with one header line                               COMMENT
-> 2020 06 30 00 00 30.0000000  0  3
-";
+/// RINEX 3 observation seed: the reader's mixed GPS/GLONASS/Galileo test file
+/// (a header continuation line, an event record).
+const RINEX3_OBS: &str = include_str!("../testdata/rinex3_mixed.rnx");
 
 /// RINEX 3 observation seeds: the synthetic file, a Hatanaka header, and
 /// `n` generated well-formed files (random systems, codes, flags, satellite
