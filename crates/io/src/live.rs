@@ -369,6 +369,13 @@ pub struct SequencerStats {
     pub gnss_late: u64,
 }
 
+/// The two input streams of the [`Sequencer`].
+#[derive(Clone, Copy)]
+enum Stream {
+    Imu,
+    Gnss,
+}
+
 /// Merges the IMU and GNSS streams into one time-ordered event stream (see
 /// the module doc). `now` is wall-clock seconds from any fixed origin.
 pub struct Sequencer {
@@ -459,6 +466,26 @@ impl Sequencer {
         (self.imu.len(), self.gnss.len())
     }
 
+    /// Whether the head of `stream` may go out: when ordering is safe (`ok`),
+    /// or forced after waiting `max_wait` or with `bound` events queued; a
+    /// forced release is counted by its cause.
+    fn may_release(&mut self, ok: bool, waited: f64, queued: usize, stream: Stream) -> bool {
+        let timeout = waited >= self.max_wait;
+        let bound = queued >= self.bound;
+        if ok {
+            return true;
+        }
+        if bound && !timeout {
+            self.stats.released_by_bound += 1;
+        } else if timeout {
+            match stream {
+                Stream::Imu => self.stats.imu_released_by_timeout += 1,
+                Stream::Gnss => self.stats.gnss_released_by_timeout += 1,
+            }
+        }
+        timeout || bound
+    }
+
     /// The next event that may be released now, with its arrival time.
     pub fn pop(&mut self, now: f64) -> Option<(Event, f64)> {
         let imu_first = match (self.imu.front(), self.gnss.front()) {
@@ -474,17 +501,9 @@ impl Sequencer {
                 || !self.gnss.is_empty()
                 || self.gnss_last >= s.t + GNSS_LEAD
                 || self.gnss_horizon > s.t + GNSS_LEAD;
-            let timeout = now - arr >= self.max_wait;
-            let bound = self.imu.len() >= self.bound;
-            if !(ok || timeout || bound) {
+            let queued = self.imu.len();
+            if !self.may_release(ok, now - arr, queued, Stream::Imu) {
                 return None;
-            }
-            if !ok {
-                if bound && !timeout {
-                    self.stats.released_by_bound += 1;
-                } else {
-                    self.stats.imu_released_by_timeout += 1;
-                }
             }
             self.imu.pop_front();
             self.stats.imu_out += 1;
@@ -494,17 +513,9 @@ impl Sequencer {
             let (f, arr) = *self.gnss.front().expect("checked");
             // No IMU sample with s.t + lead < f.t may still come.
             let ok = self.imu_ended || !self.imu.is_empty() || self.imu_horizon + GNSS_LEAD >= f.t;
-            let timeout = now - arr >= self.max_wait;
-            let bound = self.gnss.len() >= self.bound;
-            if !(ok || timeout || bound) {
+            let queued = self.gnss.len();
+            if !self.may_release(ok, now - arr, queued, Stream::Gnss) {
                 return None;
-            }
-            if !ok {
-                if bound && !timeout {
-                    self.stats.released_by_bound += 1;
-                } else {
-                    self.stats.gnss_released_by_timeout += 1;
-                }
             }
             self.gnss.pop_front();
             self.stats.gnss_out += 1;
