@@ -31,9 +31,7 @@ use clap::Args as ClapArgs;
 use navfuse_core::estimators::eskf::{Eskf, EskfConfig, ImuErrors, InitStd, NhcConfig};
 use navfuse_core::estimators::pf_lc::compensation::Compensator;
 use navfuse_core::estimators::pf_lc::rng::SplitMix64;
-use navfuse_core::estimators::pf_lc::{
-    CompensationConfig, GpsInput, PfLc, PfLcConfig, SirConfig, SirPf,
-};
+use navfuse_core::estimators::pf_lc::{GpsInput, PfLc, PfLcConfig, SirConfig, SirPf};
 use navfuse_core::geodesy::{Geodetic, LocalFrame, PlanePoint, SmallAreaPlane};
 use navfuse_core::ins::mech::{q_bn_from_rpy, NavState};
 use navfuse_core::{Estimator, Event, GnssFix, ImuSample, NavSolution, Vec3};
@@ -971,19 +969,10 @@ fn corners_json(set: &str, s: &Scores, paper: bool) -> Vec<Value> {
 }
 
 fn config_from(args: &Args) -> Result<PfLcConfig, String> {
-    let mut cfg = PfLcConfig::default();
-    let c: &mut CompensationConfig = &mut cfg.compensation;
-    if let Some(s) = args.span {
-        c.span = s;
-    }
-    if let Some(w) = args.w_min {
-        c.w_min = w;
-    }
-    if let Some(w) = args.w_max {
-        c.w_max = w;
-    }
-    c.validate()
-        .map_err(|e| format!("compensation config: {e}"))?;
+    let mut cfg = PfLcConfig {
+        compensation: crate::smooth_gps::compensation_config(args.span, args.w_min, args.w_max)?,
+        ..PfLcConfig::default()
+    };
     cfg.use_imu_accel = !args.no_imu_accel;
     Ok(cfg)
 }

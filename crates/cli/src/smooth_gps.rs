@@ -59,21 +59,32 @@ pub struct Args {
     pub seed: u64,
 }
 
+/// The seed 002 compensation defaults with the command-line overrides
+/// applied, validated (shared with `experiment seed002`).
+pub fn compensation_config(
+    span: Option<usize>,
+    w_min: Option<f64>,
+    w_max: Option<f64>,
+) -> Result<CompensationConfig, String> {
+    let mut c = CompensationConfig::default();
+    if let Some(s) = span {
+        c.span = s;
+    }
+    if let Some(w) = w_min {
+        c.w_min = w;
+    }
+    if let Some(w) = w_max {
+        c.w_max = w;
+    }
+    c.validate()
+        .map_err(|e| format!("compensation config: {e}"))?;
+    Ok(c)
+}
+
 pub fn run(args: Args) -> Result<(), String> {
     let fin = crate::convert::input_format(args.from, &args.input)?;
     let fout = crate::convert::output_format(args.to, &args.output)?;
-    let mut cc = CompensationConfig::default();
-    if let Some(s) = args.span {
-        cc.span = s;
-    }
-    if let Some(w) = args.w_min {
-        cc.w_min = w;
-    }
-    if let Some(w) = args.w_max {
-        cc.w_max = w;
-    }
-    cc.validate()
-        .map_err(|e| format!("compensation config: {e}"))?;
+    let cc = compensation_config(args.span, args.w_min, args.w_max)?;
     if !(args.sigma_m.is_finite() && args.sigma_m > 0.0) {
         return Err(format!("--sigma-m must be > 0, got {}", args.sigma_m));
     }
