@@ -11,7 +11,9 @@
 //!   equivalent quaternion `q_bn`; Euler angles are roll/pitch/yaw, ZYX.
 //! - Time: GPS time as `f64` seconds.
 #![cfg_attr(not(feature = "std"), no_std)]
-#![forbid(unsafe_code)]
+// The only `unsafe` is the call of the AVX2-compiled ESKF covariance kernel
+// after run-time feature detection (`estimators::eskf`).
+#![deny(unsafe_code)]
 
 #[cfg(feature = "alloc")]
 extern crate alloc;

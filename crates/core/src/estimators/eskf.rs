@@ -409,6 +409,7 @@ impl FSparse {
     }
 
     /// All of `F`.
+    #[inline(always)]
     fn set_full(&mut self, b: &FBlocks) {
         let id = Mat3::identity();
         let nc = -b.c_bn;
@@ -485,6 +486,26 @@ impl FSparse {
         for r in C..NX {
             p[o + r] += dt * (t[o + r] + m[o + r]) + dt2 * acc[r];
         }
+    }
+}
+
+/// Instruction set of the covariance propagation, chosen once per filter.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Kernel {
+    /// The target's baseline (SSE2 on x86-64).
+    Generic,
+    /// AVX2, detected at run time (x86-64 with `std` only).
+    #[cfg(all(feature = "std", target_arch = "x86_64"))]
+    Avx2,
+}
+
+impl Kernel {
+    fn detect() -> Self {
+        #[cfg(all(feature = "std", target_arch = "x86_64"))]
+        if std::is_x86_feature_detected!("avx2") {
+            return Kernel::Avx2;
+        }
+        Kernel::Generic
     }
 }
 
@@ -621,6 +642,7 @@ pub struct Eskf {
     rec_have_prev: bool,
     record: Option<SmootherRecord>,
     f_sparse: FSparse,
+    kernel: Kernel,
     scratch_t: Cov,
     scratch_m: Cov,
     /// Last compensated angular rate [rad/s] and specific force [m/s²], body.
@@ -715,6 +737,7 @@ impl Eskf {
             w_ib_b: Vec3::zeros(),
             f_b: Vec3::zeros(),
             f_sparse: FSparse::new(),
+            kernel: Kernel::detect(),
             scratch_t: Cov::zeros(),
             scratch_m: Cov::zeros(),
             cfg,
@@ -936,7 +959,30 @@ impl Eskf {
     }
 
     /// `P ← Φ (P + Q_d/2) Φᵀ + Q_d/2`, `Φ = I + F dt`, with `F` sparse.
+    ///
+    /// Runs the same code compiled for AVX2 when the CPU has it (see
+    /// [`Kernel`]); no FMA contraction is enabled, so both give bit-identical
+    /// covariances.
     fn propagate_cov(&mut self, fb: &FBlocks, c_bn: &Mat3, dt: f64) {
+        match self.kernel {
+            #[cfg(all(feature = "std", target_arch = "x86_64"))]
+            #[allow(unsafe_code)]
+            // SAFETY: `Kernel::Avx2` is only chosen by `Kernel::detect` after
+            // `is_x86_feature_detected!("avx2")` returned true on this CPU.
+            Kernel::Avx2 => unsafe { self.propagate_cov_avx2(fb, c_bn, dt) },
+            Kernel::Generic => self.propagate_cov_body(fb, c_bn, dt),
+        }
+    }
+
+    /// [`Eskf::propagate_cov_body`] compiled with AVX2 (4-wide f64 vectors).
+    #[cfg(all(feature = "std", target_arch = "x86_64"))]
+    #[target_feature(enable = "avx2")]
+    fn propagate_cov_avx2(&mut self, fb: &FBlocks, c_bn: &Mat3, dt: f64) {
+        self.propagate_cov_body(fb, c_bn, dt)
+    }
+
+    #[inline(always)]
+    fn propagate_cov_body(&mut self, fb: &FBlocks, c_bn: &Mat3, dt: f64) {
         // Q_d = G Q_c Gᵀ dt: G maps velocity and angle noise through C_bn.
         let c = *c_bn;
         let qv = c * Mat3::from_diagonal(&self.q_vrw) * c.transpose() * dt;
@@ -1500,6 +1546,37 @@ mod tests {
         let s = d.map(|v| 1.0 / v.sqrt());
         let corr = Cov::from_fn(|i, j| p[(i, j)] * s[i] * s[j]);
         corr.cholesky().is_some()
+    }
+
+    #[test]
+    fn every_covariance_kernel_gives_bit_identical_results() {
+        let bg = Vec3::new(20.0, -30.0, 10.0).map(|d: f64| d.to_radians() / 3600.0);
+        let ba = Vec3::new(0.01, -0.005, 0.0);
+        let truth = start();
+        let detected = Eskf::new(config(), truth, ImuErrors::default(), &std0());
+        let mut generic = detected.clone();
+        generic.kernel = Kernel::Generic;
+        let mut filters = [detected, generic];
+        let dt = 0.01;
+        for k in 1..=3_000u64 {
+            let s = static_sample(k, dt, &bg, &ba);
+            for f in filters.iter_mut() {
+                if k % 100 == 50 {
+                    let off = Vec3::new(0.3, -0.2, 0.1) * (k as f64 * 1e-3).sin();
+                    f.push(&Event::Gnss(fix_at(
+                        &truth,
+                        s.t - 0.5 * dt,
+                        &config().lever_arm_b,
+                        off,
+                    )));
+                }
+                f.push(&Event::Imu(s));
+            }
+        }
+        let [a, b] = &filters;
+        assert_eq!(a.covariance(), b.covariance());
+        assert_eq!(a.solution().lat.to_bits(), b.solution().lat.to_bits());
+        assert_eq!(a.imu_errors().bg, b.imu_errors().bg);
     }
 
     #[test]
