@@ -1,0 +1,509 @@
+//! `navfuse run` inputs: any of navfuse-io's IMU and GNSS readers, chosen by
+//! `[input]` keys or by file extension, put on one time base, with every
+//! record accounted for (read, used, skipped, rejected by reason).
+//!
+//! IMU: KF-GINS text (`kf-gins`) or the generic CSV reader (`csv`, with a
+//! preset or a column map). GNSS: KF-GINS text (`kf-gins`), RTKLIB `.pos`
+//! (`pos`), NMEA 0183 (`nmea`) or u-blox UBX NAV-PVT (`ubx`).
+//!
+//! Time: the run works on the IMU's time base. KF-GINS files carry the GPS
+//! time of week only; the other formats carry full GPS seconds. When the two
+//! streams differ, the GNSS times are moved to the IMU's base (the week is
+//! taken from the other stream). An optional `imu_time_offset` (seconds,
+//! added to every IMU stamp: true time = stamp + offset) corrects a known
+//! IMU–GNSS lag; `"auto"` estimates it first by course-rate / yaw-rate
+//! cross-correlation ([`crate::run::estimate_time_offset`]).
+
+use navfuse_core::types::{GnssFix, ImuSample};
+use navfuse_io::csv_imu::{AccelUnit, Col, CsvImuConfig, CsvImuReader, CsvTime, GyroUnit};
+use navfuse_io::error::RecordStats;
+use navfuse_io::imu::ImuForm;
+use navfuse_io::kfgins::{KfGinsGnssReader, KfGinsImuOptions, KfGinsImuReader};
+use navfuse_io::nmea::{NmeaOptions, NmeaReader};
+use navfuse_io::pos::PosReader;
+use navfuse_io::ubx::{UbxMessage, UbxReader};
+use serde::{Deserialize, Serialize};
+use std::path::Path;
+
+/// Seconds per GPS week.
+const WEEK: f64 = 604_800.0;
+
+/// A column of `[input.csv]`: header name or 0-based index.
+#[derive(Clone, Debug, Deserialize, Serialize, PartialEq)]
+#[serde(untagged)]
+pub enum ColCfg {
+    Index(usize),
+    Name(String),
+}
+
+impl ColCfg {
+    fn col(&self) -> Col {
+        match self {
+            ColCfg::Index(i) => Col::Index(*i),
+            ColCfg::Name(s) => Col::Name(s.clone()),
+        }
+    }
+}
+
+/// `[input.csv]`: the generic CSV IMU reader. Either `preset`
+/// (`drive_0708`, `vn310`) or the column map (`time`, or `week` + `tow`;
+/// `gyro`, `accel`); the other keys override the preset or the defaults
+/// (comma, header line, deg/s, m/s², rate form, sensor axes = body FRD).
+#[derive(Clone, Debug, Default, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct CsvCfg {
+    pub preset: Option<String>,
+    pub delimiter: Option<char>,
+    pub comment: Option<char>,
+    pub header: Option<bool>,
+    /// Seconds column (GPS seconds, or time of week with `gps_week`).
+    pub time: Option<ColCfg>,
+    pub week: Option<ColCfg>,
+    pub tow: Option<ColCfg>,
+    pub gps_week: Option<u32>,
+    pub gyro: Option<[ColCfg; 3]>,
+    pub accel: Option<[ColCfg; 3]>,
+    /// "deg" or "rad" (per second in rate form).
+    pub gyro_unit: Option<String>,
+    /// "g" or "m/s2".
+    pub accel_unit: Option<String>,
+    /// "rate" (trapezoid), "rate-rectangle" or "increment".
+    pub form: Option<String>,
+    /// Sensor axes w.r.t. body FRD: roll, pitch, yaw [deg].
+    pub mount_rpy_deg: Option<[f64; 3]>,
+    pub misalign_rpy_deg: Option<[f64; 3]>,
+    pub reject_repeated_values: Option<bool>,
+}
+
+/// `imu_time_offset`: a number of seconds or `"auto"`.
+#[derive(Clone, Debug, Deserialize, Serialize, PartialEq)]
+#[serde(untagged)]
+pub enum TimeOffsetCfg {
+    Seconds(f64),
+    Named(String),
+}
+
+/// What was read from one input file.
+#[derive(Clone, Debug, Serialize)]
+pub struct InputReport {
+    pub file: String,
+    pub format: &'static str,
+    pub lines_or_messages: u64,
+    /// Lines (messages) that went into a record.
+    pub used: u64,
+    /// Records produced (IMU samples, GNSS fixes; NMEA needs several
+    /// sentences per fix).
+    pub records: usize,
+    pub skipped: u64,
+    /// Rejected records by reason.
+    pub rejected: serde_json::Map<String, serde_json::Value>,
+}
+
+impl InputReport {
+    fn new(file: &Path, format: &'static str, st: &RecordStats, records: usize) -> Self {
+        InputReport {
+            file: file.display().to_string(),
+            format,
+            records,
+            lines_or_messages: st.lines,
+            used: st.used,
+            skipped: st.skipped,
+            rejected: st
+                .rejected
+                .iter()
+                .map(|(r, n)| (r.to_string(), serde_json::Value::from(*n)))
+                .collect(),
+        }
+    }
+
+    fn reject(&mut self, reason: &str, n: u64) {
+        if n > 0 {
+            self.used -= n;
+            let e = self.rejected.entry(reason).or_insert(0.into());
+            *e = (e.as_u64().unwrap_or(0) + n).into();
+        }
+    }
+}
+
+/// Both streams on the IMU's time base.
+pub struct Loaded {
+    pub imu: Vec<ImuSample>,
+    pub gnss: Vec<GnssFix>,
+    pub imu_report: InputReport,
+    pub gnss_report: InputReport,
+    /// How the GNSS times were put on the IMU's base.
+    pub time_base: String,
+    /// Offset added to the IMU stamps [s] and how it was found.
+    pub imu_time_offset: Option<(f64, String)>,
+}
+
+/// The IMU format named by `imu_format`, else by the extension (`.csv` →
+/// csv, anything else → kf-gins).
+fn imu_format(path: &Path, given: Option<&str>) -> Result<&'static str, String> {
+    match given {
+        Some("kf-gins") => Ok("kf-gins"),
+        Some("csv") => Ok("csv"),
+        Some(f) => Err(format!("imu_format {f:?}: expected kf-gins or csv")),
+        None => Ok(if ext_is(path, &["csv"]) {
+            "csv"
+        } else {
+            "kf-gins"
+        }),
+    }
+}
+
+/// The GNSS format named by `gnss_format`, else by the extension (`.pos`,
+/// `.nmea`/`.nma`/`.gga`, `.ubx`; anything else → kf-gins).
+fn gnss_format(path: &Path, given: Option<&str>) -> Result<&'static str, String> {
+    match given {
+        Some("kf-gins") => Ok("kf-gins"),
+        Some("pos") => Ok("pos"),
+        Some("nmea") => Ok("nmea"),
+        Some("ubx") => Ok("ubx"),
+        Some(f) => Err(format!(
+            "gnss_format {f:?}: expected kf-gins, pos, nmea or ubx"
+        )),
+        None => Ok(if ext_is(path, &["pos"]) {
+            "pos"
+        } else if ext_is(path, &["nmea", "nma", "gga"]) {
+            "nmea"
+        } else if ext_is(path, &["ubx"]) {
+            "ubx"
+        } else {
+            "kf-gins"
+        }),
+    }
+}
+
+fn ext_is(path: &Path, exts: &[&str]) -> bool {
+    path.extension()
+        .and_then(|e| e.to_str())
+        .is_some_and(|e| exts.iter().any(|x| e.eq_ignore_ascii_case(x)))
+}
+
+/// The reader configuration of `[input.csv]`.
+pub fn csv_config(c: &CsvCfg, rate_hz: f64) -> Result<CsvImuConfig, String> {
+    let mut cfg = match c.preset.as_deref() {
+        Some("drive_0708") => CsvImuConfig::drive_0708(),
+        Some("vn310") => CsvImuConfig::vn310(),
+        Some(p) => {
+            return Err(format!(
+                "[input.csv] preset {p:?}: expected drive_0708 or vn310"
+            ))
+        }
+        None => {
+            let gyro = c
+                .gyro
+                .as_ref()
+                .ok_or("[input.csv]: `gyro` columns missing (or give a preset)")?;
+            let accel = c
+                .accel
+                .as_ref()
+                .ok_or("[input.csv]: `accel` columns missing (or give a preset)")?;
+            let time = match (&c.time, &c.week, &c.tow) {
+                (Some(t), None, None) => CsvTime::Seconds(t.col()),
+                (None, Some(w), Some(t)) => CsvTime::WeekTow {
+                    week: w.col(),
+                    tow: t.col(),
+                },
+                _ => return Err("[input.csv]: give `time`, or `week` and `tow`".into()),
+            };
+            CsvImuConfig {
+                delimiter: b',',
+                comment: Some(b'#'),
+                header: true,
+                columns: None,
+                time,
+                week: 0,
+                gyro: [gyro[0].col(), gyro[1].col(), gyro[2].col()],
+                accel: [accel[0].col(), accel[1].col(), accel[2].col()],
+                gyro_unit: GyroUnit::Deg,
+                accel_unit: AccelUnit::Si,
+                form: ImuForm::RateTrapezoid,
+                mount_rpy_deg: None,
+                misalign_rpy_deg: None,
+                reject_repeated_values: false,
+                nominal_rate_hz: None,
+            }
+        }
+    };
+    let byte = |ch: char, key: &str| {
+        u8::try_from(ch)
+            .ok()
+            .filter(u8::is_ascii)
+            .ok_or_else(|| format!("[input.csv] {key}: {ch:?} is not one ASCII character"))
+    };
+    if let Some(d) = c.delimiter {
+        cfg.delimiter = byte(d, "delimiter")?;
+    }
+    if let Some(d) = c.comment {
+        cfg.comment = Some(byte(d, "comment")?);
+    }
+    if let Some(h) = c.header {
+        cfg.header = h;
+    }
+    if let Some(w) = c.gps_week {
+        cfg.week = w;
+    }
+    if let Some(u) = c.gyro_unit.as_deref() {
+        cfg.gyro_unit = match u {
+            "deg" => GyroUnit::Deg,
+            "rad" => GyroUnit::Rad,
+            _ => return Err(format!("[input.csv] gyro_unit {u:?}: expected deg or rad")),
+        };
+    }
+    if let Some(u) = c.accel_unit.as_deref() {
+        cfg.accel_unit = match u {
+            "g" => AccelUnit::G,
+            "m/s2" => AccelUnit::Si,
+            _ => return Err(format!("[input.csv] accel_unit {u:?}: expected g or m/s2")),
+        };
+    }
+    if let Some(f) = c.form.as_deref() {
+        cfg.form = match f {
+            "rate" => ImuForm::RateTrapezoid,
+            "rate-rectangle" => ImuForm::RateRectangle,
+            "increment" => ImuForm::Increment,
+            _ => {
+                return Err(format!(
+                    "[input.csv] form {f:?}: expected rate, rate-rectangle or increment"
+                ))
+            }
+        };
+    }
+    if c.mount_rpy_deg.is_some() {
+        cfg.mount_rpy_deg = c.mount_rpy_deg;
+    }
+    if c.misalign_rpy_deg.is_some() {
+        cfg.misalign_rpy_deg = c.misalign_rpy_deg;
+    }
+    if let Some(r) = c.reject_repeated_values {
+        cfg.reject_repeated_values = r;
+    }
+    cfg.nominal_rate_hz = Some(rate_hz);
+    Ok(cfg)
+}
+
+fn read_imu(
+    path: &Path,
+    format: &'static str,
+    csv: Option<&CsvCfg>,
+    rate_hz: f64,
+) -> Result<(Vec<ImuSample>, InputReport), String> {
+    let (rdr, name) = navfuse_io::open(path).map_err(|e| e.to_string())?;
+    let e = |e: navfuse_io::error::ReadError| e.to_string();
+    if format == "csv" {
+        let cfg = csv_config(&csv.cloned().unwrap_or_default(), rate_hz)
+            .map_err(|m| format!("{}: {m}", path.display()))?;
+        let mut r = CsvImuReader::new(rdr, &name, cfg);
+        let v = r.by_ref().collect::<Result<Vec<_>, _>>().map_err(e)?;
+        let rep = InputReport::new(path, format, r.stats(), v.len());
+        Ok((v, rep))
+    } else {
+        let opt = KfGinsImuOptions {
+            week: 0,
+            columns: 7,
+            nominal_rate_hz: Some(rate_hz),
+        };
+        let mut r = KfGinsImuReader::new(rdr, &name, opt);
+        let v = r.by_ref().collect::<Result<Vec<_>, _>>().map_err(e)?;
+        let rep = InputReport::new(path, format, r.stats(), v.len());
+        Ok((v, rep))
+    }
+}
+
+/// UBX: NAV-PVT with a valid 3-D fix are used; NAV-PVT without one are
+/// rejected ("NAV-PVT: no valid 3-D fix"); other message types are skipped.
+fn read_ubx(path: &Path) -> Result<(Vec<GnssFix>, InputReport), String> {
+    let (rdr, name) = navfuse_io::open(path).map_err(|e| e.to_string())?;
+    let mut r = UbxReader::new(rdr, &name);
+    let (mut fixes, mut no_fix, mut other) = (Vec::new(), 0u64, 0u64);
+    for m in r.by_ref() {
+        match m.map_err(|e| e.to_string())? {
+            UbxMessage::NavPvt(p) => match p.to_fix() {
+                Some(f) => fixes.push(f),
+                None => no_fix += 1,
+            },
+            _ => other += 1,
+        }
+    }
+    let mut rep = InputReport::new(path, "ubx", r.stats(), fixes.len());
+    rep.reject("NAV-PVT: no valid 3-D fix", no_fix);
+    rep.used -= other;
+    rep.skipped += other;
+    Ok((fixes, rep))
+}
+
+fn read_gnss(path: &Path, format: &'static str) -> Result<(Vec<GnssFix>, InputReport), String> {
+    if format == "ubx" {
+        return read_ubx(path);
+    }
+    let (rdr, name) = navfuse_io::open(path).map_err(|e| e.to_string())?;
+    let e = |e: navfuse_io::error::ReadError| e.to_string();
+    macro_rules! collect {
+        ($r:expr) => {{
+            let mut r = $r;
+            let v = r.by_ref().collect::<Result<Vec<_>, _>>().map_err(e)?;
+            let rep = InputReport::new(path, format, r.stats(), v.len());
+            (v, rep)
+        }};
+    }
+    Ok(match format {
+        "pos" => collect!(PosReader::new(rdr, &name)),
+        "nmea" => collect!(NmeaReader::new(rdr, &name, NmeaOptions::default())),
+        _ => collect!(KfGinsGnssReader::new(rdr, &name, 0)),
+    })
+}
+
+/// Puts the GNSS times on the IMU's base (see the module doc); returns how.
+fn align_time_bases(imu: &[ImuSample], gnss: &mut [GnssFix]) -> String {
+    let (Some(i0), Some(g0)) = (imu.first(), gnss.first()) else {
+        return "no data".into();
+    };
+    let imu_tow = i0.t < WEEK;
+    let gnss_tow = g0.t < WEEK;
+    match (imu_tow, gnss_tow) {
+        (true, false) => {
+            for g in gnss.iter_mut() {
+                g.t = navfuse_io::time::week_tow(g.t).1;
+            }
+            "GNSS GPS seconds → time of week (the IMU file carries the time of week)".into()
+        }
+        (false, true) => {
+            // The week that puts the first fix nearest the first IMU sample.
+            let week = ((i0.t - g0.t) / WEEK).round();
+            for g in gnss.iter_mut() {
+                g.t += week * WEEK;
+            }
+            format!("GNSS time of week + GPS week {week} (from the IMU file)")
+        }
+        (true, true) => "both files carry the GPS time of week".into(),
+        (false, false) => "both files carry GPS seconds".into(),
+    }
+}
+
+/// `[input]` as read by [`load`].
+pub struct InputSpec<'a> {
+    pub imu: &'a Path,
+    pub imu_format: Option<&'a str>,
+    pub imu_rate: f64,
+    pub csv: Option<&'a CsvCfg>,
+    pub gnss: &'a Path,
+    pub gnss_format: Option<&'a str>,
+    pub imu_time_offset: Option<&'a TimeOffsetCfg>,
+}
+
+/// Read both inputs, put them on the IMU's time base and apply the IMU time
+/// offset. Errors name the file, line and field.
+pub fn load(spec: &InputSpec) -> Result<Loaded, String> {
+    let imu_fmt = imu_format(spec.imu, spec.imu_format)?;
+    let gnss_fmt = gnss_format(spec.gnss, spec.gnss_format)?;
+    let (mut imu, imu_report) = read_imu(spec.imu, imu_fmt, spec.csv, spec.imu_rate)?;
+    let (mut gnss, gnss_report) = read_gnss(spec.gnss, gnss_fmt)?;
+    gnss.sort_by(|a, b| a.t.total_cmp(&b.t));
+    let time_base = align_time_bases(&imu, &mut gnss);
+    let imu_time_offset = match spec.imu_time_offset {
+        None => None,
+        Some(TimeOffsetCfg::Seconds(s)) if s.is_finite() && s.abs() < 10.0 => {
+            Some((*s, "given".to_string()))
+        }
+        Some(TimeOffsetCfg::Seconds(s)) => return Err(format!(
+            "[input] imu_time_offset {s}: expected a finite number of seconds below 10 or \"auto\""
+        )),
+        Some(TimeOffsetCfg::Named(n)) if n == "auto" => {
+            let (tau, r) = crate::run::estimate_time_offset(&imu, &gnss, 0.5).ok_or(
+                "[input] imu_time_offset = \"auto\": no estimate (needs ≥ 30 turning GNSS course pairs at ≥ 3 m/s)",
+            )?;
+            Some((
+                tau,
+                format!("estimated by course-rate / yaw-rate cross-correlation (r = {r:.4})"),
+            ))
+        }
+        Some(TimeOffsetCfg::Named(n)) => {
+            return Err(format!(
+                "[input] imu_time_offset {n:?}: expected seconds or \"auto\""
+            ))
+        }
+    };
+    if let Some((tau, _)) = imu_time_offset {
+        for s in imu.iter_mut() {
+            s.t += tau;
+        }
+    }
+    Ok(Loaded {
+        imu,
+        gnss,
+        imu_report,
+        gnss_report,
+        time_base,
+        imu_time_offset,
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn formats_from_extension_and_keys() {
+        let p = Path::new;
+        assert_eq!(imu_format(p("a.csv"), None).unwrap(), "csv");
+        assert_eq!(imu_format(p("a.txt"), None).unwrap(), "kf-gins");
+        assert_eq!(imu_format(p("a.dat"), Some("csv")).unwrap(), "csv");
+        assert!(imu_format(p("a"), Some("xsens"))
+            .unwrap_err()
+            .contains("xsens"));
+        assert_eq!(gnss_format(p("a.POS"), None).unwrap(), "pos");
+        assert_eq!(gnss_format(p("a.nmea"), None).unwrap(), "nmea");
+        assert_eq!(gnss_format(p("a.ubx"), None).unwrap(), "ubx");
+        assert_eq!(gnss_format(p("gnss.txt"), None).unwrap(), "kf-gins");
+        assert!(gnss_format(p("a"), Some("rinex"))
+            .unwrap_err()
+            .contains("rinex"));
+    }
+
+    #[test]
+    fn csv_config_needs_columns_or_a_preset() {
+        let e = csv_config(&CsvCfg::default(), 100.0).unwrap_err();
+        assert!(e.contains("gyro"), "{e}");
+        let c = CsvCfg {
+            preset: Some("vn310".into()),
+            ..Default::default()
+        };
+        assert_eq!(csv_config(&c, 50.0).unwrap().nominal_rate_hz, Some(50.0));
+        let c = CsvCfg {
+            time: Some(ColCfg::Name("t".into())),
+            gyro: Some([0, 1, 2].map(ColCfg::Index)),
+            accel: Some([3, 4, 5].map(ColCfg::Index)),
+            gyro_unit: Some("rpm".into()),
+            ..Default::default()
+        };
+        assert!(csv_config(&c, 100.0).unwrap_err().contains("rpm"));
+    }
+
+    #[test]
+    fn gnss_time_of_week_moves_to_the_imu_week_and_back() {
+        let week = 2374.0;
+        let imu = [ImuSample {
+            t: week * WEEK + 604_790.0,
+            ..Default::default()
+        }];
+        // Fixes after the week rollover keep increasing.
+        let mut g = [5.0, 15.0].map(|t| GnssFix {
+            t,
+            ..Default::default()
+        });
+        let how = align_time_bases(&imu, &mut g);
+        assert_eq!(g[0].t, (week + 1.0) * WEEK + 5.0, "{how}");
+        let imu_tow = [ImuSample {
+            t: 243_000.0,
+            ..Default::default()
+        }];
+        let mut g = [GnssFix {
+            t: week * WEEK + 243_001.0,
+            ..Default::default()
+        }];
+        align_time_bases(&imu_tow, &mut g);
+        assert_eq!(g[0].t, 243_001.0);
+    }
+}
