@@ -42,6 +42,11 @@ pub struct Args {
     /// Print a one-line summary with timing and update counts to stderr.
     #[arg(long, short)]
     pub verbose: bool,
+    /// IMU–GNSS time offset added to the IMU stamps: seconds, `auto`
+    /// (course-rate / yaw-rate cross-correlation) or `none`. Default: `auto`
+    /// with `--enhanced`, else `none` (KF-GINS applies none).
+    #[arg(long)]
+    pub time_offset: Option<String>,
     /// Print accuracy against this reference (KF-GINS .nav layout of the
     /// antenna, e.g. `truth.nav`): horizontal/vertical RMS and, with
     /// `--outages`, the per-outage maximum horizontal drift and its RMS.
@@ -162,15 +167,39 @@ pub fn run(args: Args) -> Result<(), String> {
 pub fn run_config(args: &Args) -> Result<KfGinsRun, String> {
     let t_read = Instant::now();
     let cfg = KfGinsConfig::load(&args.config)?;
-    let input = ingest::read_kfgins(&cfg)?;
+    let mut input = ingest::read_kfgins(&cfg)?;
+    let mode = args
+        .time_offset
+        .clone()
+        .unwrap_or_else(|| if args.enhanced { "auto" } else { "none" }.into());
+    let applied = match mode.as_str() {
+        "none" => None,
+        "auto" => match ingest::estimate_time_offset(&input.imu, &input.gnss, 0.5) {
+            Some((tau, r)) => Some((tau, format!("course-rate/yaw-rate correlation, r = {r:.4}"))),
+            None => {
+                eprintln!("IMU–GNSS time offset: not estimable (too little turning at speed); none applied");
+                None
+            }
+        },
+        s => match s.parse::<f64>() {
+            Ok(v) if v.is_finite() && v.abs() < 10.0 => Some((v, "given".into())),
+            _ => {
+                return Err(format!(
+                    "--time-offset {s:?}: expected seconds (|τ| < 10), auto or none"
+                ))
+            }
+        },
+    };
+    if let Some((tau, how)) = &applied {
+        for s in input.imu.iter_mut() {
+            s.t += tau;
+        }
+        if args.verbose {
+            eprintln!("IMU–GNSS time offset {tau:+.3} s added to the IMU stamps ({how})");
+        }
+    }
     if args.verbose {
         eprintln!("read inputs: {:.3} s", t_read.elapsed().as_secs_f64());
-        match ingest::estimate_time_offset(&input.imu, &input.gnss, 0.5) {
-            Some((tau, r)) => eprintln!(
-                "IMU–GNSS time offset (course-rate/yaw-rate correlation): {tau:+.3} s to add to the IMU stamps, r = {r:.4} (reported, not applied)"
-            ),
-            None => eprintln!("IMU–GNSS time offset: not estimable"),
-        }
     }
     let mut ecfg = cfg.eskf_config();
     if args.enhanced {
@@ -805,6 +834,7 @@ mod tests {
             smooth: false,
             output: Some(out.to_path_buf()),
             verbose: false,
+            time_offset: None,
             truth: None,
             outages: None,
             compare: None,

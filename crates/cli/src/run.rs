@@ -662,7 +662,9 @@ fn run_report(out_dir: &Path, truth: Option<&Path>, gnss: &Path) -> Result<(), S
 
 /// IMU–GNSS time offset by cross-correlation of the GNSS course rate with the
 /// IMU yaw rate (body z gyro, FRD: both positive turning right), over
-/// intervals between consecutive fixes (thinned to ~1 s) with speed ≥ 3 m/s. Returns the
+/// intervals between consecutive fixes (thinned to ~1 s) with speed ≥ 3 m/s;
+/// robust to GNSS outliers (velocity changes beyond 1 g skipped, then pairs
+/// beyond 5 robust σ of the gyro agreement dropped and the scan repeated). Returns the
 /// offset `τ` [s] to add to the IMU stamps (best in ±`max_lag`, 5 ms steps)
 /// and the correlation coefficient there. `None` without enough turning data.
 pub fn estimate_time_offset(
@@ -694,57 +696,87 @@ pub fn estimate_time_offset(
         }
     }
     // Course at each fix from the neighbouring fixes, then course rate.
+    // A triple whose velocity change needs more than 1 g is skipped: no car
+    // does that, a GNSS outlier does.
     let mut pairs = Vec::new();
     for w in thinned.windows(3) {
-        let course = |a: &GnssFix, b: &GnssFix| {
+        let vel = |a: &GnssFix, b: &GnssFix| {
             let (rm, rn) = navfuse_core::earth::radii(a.lat);
+            let dt = b.t - a.t;
             let dn = (b.lat - a.lat) * (rm + a.h);
             let de = (b.lon - a.lon) * (rn + a.h) * a.lat.cos();
-            let dt = b.t - a.t;
-            (de.atan2(dn), dn.hypot(de) / dt, dt)
+            (dn / dt, de / dt, dt)
         };
-        let (c0, v0, dt0) = course(&w[0], &w[1]);
-        let (c1, v1, dt1) = course(&w[1], &w[2]);
+        let (n0, e0, dt0) = vel(&w[0], &w[1]);
+        let (n1, e1, dt1) = vel(&w[1], &w[2]);
+        let (v0, v1) = (n0.hypot(e0), n1.hypot(e1));
         if v0 < 3.0 || v1 < 3.0 || !(0.5..2.0).contains(&dt0) || !(0.5..2.0).contains(&dt1) {
             continue;
         }
-        let mut d = c1 - c0;
+        if (n1 - n0).hypot(e1 - e0) > 9.81 * 0.5 * (dt0 + dt1) {
+            continue;
+        }
+        let mut d = e1.atan2(n1) - e0.atan2(n0);
         d -= std::f64::consts::TAU * (d / std::f64::consts::TAU).round();
         // Course change between the interval midpoints.
         let (ta, tb) = (0.5 * (w[0].t + w[1].t), 0.5 * (w[1].t + w[2].t));
         pairs.push((ta, tb, d));
     }
-    if pairs.len() < 30 {
-        return None;
-    }
-    let mut best: Option<(f64, f64)> = None;
-    let steps = (max_lag / 0.005).round() as i64;
-    for i in -steps..=steps {
-        let tau = i as f64 * 0.005;
-        let (mut sx, mut sy, mut sxx, mut syy, mut sxy, mut n) = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0);
-        for &(ta, tb, d) in &pairs {
-            // IMU stamp + τ = true time  ⇒  IMU angle over [ta − τ, tb − τ].
-            let (Some(a), Some(b)) = (angle_at(ta - tau), angle_at(tb - tau)) else {
+    // IMU stamp + τ = true time  ⇒  IMU angle over [ta − τ, tb − τ].
+    let imu_angle = |ta: f64, tb: f64, tau: f64| -> Option<f64> {
+        Some(angle_at(tb - tau)? - angle_at(ta - tau)?)
+    };
+    let scan = |pairs: &[(f64, f64, f64)]| -> Option<(f64, f64)> {
+        if pairs.len() < 30 {
+            return None;
+        }
+        let mut best: Option<(f64, f64)> = None;
+        let steps = (max_lag / 0.005).round() as i64;
+        for i in -steps..=steps {
+            let tau = i as f64 * 0.005;
+            let (mut sx, mut sy, mut sxx, mut syy, mut sxy, mut n) = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0);
+            for &(ta, tb, d) in pairs {
+                let Some(g) = imu_angle(ta, tb, tau) else {
+                    continue;
+                };
+                sx += d;
+                sy += g;
+                sxx += d * d;
+                syy += g * g;
+                sxy += d * g;
+                n += 1.0;
+            }
+            if n < 30.0 {
                 continue;
-            };
-            let g = b - a;
-            sx += d;
-            sy += g;
-            sxx += d * d;
-            syy += g * g;
-            sxy += d * g;
-            n += 1.0;
+            }
+            let cov = sxy / n - sx * sy / (n * n);
+            let r = cov / ((sxx / n - (sx / n).powi(2)) * (syy / n - (sy / n).powi(2))).sqrt();
+            if best.is_none_or(|(_, br)| r > br) {
+                best = Some((tau, r));
+            }
         }
-        if n < 30.0 {
-            continue;
-        }
-        let cov = sxy / n - sx * sy / (n * n);
-        let r = cov / ((sxx / n - (sx / n).powi(2)) * (syy / n - (sy / n).powi(2))).sqrt();
-        if best.is_none_or(|(_, br)| r > br) {
-            best = Some((tau, r));
-        }
-    }
-    best
+        best
+    };
+    let (tau, _) = scan(&pairs)?;
+    // Second pass without the pairs whose course change disagrees with the
+    // gyro by more than 5 robust σ (median absolute deviation) at that τ.
+    let resid: Vec<f64> = pairs
+        .iter()
+        .map(|&(ta, tb, d)| imu_angle(ta, tb, tau).map_or(f64::INFINITY, |g| d - g))
+        .collect();
+    let mut sorted: Vec<f64> = resid.iter().copied().filter(|e| e.is_finite()).collect();
+    sorted.sort_by(f64::total_cmp);
+    let med = *sorted.get(sorted.len() / 2)?;
+    let mut dev: Vec<f64> = sorted.iter().map(|e| (e - med).abs()).collect();
+    dev.sort_by(f64::total_cmp);
+    let limit = (5.0 * 1.4826 * dev[dev.len() / 2]).max(1e-3);
+    let kept: Vec<(f64, f64, f64)> = pairs
+        .iter()
+        .zip(&resid)
+        .filter(|(_, e)| (*e - med).abs() <= limit)
+        .map(|(p, _)| *p)
+        .collect();
+    scan(&kept)
 }
 
 /// Time-ordered inputs of one run.

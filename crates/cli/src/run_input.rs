@@ -407,9 +407,11 @@ pub fn load(spec: &InputSpec) -> Result<Loaded, String> {
         Some(TimeOffsetCfg::Seconds(s)) if s.is_finite() && s.abs() < 10.0 => {
             Some((*s, "given".to_string()))
         }
-        Some(TimeOffsetCfg::Seconds(s)) => return Err(format!(
+        Some(TimeOffsetCfg::Seconds(s)) => {
+            return Err(format!(
             "[input] imu_time_offset {s}: expected a finite number of seconds below 10 or \"auto\""
-        )),
+        ))
+        }
         Some(TimeOffsetCfg::Named(n)) if n == "auto" => {
             let (tau, r) = crate::run::estimate_time_offset(&imu, &gnss, 0.5).ok_or(
                 "[input] imu_time_offset = \"auto\": no estimate (needs ≥ 30 turning GNSS course pairs at ≥ 3 m/s)",
