@@ -90,6 +90,14 @@ pub struct AttitudeKfConfig {
     /// After this many consecutive gated course updates the yaw is reset to
     /// the course (a yaw error beyond the gate is otherwise never repaired).
     pub course_reset_after: u32,
+    /// Remove the vehicle's centripetal acceleration `ω_b × v_b` from the
+    /// tilt measurement when the caller gives the velocity
+    /// ([`AttitudeKf::set_velocity`]; navfuse extension, Groves §10.1.3's
+    /// motion compensation of accelerometer levelling). Without it a steady
+    /// turn (|f| ≈ g, slow yaw rate: the gates pass it) levels the filter on
+    /// the tilted apparent vertical and the turn's acceleration is lost from
+    /// the horizontal channel.
+    pub centripetal_compensation: bool,
 }
 
 impl Default for AttitudeKfConfig {
@@ -116,6 +124,7 @@ impl Default for AttitudeKfConfig {
             course_sigma_rad: 3.0 * deg,
             gate_nis: 25.0,
             course_reset_after: 20,
+            centripetal_compensation: true,
         }
     }
 }
@@ -153,6 +162,8 @@ pub struct AttitudeKf {
     acc_w: f64,
     since_ortho: u32,
     course_rejects: u32,
+    /// Vehicle velocity in NED from the caller (for the centripetal term).
+    v_n: Option<Vec3>,
     stats: AttitudeStats,
 }
 
@@ -174,6 +185,7 @@ impl AttitudeKf {
             acc_w: 0.0,
             since_ortho: 0,
             course_rejects: 0,
+            v_n: None,
             stats: AttitudeStats::default(),
         }
     }
@@ -309,8 +321,14 @@ impl AttitudeKf {
     /// Tilt, HDR and HSR over one averaging window.
     fn window_update(&mut self) {
         let g = self.cfg.gravity_m_s2;
-        let f_b = self.acc_dv / self.acc_dt * self.accel_scale;
         let w_b = self.acc_dth / self.acc_dt - self.b_g;
+        let mut f_b = self.acc_dv / self.acc_dt * self.accel_scale;
+        if let (true, true, Some(v_n)) =
+            (self.cfg.centripetal_compensation, self.yaw_valid, self.v_n)
+        {
+            // f = a − g with a_b = ω_b × v_b for a body-fixed velocity.
+            f_b -= w_b.cross(&(self.c_bn.transpose() * v_n));
+        }
         let quasi_static = (f_b.norm() - g).abs() < self.cfg.tilt_gate_g * g
             && w_b.norm() < self.cfg.tilt_gyro_gate_rad_s;
         if !quasi_static {
@@ -348,6 +366,12 @@ impl AttitudeKf {
             self.b_g.z += self.cfg.hdr_step_rad_s * w_b.z.signum();
             self.stats.hdr_steps += 1;
         }
+    }
+
+    /// The vehicle velocity in NED [m/s] (None: unknown), used by
+    /// [`AttitudeKfConfig::centripetal_compensation`].
+    pub fn set_velocity(&mut self, v_n: Option<Vec3>) {
+        self.v_n = v_n;
     }
 
     /// Set the yaw (keeping roll and pitch), e.g. from the first GNSS course.
@@ -430,6 +454,54 @@ mod tests {
         );
         assert!((a.gyro_bias() - bias).norm() < 0.003, "{}", a.gyro_bias());
         assert!(a.stats().tilt_updates > 500);
+    }
+
+    /// A level car in a steady 4°/s turn at 19 m/s (centripetal 1.3 m/s²,
+    /// so |f| − g and the yaw rate pass the quasi-static gates): with the
+    /// velocity given, the tilt updates keep the roll level; without it they
+    /// level the filter on the apparent vertical, ~7.6° off.
+    #[test]
+    fn steady_turn_keeps_level_with_centripetal_compensation() {
+        let run = |compensate: bool| {
+            let mut a = AttitudeKf::new(AttitudeKfConfig {
+                hdr_step_rad_s: 0.0,
+                centripetal_compensation: compensate,
+                ..Default::default()
+            });
+            let mut rng = SplitMix64::new(9);
+            for k in 0..300 {
+                a.push(&static_sample(
+                    k as f64 * 0.01,
+                    &Mat3::identity(),
+                    &Vec3::zeros(),
+                    &mut rng,
+                ));
+            }
+            a.set_yaw(0.0);
+            let (v, w) = (19.0, 4.0f64.to_radians());
+            let mut yaw = 0.0f64;
+            let mut worst: f64 = 0.0;
+            for k in 0..6000 {
+                let dt = 0.01;
+                a.set_velocity(Some(Vec3::new(v * yaw.cos(), v * yaw.sin(), 0.0)));
+                let f_b = Vec3::new(0.0, v * w, -G);
+                let n =
+                    |r: &mut SplitMix64, s: f64| Vec3::new(r.normal(), r.normal(), r.normal()) * s;
+                a.push(&ImuSample {
+                    t: 3.0 + k as f64 * dt,
+                    dt,
+                    dtheta_b: Vec3::new(0.0, 0.0, w * dt) + n(&mut rng, 0.1f64.to_radians() * dt),
+                    dvel_b: f_b * dt + n(&mut rng, 0.05 * dt),
+                });
+                yaw += w * dt;
+                worst = worst.max(a.rpy().x.abs());
+            }
+            worst.to_degrees()
+        };
+        let (with, without) = (run(true), run(false));
+        eprintln!("steady turn: max |roll| {with:.2}° compensated, {without:.2}° not");
+        assert!(with < 0.5, "compensated roll {with}°");
+        assert!(without > 3.0, "uncompensated roll {without}°");
     }
 
     #[test]

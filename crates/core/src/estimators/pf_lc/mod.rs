@@ -158,6 +158,13 @@ impl PfLc {
     }
 
     fn push_imu(&mut self, s: &ImuSample) -> Option<NavSolution> {
+        let v = if self.pv.is_init() {
+            let [vn, ve] = self.pv.vel();
+            Some(Vec3::new(vn, ve, 0.0))
+        } else {
+            None
+        };
+        self.att.set_velocity(v);
         let dv_n = self.att.push(s);
         if s.dt > 0.0 {
             self.yaw_rate =
