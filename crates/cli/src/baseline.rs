@@ -19,7 +19,7 @@ use clap::Args as ClapArgs;
 use nalgebra::{DMatrix, DVector};
 use std::path::{Path, PathBuf};
 
-use navfuse_core::gnss::{c_e_enu, KeplerOrbit, C_LIGHT, LAMBDA_L1, LAMBDA_L2, OMEGA_E_DOT};
+use navfuse_core::gnss::{c_e_enu, tropo, KeplerOrbit, C_LIGHT, LAMBDA_L1, LAMBDA_L2, OMEGA_E_DOT};
 use navfuse_core::Vec3;
 use navfuse_io::rinex::{read_nav, read_obs, select_ephemeris, ObsFile};
 
@@ -50,6 +50,16 @@ pub struct Args {
     /// Epoch pairing tolerance [s].
     #[arg(long, default_value_t = 0.02)]
     pub pair_tol: f64,
+    /// Reject epochs whose GDOP exceeds this (RTKLIB `pos2-rejgdop`, default
+    /// 30); rejected epochs are counted, not solved.
+    #[arg(long, default_value_t = 30.0)]
+    pub max_gdop: f64,
+    /// Do not model the troposphere (Saastamoinen + Niell at both sites).
+    #[arg(long)]
+    pub no_trop: bool,
+    /// Relative humidity for the tropospheric model (0: hydrostatic only).
+    #[arg(long, default_value_t = 0.0)]
+    pub humidity: f64,
     /// Reference baseline ECEF (dx,dy,dz) [m] to print errors against.
     #[arg(long, value_delimiter = ',', allow_hyphen_values = true)]
     pub reference: Option<Vec<f64>>,
@@ -69,6 +79,15 @@ pub struct Opts {
     /// Phase noise a, b [m] of σ² = a² + b²/sin²el; code = `code_factor` × phase.
     pub sigma_phase: f64,
     pub code_factor: f64,
+    /// Model the troposphere at both sites (Saastamoinen + Niell,
+    /// [`navfuse_core::gnss::tropo`]) with relative humidity `humidity`
+    /// (0: hydrostatic part only, as RTKLIB's relative mode).
+    pub trop: bool,
+    pub humidity: f64,
+    /// Reject epochs whose rover GDOP (satellites used, clock included)
+    /// exceeds this, before the filter sees them (RTKLIB `pos2-rejgdop`,
+    /// default 30). Rejected epochs are counted in [`Summary::rejected`].
+    pub max_gdop: f64,
 }
 
 impl Default for Opts {
@@ -81,6 +100,9 @@ impl Default for Opts {
             pair_tol: 0.02,
             sigma_phase: 0.003,
             code_factor: 100.0,
+            trop: true,
+            humidity: 0.0,
+            max_gdop: 30.0,
         }
     }
 }
@@ -88,22 +110,71 @@ impl Default for Opts {
 /// One processed epoch.
 #[derive(Clone, Debug)]
 pub struct EpochOut {
+    /// 1-based number among the paired epochs (solved and rejected).
+    pub epoch: usize,
     pub t: f64,
     pub n_sats: usize,
     /// Baseline rover − base, ECEF [m]: float and (when the ratio passes) fixed.
     pub float_b: Vec3,
     pub fixed_b: Option<Vec3>,
     pub ratio: f64,
-    /// Position dilution of precision of the rover's satellites used.
+    /// Position and geometric dilution of precision of the rover's
+    /// satellites used (GDOP includes the receiver clock).
     pub pdop: f64,
+    pub gdop: f64,
 }
 
-/// Processing summary.
+/// Why a paired epoch produced no solution.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum RejectReason {
+    /// Fewer than 4 common satellites above the mask with all observables.
+    FewSatellites,
+    /// GDOP above [`Opts::max_gdop`].
+    Gdop,
+    /// The innovation covariance could not be inverted.
+    Singular,
+}
+
+impl RejectReason {
+    pub fn label(self) -> &'static str {
+        match self {
+            RejectReason::FewSatellites => "few_satellites",
+            RejectReason::Gdop => "gdop",
+            RejectReason::Singular => "singular",
+        }
+    }
+}
+
+/// A paired epoch without a solution (the filter state is left untouched).
+#[derive(Clone, Debug)]
+pub struct Rejected {
+    /// 1-based number among the paired epochs.
+    pub epoch: usize,
+    pub t: f64,
+    pub n_sats: usize,
+    pub gdop: f64,
+    pub reason: RejectReason,
+}
+
+/// Processing summary. Every paired epoch is either in `epochs` (solved,
+/// float or fixed) or in `rejected` (with its reason).
 #[derive(Clone, Debug, Default)]
 pub struct Summary {
     pub epochs: Vec<EpochOut>,
+    pub rejected: Vec<Rejected>,
     pub unpaired: usize,
     pub slips: usize,
+}
+
+impl Summary {
+    /// Paired epochs: solved plus rejected.
+    pub fn paired(&self) -> usize {
+        self.epochs.len() + self.rejected.len()
+    }
+    /// Rejected epochs for `reason`.
+    pub fn rejected_for(&self, reason: RejectReason) -> usize {
+        self.rejected.iter().filter(|r| r.reason == reason).count()
+    }
 }
 
 const NPRN: usize = 33;
@@ -175,6 +246,7 @@ pub fn process(
     let navfuse_core::geodesy::Geodetic { lat, lon, .. } =
         navfuse_core::geodesy::ecef_to_geodetic(&base_pos);
     let c_enu = c_e_enu(lat, lon);
+    let base_geo = navfuse_core::geodesy::ecef_to_geodetic(&base_pos);
     let mut out = Summary::default();
     let mut j = 0usize;
     for be in &base.epochs {
@@ -188,6 +260,7 @@ pub fn process(
             continue;
         }
         j += 1;
+        let epoch = out.paired() + 1;
         if opts.kinematic {
             for i in 0..3 {
                 for k in 0..ns {
@@ -198,6 +271,16 @@ pub fn process(
             }
         }
         let xr = Vec3::new(x[0], x[1], x[2]);
+        let rover_geo = navfuse_core::geodesy::ecef_to_geodetic(&xr);
+        let c_enu_r = c_e_enu(rover_geo.lat, rover_geo.lon);
+        let doy = tropo::day_of_year(be.t);
+        let trop = |geo: &navfuse_core::geodesy::Geodetic, el: f64| {
+            if opts.trop {
+                tropo::slant_delay(el, geo.lat, geo.h, doy, opts.humidity)
+            } else {
+                0.0
+            }
+        };
         // Common satellites with L1+C1 (and L2+P2), healthy ephemeris, above the mask.
         struct S {
             prn: usize,
@@ -206,6 +289,7 @@ pub fn process(
             sd_phi: [f64; 2],
             sd_code: [f64; 2],
             slip: [bool; 2],
+            // modelled ranges incl. troposphere [m], rover line of sight (ECEF)
             rho_b: f64,
             rho_r: f64,
             e_r: Vec3,
@@ -236,6 +320,9 @@ pub fn process(
             if el < opts.mask {
                 continue;
             }
+            let el_r = (c_enu_r * e_r).z.asin();
+            let rho_b = rho_b + trop(&base_geo, el);
+            let rho_r = rho_r + trop(&rover_geo, el_r);
             let mut s = S {
                 prn: *prn as usize,
                 el,
@@ -260,10 +347,15 @@ pub fn process(
                 sats.push(s);
             }
         }
-        if sats.len() < 4 {
-            continue;
-        }
         sats.sort_by(|a, b| b.el.total_cmp(&a.el));
+        let (pdop, gdop) = dops(sats.iter().map(|s| s.e_r));
+        let reject = if sats.len() < 4 {
+            Some(RejectReason::FewSatellites)
+        } else if gdop.is_nan() || gdop > opts.max_gdop {
+            Some(RejectReason::Gdop)
+        } else {
+            None
+        };
         let lam = [LAMBDA_L1, LAMBDA_L2];
         // Ambiguity states: reset on slips or (re)appearance; drop vanished.
         for f in 0..nf {
@@ -295,6 +387,19 @@ pub fn process(
                     x[k] = 0.0;
                 }
             }
+        }
+        // A rejected epoch still resets slipped ambiguities (above) but does
+        // not update the filter (RTKLIB: no relative solution when the
+        // point positioning fails its GDOP check).
+        if let Some(reason) = reject {
+            out.rejected.push(Rejected {
+                epoch,
+                t: be.t,
+                n_sats: sats.len(),
+                gdop,
+                reason,
+            });
+            continue;
         }
         let m = sats.len() - 1;
         let nm = 2 * nf * m;
@@ -345,6 +450,13 @@ pub fn process(
         let pht = &p * h.transpose();
         let s_mat = &h * &pht + &r;
         let Some(s_inv) = s_mat.clone().try_inverse() else {
+            out.rejected.push(Rejected {
+                epoch,
+                t: be.t,
+                n_sats: sats.len(),
+                gdop,
+                reason: RejectReason::Singular,
+            });
             continue;
         };
         let k = &pht * &s_inv;
@@ -378,25 +490,35 @@ pub fn process(
                 }
             }
         }
-        let mut g = nalgebra::Matrix4::<f64>::zeros();
-        for s in &sats {
-            let row = nalgebra::Vector4::new(-s.e_r.x, -s.e_r.y, -s.e_r.z, 1.0);
-            g += row * row.transpose();
-        }
-        let pdop = g
-            .try_inverse()
-            .map(|q| (q[(0, 0)] + q[(1, 1)] + q[(2, 2)]).sqrt())
-            .unwrap_or(f64::INFINITY);
         out.epochs.push(EpochOut {
+            epoch,
             t: be.t,
             n_sats: sats.len(),
             float_b,
             fixed_b,
             ratio,
             pdop,
+            gdop,
         });
     }
     Ok(out)
+}
+
+/// PDOP and GDOP of unit lines of sight (ECEF; any frame gives the same
+/// traces): `Q = (GᵀG)⁻¹` with rows `[−eᵀ, 1]`, PDOP = √(Q₁₁+Q₂₂+Q₃₃),
+/// GDOP = √tr Q (Misra & Enge §6.1.2). ∞ when fewer than 4 satellites or singular.
+fn dops(los: impl Iterator<Item = Vec3>) -> (f64, f64) {
+    let mut g = nalgebra::Matrix4::<f64>::zeros();
+    for e in los {
+        let row = nalgebra::Vector4::new(-e.x, -e.y, -e.z, 1.0);
+        g += row * row.transpose();
+    }
+    match g.try_inverse() {
+        Some(q) if q.trace() > 0.0 => {
+            ((q[(0, 0)] + q[(1, 1)] + q[(2, 2)]).sqrt(), q.trace().sqrt())
+        }
+        _ => (f64::INFINITY, f64::INFINITY),
+    }
 }
 
 /// ENU components of an ECEF baseline error at the base.
@@ -410,58 +532,67 @@ fn enu_at(base: &ObsFile, d: &Vec3) -> Vec3 {
 /// RTKLIB 2.4.2 reference baseline 0759→3040 (data README).
 pub const GEONET_REF: [f64; 3] = [-2022.7699, 468.6277, -2610.2896];
 
-/// Statistics of a run against a reference baseline.
+/// Statistics of a run against a reference baseline. Epoch numbers and the
+/// fix rate count every paired epoch (rejected ones included); the RMS is
+/// over the fixed epochs (`fixed` of them).
 pub struct Stats {
+    /// Paired epochs, and how many of them were rejected (by reason).
     pub n: usize,
+    pub rejected_gdop: usize,
+    pub rejected_few_sats: usize,
+    pub rejected_singular: usize,
     pub fixed: usize,
+    /// `fixed / n`.
+    pub fix_rate: f64,
     pub first_fix_epoch: Option<usize>,
+    /// First fixed epoch within 5 cm of the reference, and its ratio.
     pub first_correct_fix_epoch: Option<usize>,
+    pub first_correct_fix_ratio: f64,
     pub wrong_fixed: usize,
     pub last_float_err: Vec3,
     pub last_fixed_err: Option<Vec3>,
     pub last_ratio: f64,
+    /// 3D RMS of the fixed baselines against the reference [m].
     pub rms_fixed_3d: f64,
+    /// 3D RMS of the float baselines of the solved epochs [m].
     pub rms_float_3d: f64,
-    /// RMS 3D over fixed epochs with PDOP ≤ 10, and their count.
-    pub rms_fixed_3d_pdop10: f64,
-    pub n_fixed_pdop10: usize,
 }
 
 pub fn stats(sum: &Summary, reference: &Vec3) -> Stats {
     let mut st = Stats {
-        n: sum.epochs.len(),
+        n: sum.paired(),
+        rejected_gdop: sum.rejected_for(RejectReason::Gdop),
+        rejected_few_sats: sum.rejected_for(RejectReason::FewSatellites),
+        rejected_singular: sum.rejected_for(RejectReason::Singular),
         fixed: 0,
+        fix_rate: f64::NAN,
         first_fix_epoch: None,
         first_correct_fix_epoch: None,
+        first_correct_fix_ratio: f64::NAN,
         wrong_fixed: 0,
         last_float_err: Vec3::repeat(f64::NAN),
         last_fixed_err: None,
         last_ratio: f64::NAN,
         rms_fixed_3d: f64::NAN,
         rms_float_3d: f64::NAN,
-        rms_fixed_3d_pdop10: f64::NAN,
-        n_fixed_pdop10: 0,
     };
-    let (mut sf, mut nf, mut sfl) = (0.0, 0usize, 0.0);
-    let mut sp = 0.0;
-    for (k, e) in sum.epochs.iter().enumerate() {
+    let (mut sf, mut sfl) = (0.0, 0.0);
+    for e in &sum.epochs {
         sfl += (e.float_b - reference).norm_squared();
         if let Some(b) = e.fixed_b {
             st.fixed += 1;
-            st.first_fix_epoch.get_or_insert(k + 1);
+            st.first_fix_epoch.get_or_insert(e.epoch);
             let err = (b - reference).norm();
             // "Correct" = within 5 cm of the reference (evaluation only).
             if err < 0.05 {
-                st.first_correct_fix_epoch.get_or_insert(k + 1);
+                if st.first_correct_fix_epoch.is_none() {
+                    st.first_correct_fix_epoch = Some(e.epoch);
+                    st.first_correct_fix_ratio = e.ratio;
+                }
             } else {
                 st.wrong_fixed += 1;
             }
             sf += err * err;
-            nf += 1;
-            if e.pdop <= 10.0 {
-                sp += err * err;
-                st.n_fixed_pdop10 += 1;
-            }
         }
     }
     if let Some(e) = sum.epochs.last() {
@@ -469,14 +600,14 @@ pub fn stats(sum: &Summary, reference: &Vec3) -> Stats {
         st.last_fixed_err = e.fixed_b.map(|b| b - reference);
         st.last_ratio = e.ratio;
     }
-    if nf > 0 {
-        st.rms_fixed_3d = (sf / nf as f64).sqrt();
+    if st.fixed > 0 {
+        st.rms_fixed_3d = (sf / st.fixed as f64).sqrt();
     }
-    if st.n_fixed_pdop10 > 0 {
-        st.rms_fixed_3d_pdop10 = (sp / st.n_fixed_pdop10 as f64).sqrt();
+    if !sum.epochs.is_empty() {
+        st.rms_float_3d = (sfl / sum.epochs.len() as f64).sqrt();
     }
     if st.n > 0 {
-        st.rms_float_3d = (sfl / st.n as f64).sqrt();
+        st.fix_rate = st.fixed as f64 / st.n as f64;
     }
     st
 }
@@ -496,7 +627,8 @@ fn load(
 }
 
 /// The GEONET part of `navfuse experiment seed003`: static and kinematic,
-/// L1 and L1+L2, against RTKLIB's fixed baseline.
+/// L1 and L1+L2, against RTKLIB's fixed baseline; the kinematic L1+L2 run
+/// also without the GDOP gate, to show what the gate changes.
 pub fn geonet_part(dir: &Path) -> Result<serde_json::Value, String> {
     let (rover, base, nav) = load(
         &dir.join("30400920.05o"),
@@ -504,6 +636,7 @@ pub fn geonet_part(dir: &Path) -> Result<serde_json::Value, String> {
         &[dir.join("07590920.05n"), dir.join("30400920.05n")],
     )?;
     let reference = Vec3::new(GEONET_REF[0], GEONET_REF[1], GEONET_REF[2]);
+    let max_gdop = Opts::default().max_gdop;
     println!(
         "\nGEONET 0759 (base) → 3040 (rover), {} / {} epochs, RTKLIB reference baseline |b| = {:.4} m",
         base.epochs.len(),
@@ -511,37 +644,42 @@ pub fn geonet_part(dir: &Path) -> Result<serde_json::Value, String> {
         reference.norm()
     );
     println!(
-        "{:>12} | {:>8} | {:>26} | {:>8} | {:>9} | {:>6} | {:>6} | {:>9} | {:>12}",
+        "epochs with GDOP > {max_gdop} are rejected (RTKLIB pos2-rejgdop) and count as not fixed; RMS over the fixed epochs"
+    );
+    println!(
+        "{:>17} | {:>15} | {:>26} | {:>8} | {:>9} | {:>6} | {:>13} | {:>8} | {:>8}",
         "mode",
-        "first fix",
+        "1st fix (ratio)",
         "fixed err ENU [mm] (last)",
         "|err| mm",
         "float mm",
         "ratio",
-        "fix %",
-        "RMS3D mm",
-        "PDOP≤10 (n)"
+        "fixed/epochs",
+        "rej.GDOP",
+        "RMS3D mm"
     );
     let mut obj = serde_json::Map::new();
-    for (label, kin, l2) in [
-        ("static L1", false, false),
-        ("static L1+L2", false, true),
-        ("kin. L1", true, false),
-        ("kin. L1+L2", true, true),
+    for (label, kin, l2, gdop) in [
+        ("static L1", false, false, max_gdop),
+        ("static L1+L2", false, true, max_gdop),
+        ("kin. L1", true, false, max_gdop),
+        ("kin. L1+L2", true, true, max_gdop),
+        ("kin. L1+L2 no gate", true, true, f64::INFINITY),
     ] {
         let opts = Opts {
             kinematic: kin,
             l2,
+            max_gdop: gdop,
             ..Default::default()
         };
         let sum = process(&base, &rover, &nav, &opts)?;
         let st = stats(&sum, &reference);
         let fe = st.last_fixed_err.map(|e| enu_at(&base, &e));
         println!(
-            "{:>12} | {:>8} | {:>26} | {:>8} | {:>9.1} | {:>6.1} | {:>6.1} | {:>9.1} | {:>6.1} ({:>3})",
+            "{:>17} | {:>15} | {:>26} | {:>8} | {:>9.1} | {:>6.1} | {:>13} | {:>8} | {:>8.1}",
             label,
             st.first_correct_fix_epoch
-                .map(|k| k.to_string())
+                .map(|k| format!("{k} ({:.2})", st.first_correct_fix_ratio))
                 .unwrap_or("-".into()),
             fe.map(|e| format!("{:+.1} {:+.1} {:+.1}", e.x * 1e3, e.y * 1e3, e.z * 1e3))
                 .unwrap_or("-".into()),
@@ -550,10 +688,9 @@ pub fn geonet_part(dir: &Path) -> Result<serde_json::Value, String> {
                 .unwrap_or("-".into()),
             st.last_float_err.norm() * 1e3,
             st.last_ratio,
-            100.0 * st.fixed as f64 / st.n.max(1) as f64,
+            format!("{}/{} ({:.1} %)", st.fixed, st.n, 100.0 * st.fix_rate),
+            st.rejected_gdop,
             st.rms_fixed_3d * 1e3,
-            st.rms_fixed_3d_pdop10 * 1e3,
-            st.n_fixed_pdop10
         );
         let key = label
             .replace(' ', "_")
@@ -564,42 +701,65 @@ pub fn geonet_part(dir: &Path) -> Result<serde_json::Value, String> {
             key,
             serde_json::json!({
                 "epochs": st.n,
+                "max_gdop": if gdop.is_finite() { Some(gdop) } else { None },
+                "rejected_gdop": st.rejected_gdop,
+                "rejected_few_satellites": st.rejected_few_sats,
+                "rejected_singular": st.rejected_singular,
                 "float_error_m": st.last_float_err.norm(),
                 "fixed_error_m": st.last_fixed_err.map(|e| e.norm()),
                 "fixed_error_enu_m": fe.map(|e| [e.x, e.y, e.z]),
                 "ratio": st.last_ratio,
                 "first_fix_epoch": st.first_fix_epoch,
                 "first_correct_fix_epoch": st.first_correct_fix_epoch,
-                "fix_rate": st.fixed as f64 / st.n.max(1) as f64,
+                "first_correct_fix_ratio": st.first_correct_fix_ratio,
+                "fixed_epochs": st.fixed,
+                "fix_rate": st.fix_rate,
                 "fixed_epochs_over_5cm": st.wrong_fixed,
                 "rms_fixed_3d_m": st.rms_fixed_3d,
-                "rms_fixed_3d_pdop_le_10_m": st.rms_fixed_3d_pdop10,
-                "fixed_epochs_pdop_le_10": st.n_fixed_pdop10,
                 "unpaired_epochs": sum.unpaired,
                 "slips": sum.slips,
             }),
         );
     }
-    // Top-level keys of the schema from static L1 and kinematic L1+L2.
+    // Top-level keys of the schema: static L1 for the fix, kinematic
+    // L1+L2 (GDOP-gated; RMS over its fixed epochs) for the RMS.
     let s = obj.get("static_l1").cloned().unwrap_or_default();
+    let s2 = obj.get("static_l1_l2").cloned().unwrap_or_default();
     let k = obj.get("kin_l1_l2").cloned().unwrap_or_default();
-    obj.insert("float_error_m".into(), s["float_error_m"].clone());
-    obj.insert("fixed_error_m".into(), s["fixed_error_m"].clone());
-    obj.insert("ratio".into(), s["ratio"].clone());
+    let k0 = obj.get("kin_l1_l2_no_gate").cloned().unwrap_or_default();
+    for (to, from, key) in [
+        ("float_error_m", &s, "float_error_m"),
+        ("fixed_error_m", &s, "fixed_error_m"),
+        ("ratio", &s, "ratio"),
+        ("first_fix_epoch", &s, "first_correct_fix_epoch"),
+        ("first_fix_ratio", &s, "first_correct_fix_ratio"),
+        ("fix_rate", &s, "fix_rate"),
+        ("first_fix_epoch_l1_l2", &s2, "first_correct_fix_epoch"),
+        ("fix_rate_l1_l2", &s2, "fix_rate"),
+        ("max_gdop", &k, "max_gdop"),
+        ("rejected_gdop", &k, "rejected_gdop"),
+        ("kinematic_rms_m", &k, "rms_fixed_3d_m"),
+        ("kinematic_epochs", &k, "fixed_epochs"),
+        ("kinematic_fix_rate", &k, "fix_rate"),
+        ("kinematic_rms_no_gate_m", &k0, "rms_fixed_3d_m"),
+        ("kinematic_epochs_no_gate", &k0, "fixed_epochs"),
+    ] {
+        obj.insert(to.into(), from[key].clone());
+    }
     obj.insert(
-        "first_fix_epoch".into(),
-        s["first_correct_fix_epoch"].clone(),
-    );
-    obj.insert("fix_rate".into(), s["fix_rate"].clone());
-    obj.insert("kinematic_rms_m".into(), k["rms_fixed_3d_m"].clone());
-    obj.insert(
-        "kinematic_rms_pdop_le_10_m".into(),
-        k["rms_fixed_3d_pdop_le_10_m"].clone(),
+        "kinematic_rms_over".into(),
+        "fixed epochs of kin_l1_l2 (GDOP-gated); fix rates over all paired epochs".into(),
     );
     Ok(serde_json::Value::Object(obj))
 }
 
 pub fn run(args: Args) -> Result<(), String> {
+    if args.max_gdop.is_nan() || args.max_gdop <= 0.0 {
+        return Err(format!("--max-gdop must be > 0, got {}", args.max_gdop));
+    }
+    if !(0.0..=1.0).contains(&args.humidity) {
+        return Err(format!("--humidity must be in 0..1, got {}", args.humidity));
+    }
     let (rover, base, nav) = load(&args.rover, &args.base, &args.nav)?;
     let opts = Opts {
         kinematic: args.kinematic,
@@ -607,53 +767,38 @@ pub fn run(args: Args) -> Result<(), String> {
         mask: args.mask_deg.to_radians(),
         ratio_min: args.ratio,
         pair_tol: args.pair_tol,
+        max_gdop: args.max_gdop,
+        trop: !args.no_trop,
+        humidity: args.humidity,
         ..Default::default()
     };
     let sum = process(&base, &rover, &nav, &opts)?;
     if let Some(p) = &args.out {
-        use std::io::Write;
-        let mut w = std::io::BufWriter::new(
-            std::fs::File::create(p).map_err(|e| format!("{}: {e}", p.display()))?,
-        );
-        let io = |e: std::io::Error| format!("{}: {e}", p.display());
-        writeln!(
-            w,
-            "gps_time_s,n_sats,float_dx,float_dy,float_dz,fixed_dx,fixed_dy,fixed_dz,ratio"
-        )
-        .map_err(io)?;
-        for e in &sum.epochs {
-            let f = e.fixed_b.unwrap_or(Vec3::repeat(f64::NAN));
-            writeln!(
-                w,
-                "{:.3},{},{:.2},{:.4},{:.4},{:.4},{:.4},{:.4},{:.4},{:.2}",
-                e.t,
-                e.n_sats,
-                e.pdop,
-                e.float_b.x,
-                e.float_b.y,
-                e.float_b.z,
-                f.x,
-                f.y,
-                f.z,
-                e.ratio
-            )
-            .map_err(io)?;
-        }
+        write_csv(p, &sum)?;
     }
-    let n = sum.epochs.len();
+    let n = sum.paired();
     let nfix = sum.epochs.iter().filter(|e| e.fixed_b.is_some()).count();
     println!(
-        "{} paired epochs ({} unpaired), {} fixed ({:.1} %), {} slips reset",
+        "{} paired epochs ({} unpaired): {} solved, {} fixed ({:.1} % of paired), {} slips reset",
         n,
         sum.unpaired,
+        sum.epochs.len(),
         nfix,
         100.0 * nfix as f64 / n.max(1) as f64,
         sum.slips
     );
+    println!(
+        "rejected: {} GDOP > {} , {} < 4 satellites, {} singular",
+        sum.rejected_for(RejectReason::Gdop),
+        args.max_gdop,
+        sum.rejected_for(RejectReason::FewSatellites),
+        sum.rejected_for(RejectReason::Singular)
+    );
     if let Some(last) = sum.epochs.last() {
         let b = last.fixed_b.unwrap_or(last.float_b);
         println!(
-            "last epoch ({}): baseline ECEF ({:+.4}, {:+.4}, {:+.4}) m, length {:.4} m, ratio {:.1}",
+            "last solved epoch {} ({}): baseline ECEF ({:+.4}, {:+.4}, {:+.4}) m, length {:.4} m, ratio {:.1}",
+            last.epoch,
             if last.fixed_b.is_some() { "fixed" } else { "float" },
             b.x,
             b.y,
@@ -677,18 +822,79 @@ pub fn run(args: Args) -> Result<(), String> {
         let reference = Vec3::new(r[0], r[1], r[2]);
         let st = stats(&sum, &reference);
         println!(
-            "against the reference: first fix epoch {:?} (correct {:?}), last float error {:.1} mm, last fixed error {} mm, RMS 3D over fixed epochs {:.1} mm ({:.1} mm over the {} with PDOP ≤ 10), epochs > 5 cm off {}",
+            "against the reference: first fix epoch {:?}, first correct fix epoch {:?} (ratio {:.2}), last float error {:.1} mm, last fixed error {} mm, 3D RMS over the {} fixed epochs {:.1} mm, fixed epochs > 5 cm off {}",
             st.first_fix_epoch,
             st.first_correct_fix_epoch,
+            st.first_correct_fix_ratio,
             st.last_float_err.norm() * 1e3,
             st.last_fixed_err.map(|e| format!("{:.1}", e.norm() * 1e3)).unwrap_or("-".into()),
+            st.fixed,
             st.rms_fixed_3d * 1e3,
-            st.rms_fixed_3d_pdop10 * 1e3,
-            st.n_fixed_pdop10,
             st.wrong_fixed
         );
     }
     Ok(())
+}
+
+/// Per-epoch CSV: solved and rejected epochs in time order (`status` fixed,
+/// float or `rejected_<reason>`; a rejected epoch has empty baselines).
+fn write_csv(p: &Path, sum: &Summary) -> Result<(), String> {
+    use std::io::Write;
+    let mut w = std::io::BufWriter::new(
+        std::fs::File::create(p).map_err(|e| format!("{}: {e}", p.display()))?,
+    );
+    let io = |e: std::io::Error| format!("{}: {e}", p.display());
+    writeln!(
+        w,
+        "epoch,gps_time_s,status,n_sats,pdop,gdop,float_dx,float_dy,float_dz,fixed_dx,fixed_dy,fixed_dz,ratio"
+    )
+    .map_err(io)?;
+    let mut rows: Vec<(usize, String)> = Vec::with_capacity(sum.paired());
+    for e in &sum.epochs {
+        let fixed = e
+            .fixed_b
+            .map(|f| format!("{:.4},{:.4},{:.4}", f.x, f.y, f.z))
+            .unwrap_or(",,".into());
+        rows.push((
+            e.epoch,
+            format!(
+                "{},{:.3},{},{},{:.2},{:.2},{:.4},{:.4},{:.4},{},{:.2}",
+                e.epoch,
+                e.t,
+                if e.fixed_b.is_some() {
+                    "fixed"
+                } else {
+                    "float"
+                },
+                e.n_sats,
+                e.pdop,
+                e.gdop,
+                e.float_b.x,
+                e.float_b.y,
+                e.float_b.z,
+                fixed,
+                e.ratio
+            ),
+        ));
+    }
+    for r in &sum.rejected {
+        rows.push((
+            r.epoch,
+            format!(
+                "{},{:.3},rejected_{},{},,{:.2},,,,,,,",
+                r.epoch,
+                r.t,
+                r.reason.label(),
+                r.n_sats,
+                r.gdop
+            ),
+        ));
+    }
+    rows.sort_by_key(|r| r.0);
+    for (_, line) in rows {
+        writeln!(w, "{line}").map_err(io)?;
+    }
+    w.flush().map_err(io)
 }
 
 #[cfg(test)]
