@@ -8,10 +8,15 @@
 //! the highest satellite, `DDφ = DDρ + λ(a_i − a_ref)`, `DDP = DDρ`, with the
 //! exact DD covariance of elevation-weighted undifferenced noise
 //! `σ² = a² + b²/sin²el`. Satellite positions at each receiver's transmission
-//! time (from its pseudorange), earth rotation during travel. Epochs of the
-//! two files are paired within a tolerance (the GEONET tags drift by ~9 ms).
-//! A loss-of-lock flag resets the satellite's ambiguity. Fixing: LAMBDA on the
-//! DD ambiguities, ratio ≥ threshold, fixed position by the conditional update.
+//! time (from its pseudorange), earth rotation during travel. Troposphere
+//! modelled at each site with its own height and elevation (Saastamoinen
+//! hydrostatic zenith delay, Niell mapping, [`tropo`]; as RTKLIB's relative
+//! mode). Epochs of the two files are paired within a tolerance (the GEONET
+//! tags drift by ~9 ms). A loss-of-lock flag resets the satellite's ambiguity.
+//! Epochs whose GDOP exceeds `max_gdop` (RTKLIB `pos2-rejgdop`, default 30)
+//! or with < 4 satellites are rejected before the update and counted by
+//! reason. Fixing: LAMBDA on the DD ambiguities, ratio ≥ threshold, fixed
+//! position by the conditional update.
 
 #![allow(clippy::needless_range_loop)] // per-frequency/per-satellite index loops
 
@@ -746,7 +751,7 @@ pub fn geonet_part(dir: &Path) -> Result<serde_json::Value, String> {
         "epochs with GDOP > {max_gdop} are rejected (RTKLIB pos2-rejgdop) and count as not fixed; RMS over the fixed epochs"
     );
     println!(
-        "{:>17} | {:>15} | {:>26} | {:>8} | {:>9} | {:>6} | {:>13} | {:>8} | {:>8}",
+        "{:>18} | {:>15} | {:>26} | {:>8} | {:>9} | {:>6} | {:>17} | {:>8} | {:>8}",
         "mode",
         "1st fix (ratio)",
         "fixed err ENU [mm] (last)",
@@ -775,7 +780,7 @@ pub fn geonet_part(dir: &Path) -> Result<serde_json::Value, String> {
         let st = stats(&sum, &reference);
         let fe = st.last_fixed_err.map(|e| enu_at(&base, &e));
         println!(
-            "{:>17} | {:>15} | {:>26} | {:>8} | {:>9.1} | {:>6.1} | {:>13} | {:>8} | {:>8.1}",
+            "{:>18} | {:>15} | {:>26} | {:>8} | {:>9.1} | {:>6.1} | {:>17} | {:>8} | {:>8.1}",
             label,
             st.first_correct_fix_epoch
                 .map(|k| format!("{k} ({:.2})", st.first_correct_fix_ratio))
