@@ -549,7 +549,7 @@ pub fn process(
                         Vec3::new(x[0] - dx[0], x[1] - dx[1], x[2] - dx[2]) - base_pos
                     };
                     fixed_b = Some(cond(&z));
-                    if res.fixed.len() > 1 {
+                    if res.m > 1 {
                         let z2 = DVector::from_iterator(na, res.fixed[1][..na].iter().copied());
                         runner_up_b = Some(cond(&z2));
                     }
