@@ -897,7 +897,7 @@ pub fn run(args: Args) -> Result<(), String> {
         sum.slips
     );
     println!(
-        "rejected: {} GDOP > {} , {} < 4 satellites, {} singular",
+        "rejected: {} with GDOP > {}, {} with < 4 satellites, {} singular",
         sum.rejected_for(RejectReason::Gdop),
         args.max_gdop,
         sum.rejected_for(RejectReason::FewSatellites),
