@@ -11,6 +11,7 @@
 //! - [`visible_by_elevation`]: satellites above an elevation mask, ordered by
 //!   decreasing elevation (the order of the paper's double differences).
 //! - [`dd`]: the paper's double differences (eq. 8–10) and their covariance.
+//! - [`tropo`]: Saastamoinen zenith delays and Niell mapping functions.
 //!
 //! Time: GPS seconds since the GPS epoch (`week · 604800 + tow`).
 
@@ -23,6 +24,7 @@ use crate::prelude::*;
 use crate::{Mat3, Vec3};
 
 pub mod dd;
+pub mod tropo;
 
 /// Earth gravitational constant for GPS, IS-GPS-200 [m³/s²].
 pub const MU_GPS: f64 = 3.986005e14;
