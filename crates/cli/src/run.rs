@@ -56,10 +56,13 @@ pub struct Args {
 /// # time = "t" (or week = 0, tow = 1), gyro = ["gx","gy","gz"], accel = [3, 4, 5],
 /// # gyro_unit = "deg"|"rad", accel_unit = "g"|"m/s2", form = "rate"|"increment",
 /// # delimiter = ",", header = true, mount_rpy_deg = [180, 0, 180]
+/// # mag = ["mx", "my", "mz"], ahrs_yaw = "yaw_deg"   (initial heading sources)
 ///
 /// [init]                     # all optional: automatic alignment otherwise
 /// position = [40.09, -105.14, 1601.4]   # IMU lat, lon [deg], h [m]
 /// attitude = [-1.17, -0.04, -2.89]      # roll, pitch, yaw [deg]
+/// heading = "auto"           # "auto" | "ahrs" | "magnetometer" | "course"
+/// magnetic_declination_deg = 8.1        # for the magnetometer heading
 ///
 /// [filter]
 /// estimator = "eskf"         # "eskf" | "pf-lc" | "gps-acc" (the others use their defaults)
@@ -118,6 +121,12 @@ fn default_rate() -> f64 {
 pub struct InitCfg {
     pub position: Option<[f64; 3]>,
     pub attitude: Option<[f64; 3]>,
+    /// Initial heading source: "auto" (default: the given attitude, else the
+    /// AHRS yaw column, else the magnetometer columns of `[input.csv]`, else
+    /// the GNSS course once moving), "ahrs", "magnetometer" or "course".
+    pub heading: Option<String>,
+    /// Magnetic declination [deg, east positive] for the magnetometer heading.
+    pub magnetic_declination_deg: Option<f64>,
 }
 
 #[derive(Clone, Debug, Deserialize, Serialize)]
@@ -222,6 +231,7 @@ pub fn run(args: Args) -> Result<(), String> {
         Some((tau, how)) => format!("{tau:+.3} s, {how}"),
         None => "none".into(),
     };
+    let aux = loaded.aux;
     let (imu, mut gnss) = (loaded.imu, loaded.gnss);
     let seconds_read = t_read.elapsed().as_secs_f64();
     let start = cfg.input.start.unwrap_or(f64::NEG_INFINITY);
@@ -310,8 +320,51 @@ pub fn run(args: Args) -> Result<(), String> {
     let n_static = align::initial_static_len(imu, 50, 0.15, 3.0f64.to_radians());
     let cal = align::static_calibration(&imu[..n_static.max(2)], first.lat, first.h)
         .ok_or("static calibration failed")?;
-    let (mut k_start, yaw, how) = match cfg.init.attitude {
-        Some(a) => (0usize, a[2].to_radians(), "attitude given".to_string()),
+    // Heading: given, AHRS or magnetometer average over the static window,
+    // or the GNSS course once moving (a MEMS gyro cannot find north).
+    let source = cfg.init.heading.as_deref().unwrap_or("auto");
+    let (t_s0, t_s1) = (imu[0].t - imu[0].dt, imu[n_static.max(2) - 1].t);
+    let ahrs = || aux.as_ref().and_then(|a| a.mean_yaw(t_s0, t_s1));
+    let mag = || {
+        let m = aux.as_ref()?.mean_mag(t_s0, t_s1)?;
+        let dec = cfg
+            .init
+            .magnetic_declination_deg
+            .unwrap_or(0.0)
+            .to_radians();
+        align::heading_from_magnetometer(&m, cal.roll, cal.pitch, dec)
+    };
+    let dec_note = match cfg.init.magnetic_declination_deg {
+        Some(d) => format!("declination {d:+.2}°"),
+        None => "declination not given: 0 assumed".into(),
+    };
+    let static_heading = match (source, cfg.init.attitude) {
+        ("auto", Some(a)) => Some((a[2].to_radians(), "attitude given".to_string())),
+        ("auto", None) => ahrs()
+            .map(|y| (y, "AHRS yaw averaged over the static window".to_string()))
+            .or_else(|| {
+                mag().map(|y| {
+                    (y, format!("magnetometer averaged over the static window, tilt-compensated, {dec_note}"))
+                })
+            }),
+        ("ahrs", _) => Some((
+            ahrs().ok_or("[init] heading = \"ahrs\": give [input.csv] ahrs_yaw (a column with samples in the static window)")?,
+            "AHRS yaw averaged over the static window".to_string(),
+        )),
+        ("magnetometer", _) => Some((
+            mag().ok_or("[init] heading = \"magnetometer\": give [input.csv] mag columns (samples in the static window, a horizontal field)")?,
+            format!("magnetometer averaged over the static window, tilt-compensated, {dec_note}"),
+        )),
+        ("course", _) => None,
+        (h, _) => {
+            return Err(format!(
+                "{}: [init] heading {h:?}: expected auto, ahrs, magnetometer or course",
+                args.config.display()
+            ))
+        }
+    };
+    let (mut k_start, yaw, how) = match static_heading {
+        Some((y, how)) => (0usize, y, how),
         None => {
             // First pair of fixes ≥ 1 s apart with a course speed ≥ 3 m/s.
             let mut found = None;
@@ -1091,6 +1144,189 @@ mod tests {
         );
         let truth_n = v * (a.t - tow0);
         assert!(((a.lat - lat0) * (rm + h) - truth_n).abs() < 0.5);
+        let _ = std::fs::remove_dir_all(&dir);
+    }
+
+    /// A parked car (yaw 123°, rolled 2°) with a magnetometer in its CSV
+    /// and static fixes: the GNSS course can never give a heading, the
+    /// tilt-compensated magnetometer mean (with the declination) does, and
+    /// so does an AHRS yaw column; the summary says which was used.
+    #[test]
+    fn static_start_takes_the_heading_from_the_magnetometer_or_ahrs() {
+        use navfuse_core::attitude::dcm_from_euler;
+        use std::fmt::Write as _;
+        let dir = std::env::temp_dir().join(format!("navfuse-run-mag-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let (yaw, roll, dec) = (
+            123.0f64.to_radians(),
+            2.0f64.to_radians(),
+            8.0f64.to_radians(),
+        );
+        let c_bn = dcm_from_euler(&Vec3::new(roll, 0.0, yaw));
+        // Field in NED: magnetic north is `dec` east of true north.
+        let (bh, bz) = (21.0, 45.0);
+        let m_n = Vec3::new(bh * dec.cos(), bh * dec.sin(), bz);
+        let m_b = c_bn.transpose() * m_n;
+        let g = navfuse_core::earth::gravity(40f64.to_radians(), 1600.0);
+        let f_b = c_bn.transpose() * Vec3::new(0.0, 0.0, -g);
+        let w_b = c_bn.transpose()
+            * Vec3::new(
+                navfuse_core::earth::OMEGA_IE * 40f64.to_radians().cos(),
+                0.0,
+                -navfuse_core::earth::OMEGA_IE * 40f64.to_radians().sin(),
+            );
+        let mut csv = String::from("t,gx,gy,gz,ax,ay,az,mx,my,mz,yaw\n");
+        for k in 1..=3000 {
+            let t = 2374.0 * 604_800.0 + 1000.0 + k as f64 * 0.01;
+            let _ = writeln!(
+                csv,
+                "{t:.3},{},{},{},{},{},{},{},{},{},{}",
+                w_b.x, w_b.y, w_b.z, f_b.x, f_b.y, f_b.z, m_b.x, m_b.y, m_b.z, 123.0
+            );
+        }
+        let mut gnss = String::new();
+        for k in 0..=30 {
+            let _ = writeln!(
+                gnss,
+                "{:.3} 40.0 -105.0 1600.0 0.5 0.5 1.0",
+                1000.0 + k as f64
+            );
+        }
+        std::fs::write(dir.join("imu.csv"), csv).unwrap();
+        std::fs::write(dir.join("gnss.txt"), gnss).unwrap();
+        let toml = |heading: &str| {
+            format!(
+                "[input]\nimu = \"imu.csv\"\ngnss = \"gnss.txt\"\n[input.csv]\ntime = \"t\"\n\
+                 gyro = [\"gx\", \"gy\", \"gz\"]\naccel = [\"ax\", \"ay\", \"az\"]\ngyro_unit = \"rad\"\n\
+                 mag = [\"mx\", \"my\", \"mz\"]\nahrs_yaw = \"yaw\"\n\
+                 [init]\nheading = \"{heading}\"\nmagnetic_declination_deg = 8.0\n"
+            )
+        };
+        for (heading, expect) in [
+            ("magnetometer", "magnetometer"),
+            ("ahrs", "AHRS"),
+            ("auto", "AHRS"),
+        ] {
+            std::fs::write(dir.join("run.toml"), toml(heading)).unwrap();
+            let out = dir.join(heading);
+            run(Args {
+                config: dir.join("run.toml"),
+                output: Some(out.clone()),
+                estimator: None,
+                report: false,
+                truth: None,
+            })
+            .unwrap();
+            let summary: serde_json::Value =
+                serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap())
+                    .unwrap();
+            let how = summary["alignment"].as_str().unwrap();
+            assert!(how.contains(expect), "{heading}: {how}");
+            let (sols, _) =
+                crate::eval::read_trajectory(&out.join("solution.nav"), 0, false).unwrap();
+            let first = sols.first().unwrap();
+            let d = (first.rpy.z - yaw).to_degrees();
+            assert!(
+                d.abs() < 0.2,
+                "{heading}: yaw {} vs 123",
+                first.rpy.z.to_degrees()
+            );
+            assert!(
+                (first.rpy.x - roll).abs().to_degrees() < 0.2,
+                "{heading}: roll"
+            );
+        }
+        // Without a magnetometer or AHRS a parked start has no heading: said so.
+        std::fs::write(dir.join("run.toml"), toml("course")).unwrap();
+        let e = run(Args {
+            config: dir.join("run.toml"),
+            output: Some(dir.join("course")),
+            estimator: None,
+            report: false,
+            truth: None,
+        })
+        .unwrap_err();
+        assert!(e.contains("no GNSS course"), "{e}");
+        let _ = std::fs::remove_dir_all(&dir);
+    }
+
+    /// The parked VN-310 (INSTINCT data): no motion, so only the
+    /// magnetometer can give the heading. Its calibrated `IMU::Mag` columns
+    /// start the ESKF at the first sample; the solution stays on the GNSS
+    /// mean position and the heading stays where the magnetometer put it.
+    #[test]
+    #[ignore = "real data: run with `cargo test --release -- --ignored`"]
+    fn parked_vn310_starts_from_its_magnetometer() {
+        let imu = navfuse_io::data::require("static_vn310/vn310-imu.csv");
+        let gnss_csv = navfuse_io::data::require("static_vn310/vn310-gnss.csv");
+        let dir = std::env::temp_dir().join(format!("navfuse-run-vn310-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        // The receiver's fixes as KF-GINS GNSS text (TOW, lat, lon, h, σNED).
+        let text = std::fs::read_to_string(&gnss_csv).unwrap();
+        let mut lines = text.lines();
+        let head: Vec<&str> = lines.next().unwrap().split(',').collect();
+        let col = |n: &str| head.iter().position(|h| *h == n).unwrap();
+        let cols = [
+            "GpsTow [s]",
+            "GNSS1::PosLla::latitude [deg]",
+            "GNSS1::PosLla::longitude [deg]",
+            "GNSS1::PosLla::altitude [m]",
+            "GNSS1::PosU::N [m]",
+            "GNSS1::PosU::E [m]",
+            "GNSS1::PosU::D [m]",
+        ]
+        .map(col);
+        let mut gnss = String::new();
+        let (mut lat_sum, mut lon_sum, mut n) = (0.0, 0.0, 0.0);
+        for l in lines {
+            let f: Vec<&str> = l.split(',').collect();
+            let row: Vec<&str> = cols.iter().map(|&k| f[k]).collect();
+            lat_sum += row[1].parse::<f64>().unwrap();
+            lon_sum += row[2].parse::<f64>().unwrap();
+            n += 1.0;
+            gnss.push_str(&row.join(" "));
+            gnss.push('\n');
+        }
+        std::fs::write(dir.join("gnss.txt"), gnss).unwrap();
+        std::fs::write(
+            dir.join("run.toml"),
+            format!(
+                "[input]\nimu = {:?}\nimu_rate = 50.0\ngnss = \"gnss.txt\"\n[input.csv]\npreset = \"vn310\"\n\
+                 mag = [\"IMU::Mag::X [Gauss]\", \"IMU::Mag::Y [Gauss]\", \"IMU::Mag::Z [Gauss]\"]\n",
+                imu.display().to_string()
+            ),
+        )
+        .unwrap();
+        let out = dir.join("out");
+        run(Args {
+            config: dir.join("run.toml"),
+            output: Some(out.clone()),
+            estimator: None,
+            report: false,
+            truth: None,
+        })
+        .unwrap();
+        let summary: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap())
+                .unwrap();
+        let how = summary["alignment"].as_str().unwrap();
+        assert!(how.contains("magnetometer"), "{how}");
+        let (sols, _) = crate::eval::read_trajectory(&out.join("solution.nav"), 0, false).unwrap();
+        assert!(sols.len() > 1500, "{} solutions", sols.len());
+        let (lat0, lon0) = ((lat_sum / n).to_radians(), (lon_sum / n).to_radians());
+        let (rm, rn) = navfuse_core::earth::radii(lat0);
+        let yaw0 = sols[0].rpy.z;
+        for s in &sols {
+            let d = ((s.lat - lat0) * rm).hypot((s.lon - lon0) * rn * lat0.cos());
+            assert!(d < 2.0, "t {}: {d:.2} m from the GNSS mean", s.t);
+            let dy = (s.rpy.z - yaw0 + std::f64::consts::PI).rem_euclid(std::f64::consts::TAU)
+                - std::f64::consts::PI;
+            assert!(dy.abs() < 1f64.to_radians(), "t {}: yaw moved {dy}", s.t);
+        }
+        eprintln!(
+            "VN-310 parked: magnetometer heading {:.2}°",
+            yaw0.to_degrees()
+        );
         let _ = std::fs::remove_dir_all(&dir);
     }
 

@@ -15,6 +15,7 @@
 //! cross-correlation ([`crate::run::estimate_time_offset`]).
 
 use navfuse_core::types::{GnssFix, ImuSample};
+use navfuse_core::{Mat3, Vec3};
 use navfuse_io::csv_imu::{AccelUnit, Col, CsvImuConfig, CsvImuReader, CsvTime, GyroUnit};
 use navfuse_io::error::RecordStats;
 use navfuse_io::imu::ImuForm;
@@ -73,6 +74,12 @@ pub struct CsvCfg {
     pub mount_rpy_deg: Option<[f64; 3]>,
     pub misalign_rpy_deg: Option<[f64; 3]>,
     pub reject_repeated_values: Option<bool>,
+    /// Magnetometer x, y, z columns (sensor axes, any unit; calibrated for
+    /// hard/soft iron): the initial heading from their static-window mean.
+    pub mag: Option<[ColCfg; 3]>,
+    /// A column of an AHRS's own yaw [deg]: the initial heading from its
+    /// static-window circular mean.
+    pub ahrs_yaw: Option<ColCfg>,
 }
 
 /// `imu_time_offset`: a number of seconds or `"auto"`.
@@ -135,6 +142,152 @@ pub struct Loaded {
     pub time_base: String,
     /// Offset added to the IMU stamps [s] and how it was found.
     pub imu_time_offset: Option<(f64, String)>,
+    /// Magnetometer / AHRS-yaw rows of the CSV, when `[input.csv]` names them.
+    pub aux: Option<AuxSeries>,
+}
+
+/// Magnetometer (body FRD, mounting applied) and AHRS yaw rows of a CSV IMU
+/// file, on the IMU's time base.
+#[derive(Clone, Debug, Default)]
+pub struct AuxSeries {
+    pub t: Vec<f64>,
+    pub mag_b: Option<Vec<Vec3>>,
+    /// AHRS yaw [rad].
+    pub yaw: Option<Vec<f64>>,
+}
+
+impl AuxSeries {
+    fn window(&self, t0: f64, t1: f64) -> core::ops::Range<usize> {
+        self.t.partition_point(|t| *t < t0)..self.t.partition_point(|t| *t <= t1)
+    }
+
+    /// Mean magnetometer vector over `[t0, t1]`.
+    pub fn mean_mag(&self, t0: f64, t1: f64) -> Option<Vec3> {
+        let m = self.mag_b.as_ref()?;
+        let r = self.window(t0, t1);
+        (!r.is_empty()).then(|| m[r.clone()].iter().sum::<Vec3>() / r.len() as f64)
+    }
+
+    /// Circular mean of the AHRS yaw over `[t0, t1]` [rad].
+    pub fn mean_yaw(&self, t0: f64, t1: f64) -> Option<f64> {
+        let y = self.yaw.as_ref()?;
+        let r = self.window(t0, t1);
+        let (s, c) = y[r]
+            .iter()
+            .fold((0.0, 0.0), |(s, c), a| (s + a.sin(), c + a.cos()));
+        (s != 0.0 || c != 0.0).then(|| s.atan2(c))
+    }
+}
+
+/// Second pass over a CSV IMU file for the magnetometer and AHRS-yaw
+/// columns (the IMU reader has already validated the rows it uses; a row
+/// whose extra fields are not numbers is an error naming line and field).
+fn read_aux(path: &Path, cfg: &CsvImuConfig, csv: &CsvCfg) -> Result<Option<AuxSeries>, String> {
+    if csv.mag.is_none() && csv.ahrs_yaw.is_none() {
+        return Ok(None);
+    }
+    let text = std::fs::read_to_string(path)
+        .map_err(|e| format!("{}: cannot read: {e}", path.display()))?;
+    let file = path.display();
+    let delim = cfg.delimiter as char;
+    let mut names: Option<Vec<String>> = None;
+    // (column, label) of time (1 or 2), mag (0 or 3), yaw (0 or 1).
+    let mut cols: Option<Vec<(usize, String)>> = None;
+    let mut out = AuxSeries {
+        mag_b: csv.mag.as_ref().map(|_| Vec::new()),
+        yaw: csv.ahrs_yaw.as_ref().map(|_| Vec::new()),
+        ..Default::default()
+    };
+    let c_sb = {
+        let d = |r: [f64; 3]| {
+            navfuse_core::attitude::dcm_from_euler(&Vec3::new(
+                r[0].to_radians(),
+                r[1].to_radians(),
+                r[2].to_radians(),
+            ))
+        };
+        cfg.misalign_rpy_deg.map_or(Mat3::identity(), d)
+            * cfg.mount_rpy_deg.map_or(Mat3::identity(), d)
+    };
+    let week_s = f64::from(cfg.week) * WEEK;
+    for (i, line) in text.lines().enumerate() {
+        let ln = i + 1;
+        let trimmed = line.trim();
+        if trimmed.is_empty() || cfg.comment.is_some_and(|c| trimmed.as_bytes()[0] == c) {
+            continue;
+        }
+        if cfg.header && names.is_none() {
+            names = Some(line.split(delim).map(|f| f.trim().to_string()).collect());
+            continue;
+        }
+        let cols = match &mut cols {
+            Some(c) => c,
+            None => {
+                let find = |c: &Col| -> Result<(usize, String), String> {
+                    match c {
+                        Col::Index(k) => Ok((*k, format!("column {k}"))),
+                        Col::Name(n) => names
+                            .as_ref()
+                            .and_then(|v| v.iter().position(|x| x == n))
+                            .map(|k| (k, n.clone()))
+                            .ok_or_else(|| {
+                                format!("{file}:{ln}: field `{n}`: no such column in the header")
+                            }),
+                    }
+                };
+                let mut v = Vec::new();
+                match &cfg.time {
+                    CsvTime::Seconds(c) => v.push(find(c)?),
+                    CsvTime::WeekTow { week, tow } => {
+                        v.push(find(week)?);
+                        v.push(find(tow)?);
+                    }
+                }
+                if let Some(m) = &csv.mag {
+                    for c in m {
+                        v.push(find(&c.col())?);
+                    }
+                }
+                if let Some(y) = &csv.ahrs_yaw {
+                    v.push(find(&y.col())?);
+                }
+                cols.insert(v)
+            }
+        };
+        let fields: Vec<&str> = line.split(delim).map(str::trim).collect();
+        let mut vals = Vec::with_capacity(cols.len());
+        for (k, label) in cols.iter() {
+            let f = fields
+                .get(*k)
+                .ok_or_else(|| format!("{file}:{ln}: field `{label}`: missing"))?;
+            let v = f
+                .parse::<f64>()
+                .ok()
+                .filter(|v| v.is_finite())
+                .ok_or_else(|| {
+                    format!("{file}:{ln}: field `{label}`: not a finite number: {f:?}")
+                })?;
+            vals.push(v);
+        }
+        let (t, rest) = match cfg.time {
+            CsvTime::Seconds(_) => (week_s + vals[0], &vals[1..]),
+            CsvTime::WeekTow { .. } => (vals[0] * WEEK + vals[1], &vals[2..]),
+        };
+        out.t.push(t);
+        let mut rest = rest.iter().copied();
+        if let Some(m) = &mut out.mag_b {
+            let v = Vec3::new(
+                rest.next().unwrap_or(f64::NAN),
+                rest.next().unwrap_or(f64::NAN),
+                rest.next().unwrap_or(f64::NAN),
+            );
+            m.push(c_sb * v);
+        }
+        if let Some(y) = &mut out.yaw {
+            y.push(rest.next().unwrap_or(f64::NAN).to_radians());
+        }
+    }
+    Ok(Some(out))
 }
 
 /// The IMU format named by `imu_format`, else by the extension (`.csv` →
@@ -399,6 +552,10 @@ pub fn load(spec: &InputSpec) -> Result<Loaded, String> {
     let imu_fmt = imu_format(spec.imu, spec.imu_format)?;
     let gnss_fmt = gnss_format(spec.gnss, spec.gnss_format)?;
     let (mut imu, imu_report) = read_imu(spec.imu, imu_fmt, spec.csv, spec.imu_rate)?;
+    let mut aux = match (imu_fmt, spec.csv) {
+        ("csv", Some(c)) => read_aux(spec.imu, &csv_config(c, spec.imu_rate)?, c)?,
+        _ => None,
+    };
     let (mut gnss, gnss_report) = read_gnss(spec.gnss, gnss_fmt)?;
     gnss.sort_by(|a, b| a.t.total_cmp(&b.t));
     let time_base = align_time_bases(&imu, &mut gnss);
@@ -431,6 +588,9 @@ pub fn load(spec: &InputSpec) -> Result<Loaded, String> {
         for s in imu.iter_mut() {
             s.t += tau;
         }
+        if let Some(a) = &mut aux {
+            a.t.iter_mut().for_each(|t| *t += tau);
+        }
     }
     Ok(Loaded {
         imu,
@@ -439,6 +599,7 @@ pub fn load(spec: &InputSpec) -> Result<Loaded, String> {
         gnss_report,
         time_base,
         imu_time_offset,
+        aux,
     })
 }
 

@@ -1,5 +1,6 @@
 //! Initial alignment: static window detection, levelling and static sensor
-//! calibration (`SEEDS.md §1` eq. 1–2), heading from the GNSS course.
+//! calibration (`SEEDS.md §1` eq. 1–2), heading from the GNSS course or a
+//! magnetometer.
 //!
 //! Body FRD; a level IMU at rest measures f_b ≈ (0, 0, −g).
 
@@ -148,9 +149,56 @@ pub fn heading_from_velocity(v_n: &Vec3, min_speed: f64) -> Option<f64> {
     (s >= min_speed).then(|| v_n.y.atan2(v_n.x))
 }
 
+/// Heading (yaw, true north) [rad] from a magnetometer vector in body FRD
+/// (any unit; hard/soft-iron calibrated), tilt-compensated with the levelled
+/// roll and pitch [rad] (Groves 2nd ed. eq. 6.8: magnetic heading
+/// `ψ_m = atan2(−m_y cos φ + m_z sin φ, m_x cos θ + m_y sin φ sin θ +
+/// m_z cos φ sin θ)`), plus the magnetic declination [rad] (east positive).
+/// `None` when the horizontal field vanishes (or the input is not finite).
+pub fn heading_from_magnetometer(
+    m_b: &Vec3,
+    roll: f64,
+    pitch: f64,
+    declination: f64,
+) -> Option<f64> {
+    let (sr, cr) = roll.sin_cos();
+    let (sp, cp) = pitch.sin_cos();
+    let y = -m_b.y * cr + m_b.z * sr;
+    let x = m_b.x * cp + m_b.y * sr * sp + m_b.z * cr * sp;
+    let h = (x * x + y * y).sqrt();
+    if !(h.is_finite() && h > 1e-6 * m_b.norm() && declination.is_finite()) {
+        return None;
+    }
+    let psi = y.atan2(x) + declination;
+    Some(crate::attitude::wrap_pi(psi))
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn magnetometer_heading_recovers_yaw_at_any_tilt() {
+        use crate::attitude::dcm_from_euler;
+        // Field at ~40°N: 21 µT north, 1 µT east, 45 µT down (NED).
+        let m_n = Vec3::new(21.0, 1.0, 45.0);
+        let dec = 1.0f64.atan2(21.0);
+        for &(r, p, y) in &[
+            (0.0, 0.0, 0.3),
+            (0.2, -0.1, -2.5),
+            (-0.4, 0.3, 3.0),
+            (0.05, 0.6, 1.2),
+        ] {
+            let c_bn = dcm_from_euler(&Vec3::new(r, p, y));
+            let m_b = c_bn.transpose() * m_n;
+            let psi = heading_from_magnetometer(&m_b, r, p, dec).unwrap();
+            let d = (psi - y + core::f64::consts::PI).rem_euclid(core::f64::consts::TAU)
+                - core::f64::consts::PI;
+            assert!(d.abs() < 1e-12, "rpy ({r}, {p}, {y}): {psi}");
+        }
+        // A vertical field has no heading.
+        assert!(heading_from_magnetometer(&Vec3::new(0.0, 0.0, 45.0), 0.0, 0.0, 0.0).is_none());
+    }
 
     fn at_rest(roll: f64, pitch: f64, n: usize) -> ImuSample {
         let g = earth::gravity(0.7, 100.0);
