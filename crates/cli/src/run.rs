@@ -13,7 +13,7 @@ use navfuse_core::ins::mech::{q_bn_from_rpy, NavState};
 use navfuse_core::types::{Estimator, Event, GnssFix, ImuSample, NavSolution};
 use navfuse_core::Vec3;
 use navfuse_io::kfgins::{KfGinsGnssReader, KfGinsImuOptions, KfGinsImuReader};
-use navfuse_io::kfgins_yaml::KfGinsConfig;
+use navfuse_io::kfgins_yaml::{KfGinsConfig, KfGinsNoise};
 use navfuse_io::trajectory::{create_writer, OutFormat};
 use serde::{Deserialize, Serialize};
 use std::path::Path;
@@ -68,6 +68,8 @@ pub struct Args {
 /// estimator = "eskf"         # "eskf" | "pf-lc" | "gps-acc" (the others use their defaults)
 /// preset = "enhanced"        # "kf-gins" | "enhanced" | "seed001" (eskf)
 /// noise_yaml = "kf.yaml"     # optional: take the IMU noise from a KF-GINS YAML
+/// # or [filter.imu_noise]: arw = [8, 8, 8], vrw, gbstd, abstd, gsstd, asstd, corrtime
+/// # (KF-GINS keys and units); neither: the seed 001 preset's noise
 /// lever_arm = [0.0, -0.05, 0.0]
 /// smooth = true
 ///
@@ -138,6 +140,10 @@ pub struct FilterCfg {
     #[serde(default = "default_preset")]
     pub preset: String,
     pub noise_yaml: Option<String>,
+    /// `[filter.imu_noise]`: the IMU noise in KF-GINS's keys and units
+    /// (arw deg/√h, vrw m/s/√h, gbstd deg/h, abstd mGal, gsstd/asstd ppm,
+    /// corrtime h). Without it or `noise_yaml`: the seed 001 preset's.
+    pub imu_noise: Option<KfGinsNoise>,
     #[serde(default)]
     pub lever_arm: [f64; 3],
     #[serde(default)]
@@ -150,6 +156,7 @@ impl Default for FilterCfg {
             estimator: None,
             preset: default_preset(),
             noise_yaml: None,
+            imu_noise: None,
             lever_arm: [0.0; 3],
             smooth: false,
         }
@@ -290,9 +297,23 @@ pub fn run(args: Args) -> Result<(), String> {
     }
 
     // Filter model.
-    let mut ecfg = match &cfg.filter.noise_yaml {
-        Some(y) => KfGinsConfig::load(&rel(y))?.eskf_config(),
-        None => EskfConfig::seed001(),
+    let mut ecfg = match (&cfg.filter.noise_yaml, &cfg.filter.imu_noise) {
+        (Some(_), Some(_)) => {
+            return Err(format!(
+                "{}: [filter] give noise_yaml or imu_noise, not both",
+                args.config.display()
+            ))
+        }
+        (Some(y), None) => KfGinsConfig::load(&rel(y))?.eskf_config(),
+        (None, Some(n)) => {
+            n.validate(&args.config.display().to_string(), "filter.imu_noise")?;
+            EskfConfig {
+                noise: n.to_si(),
+                scale_factors: true,
+                ..EskfConfig::seed001()
+            }
+        }
+        (None, None) => EskfConfig::seed001(),
     };
     ecfg = match cfg.filter.preset.as_str() {
         "kf-gins" => ecfg,
@@ -1247,6 +1268,33 @@ mod tests {
         })
         .unwrap_err();
         assert!(e.contains("no GNSS course"), "{e}");
+        // The IMU noise in KF-GINS units is checked like KF-GINS's YAML.
+        let noise = "[filter.imu_noise]\narw = [-1.0, 1.0, 1.0]\nvrw = [1.0, 1.0, 1.0]\n\
+                     gbstd = [5.0, 5.0, 5.0]\nabstd = [300.0, 300.0, 300.0]\ngsstd = [0.0, 0.0, 0.0]\n\
+                     asstd = [0.0, 0.0, 0.0]\ncorrtime = 1.0\n";
+        let both = format!(
+            "[filter]\nnoise_yaml = \"kf.yaml\"\n{}",
+            noise.replace("-1.0", "1.0")
+        );
+        for (extra, expect) in [
+            (noise.to_string(), "filter.imu_noise.arw"),
+            (both, "not both"),
+        ] {
+            std::fs::write(
+                dir.join("run.toml"),
+                format!("{}{extra}", toml("magnetometer")),
+            )
+            .unwrap();
+            let e = run(Args {
+                config: dir.join("run.toml"),
+                output: Some(dir.join("noise")),
+                estimator: None,
+                report: false,
+                truth: None,
+            })
+            .unwrap_err();
+            assert!(e.contains(expect), "{e}");
+        }
         let _ = std::fs::remove_dir_all(&dir);
     }
 

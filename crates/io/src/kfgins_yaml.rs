@@ -12,8 +12,9 @@ use navfuse_core::Vec3;
 use serde::Deserialize;
 use std::path::{Path, PathBuf};
 
-/// IMU noise block (`imunoise:`), KF-GINS units.
-#[derive(Clone, Debug, Deserialize, PartialEq)]
+/// IMU noise block (`imunoise:`), KF-GINS units: arw [deg/√h], vrw
+/// [m/s/√h], gbstd [deg/h], abstd [mGal], gsstd/asstd [ppm], corrtime [h].
+#[derive(Clone, Debug, Deserialize, serde::Serialize, PartialEq)]
 #[serde(deny_unknown_fields)]
 pub struct KfGinsNoise {
     pub arw: [f64; 3],
@@ -23,6 +24,46 @@ pub struct KfGinsNoise {
     pub gsstd: [f64; 3],
     pub asstd: [f64; 3],
     pub corrtime: f64,
+}
+
+impl KfGinsNoise {
+    /// Every value finite and ≥ 0, `corrtime` > 0; errors name `{name}: field `{prefix}.x``.
+    pub fn validate(&self, name: &str, prefix: &str) -> Result<(), String> {
+        for (f, a) in [
+            ("arw", self.arw),
+            ("vrw", self.vrw),
+            ("gbstd", self.gbstd),
+            ("abstd", self.abstd),
+            ("gsstd", self.gsstd),
+            ("asstd", self.asstd),
+        ] {
+            if !a.iter().all(|v| v.is_finite() && *v >= 0.0) {
+                return Err(format!(
+                    "{name}: field `{prefix}.{f}` must be finite and ≥ 0, got {a:?}"
+                ));
+            }
+        }
+        if self.corrtime.is_nan() || self.corrtime <= 0.0 {
+            return Err(format!(
+                "{name}: field `{prefix}.corrtime` must be > 0 h, got {}",
+                self.corrtime
+            ));
+        }
+        Ok(())
+    }
+
+    /// In SI: arw rad/√s, vrw m/s/√s, Gauss–Markov σ and T in s.
+    pub fn to_si(&self) -> ImuNoise {
+        ImuNoise {
+            arw: v3(&self.arw, D2R / 60.0),
+            vrw: v3(&self.vrw, 1.0 / 60.0),
+            bg_std: v3(&self.gbstd, DEG_PER_H),
+            ba_std: v3(&self.abstd, MGAL),
+            sg_std: v3(&self.gsstd, PPM),
+            sa_std: v3(&self.asstd, PPM),
+            corr_time: self.corrtime * 3600.0,
+        }
+    }
 }
 
 /// A KF-GINS configuration file, fields in KF-GINS's own units.
@@ -114,23 +155,7 @@ impl KfGinsConfig {
         pos("initposstd", &self.initposstd)?;
         pos("initvelstd", &self.initvelstd)?;
         pos("initattstd", &self.initattstd)?;
-        let n = &self.imunoise;
-        for (f, a) in [
-            ("imunoise.arw", n.arw),
-            ("imunoise.vrw", n.vrw),
-            ("imunoise.gbstd", n.gbstd),
-            ("imunoise.abstd", n.abstd),
-            ("imunoise.gsstd", n.gsstd),
-            ("imunoise.asstd", n.asstd),
-        ] {
-            pos(f, &a)?;
-        }
-        if n.corrtime.is_nan() || n.corrtime <= 0.0 {
-            return Err(format!(
-                "{name}: field `imunoise.corrtime` must be > 0 h, got {}",
-                n.corrtime
-            ));
-        }
+        self.imunoise.validate(name, "imunoise")?;
         if self.imudatalen < 7 {
             return Err(format!(
                 "{name}: field `imudatalen` must be ≥ 7, got {}",
@@ -199,16 +224,7 @@ impl KfGinsConfig {
 
     /// IMU noise (SI): arw rad/√s, vrw m/s/√s, Gauss–Markov σ and T in s.
     pub fn noise(&self) -> ImuNoise {
-        let n = &self.imunoise;
-        ImuNoise {
-            arw: v3(&n.arw, D2R / 60.0),
-            vrw: v3(&n.vrw, 1.0 / 60.0),
-            bg_std: v3(&n.gbstd, DEG_PER_H),
-            ba_std: v3(&n.abstd, MGAL),
-            sg_std: v3(&n.gsstd, PPM),
-            sa_std: v3(&n.asstd, PPM),
-            corr_time: n.corrtime * 3600.0,
-        }
+        self.imunoise.to_si()
     }
 
     /// The KF-GINS model as an ESKF configuration: 21 states, GNSS position
