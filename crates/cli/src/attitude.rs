@@ -81,6 +81,14 @@ pub struct Row {
     pub rpy_true: Vec3,
     pub rpy_float: Vec3,
     pub rpy_fixed: Option<Vec3>,
+    /// Same epochs: per-epoch weighted Wahba on per-baseline fixed baselines.
+    pub rpy_wahba: Option<Vec3>,
+    /// Same epochs: per-epoch joint LS on all fixed DDs.
+    pub rpy_joint: Option<Vec3>,
+    /// NIS of the attitude filter's update at this epoch (NaN: none).
+    pub att_nis: f64,
+    /// Weighted SSR of the epoch's joint LS on the fixed DDs.
+    pub joint_ssr: f64,
     /// Whether every baseline's fixed integers equal the truth (None: not fixed).
     pub fix_correct: Option<bool>,
     /// Every baseline fixed by LAMBDA on the float filter (not the search).
@@ -90,6 +98,18 @@ pub struct Row {
     pub amb_sd0: f64,
     /// Every float DD ambiguity of baseline 1: (PRN pair, error [m], √P [m]).
     pub amb: Vec<(u8, u8, f64, f64)>,
+}
+
+impl Row {
+    /// The estimate of `method` at this epoch (None: not available).
+    pub fn est(&self, method: Method) -> Option<Vec3> {
+        match method {
+            Method::Float => Some(self.rpy_float),
+            Method::Fixed => self.rpy_fixed,
+            Method::FixedWahba => self.rpy_wahba,
+            Method::FixedJoint => self.rpy_joint,
+        }
+    }
 }
 
 /// A processed scene.
@@ -104,7 +124,12 @@ pub struct SceneRun {
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Method {
     Float,
+    /// The fixed solution (rigid-body attitude filter by default).
     Fixed,
+    /// Per-epoch weighted Wahba on the fixed baselines (the earlier fixed solution).
+    FixedWahba,
+    /// Per-epoch joint LS on all fixed DDs.
+    FixedJoint,
 }
 
 /// Wrap degrees to (−180, 180].
@@ -158,6 +183,10 @@ pub fn run_scene(
             rpy_true: s.rpy,
             rpy_float: sol.rpy_float,
             rpy_fixed: sol.rpy_fixed,
+            rpy_wahba: sol.rpy_wahba,
+            rpy_joint: sol.rpy_joint,
+            att_nis: sol.att_nis,
+            joint_ssr: sol.joint_ssr,
             fix_correct: sol.rpy_fixed.map(|_| {
                 (0..cfg.b_b.len().min(3)).all(|k| {
                     let f = &sol.fixes[k];
@@ -269,13 +298,7 @@ pub fn run(args: Args) -> Result<(), String> {
     let stat = |m: Method| -> [f64; 3] {
         let mut e = [Vec::new(), Vec::new(), Vec::new()];
         for r in run.rows.iter().skip(args.after) {
-            let v = match m {
-                Method::Float => r.rpy_float,
-                Method::Fixed => match r.rpy_fixed {
-                    Some(v) => v,
-                    None => continue,
-                },
-            };
+            let Some(v) = r.est(m) else { continue };
             for a in 0..3 {
                 e[a].push(wrap_deg((v[a] - r.rpy_true[a]).to_degrees()));
             }
