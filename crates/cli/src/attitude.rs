@@ -85,6 +85,9 @@ pub struct Row {
     pub rpy_wahba: Option<Vec3>,
     /// Same epochs: per-epoch joint LS on all fixed DDs.
     pub rpy_joint: Option<Vec3>,
+    /// Same epochs: fixed-lag smoothed attitude filter (filled in when the
+    /// smoother releases this epoch, `smoother_lag` fixes later).
+    pub rpy_smoothed: Option<Vec3>,
     /// NIS of the attitude filter's update at this epoch (NaN: none).
     pub att_nis: f64,
     /// Weighted SSR of the epoch's joint LS on the fixed DDs.
@@ -108,6 +111,7 @@ impl Row {
             Method::Fixed => self.rpy_fixed,
             Method::FixedWahba => self.rpy_wahba,
             Method::FixedJoint => self.rpy_joint,
+            Method::FixedSmoothed => self.rpy_smoothed,
         }
     }
 }
@@ -130,6 +134,8 @@ pub enum Method {
     FixedWahba,
     /// Per-epoch joint LS on all fixed DDs.
     FixedJoint,
+    /// Fixed-lag smoothed attitude filter.
+    FixedSmoothed,
 }
 
 /// Wrap degrees to (−180, 180].
@@ -185,6 +191,7 @@ pub fn run_scene(
             rpy_fixed: sol.rpy_fixed,
             rpy_wahba: sol.rpy_wahba,
             rpy_joint: sol.rpy_joint,
+            rpy_smoothed: None,
             att_nis: sol.att_nis,
             joint_ssr: sol.joint_ssr,
             fix_correct: sol.rpy_fixed.map(|_| {
@@ -201,6 +208,11 @@ pub fn run_scene(
             amb_sd0,
             amb,
         });
+        if let Some((t, rpy)) = sol.smoothed {
+            if let Some(r) = rows.iter_mut().rev().find(|r| r.t == t) {
+                r.rpy_smoothed = Some(rpy);
+            }
+        }
     }
     let nb = cfg.b_b.len().min(est.filters.len());
     SceneRun {

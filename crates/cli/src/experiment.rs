@@ -56,6 +56,12 @@ pub struct Seed003Args {
     /// values give an independent check).
     #[arg(long, default_value_t = 5000)]
     pub lambda_seed0: u64,
+    /// Lag [fixed epochs] of the attitude smoother reported beside the
+    /// real-time attitude filter in the LAMBDA part (3: where the gain levels
+    /// off on the independent seeds 9000–9029 — lag 1/2/3/4/6 gave pitch
+    /// 0.070/0.069/0.062/0.060/0.059°).
+    #[arg(long, default_value_t = 3)]
+    pub smoother_lag: usize,
     /// YUMA almanac (default: gnss/almanac/yuma_week1011.alm under the data root).
     #[arg(long)]
     pub almanac: Option<PathBuf>,
@@ -137,17 +143,19 @@ fn seed003(a: Seed003Args) -> Result<(), String> {
         a.after, a.seeds
     );
     println!(
-        "{:>8} | {:>22} | {:>22} | {:>22} | {:>22}",
+        "{:>8} | {:>22} | {:>22} | {:>22} | {:>22} | {:>22}",
         "noise",
         "paper pitch/roll/yaw",
         "ours float (paper R)",
         "float, exact DD cov",
-        "fixed + Wahba"
+        "fixed + Wahba (epoch)",
+        "fixed + att. filter"
     );
     let mut t1 = serde_json::Map::new();
     for &(sigma, pp, pr, py) in &PAPER_TABLE1 {
         let mut acc_f = [0.0; 3];
         let mut acc_x = [0.0; 3];
+        let mut acc_xf = [0.0; 3];
         let mut acc_e = [0.0; 3];
         let mut nx = 0usize;
         for s in 0..a.seeds {
@@ -164,7 +172,8 @@ fn seed003(a: Seed003Args) -> Result<(), String> {
                 Some(FixConfig::default()),
             );
             let f = rms_after(&run, a.after, Method::Float);
-            let x = rms_after(&run, a.after, Method::Fixed);
+            let x = rms_after(&run, a.after, Method::FixedWahba);
+            let xf = rms_after(&run, a.after, Method::Fixed);
             // The same float filter with the exact (correlated) DD covariance.
             let exact = CpAttConfig {
                 dd_noise: navfuse_core::gnss::dd::DdNoise::Exact,
@@ -179,20 +188,21 @@ fn seed003(a: Seed003Args) -> Result<(), String> {
                 acc_f[i] += f[i] / a.seeds as f64;
                 acc_e[i] += e[i] / a.seeds as f64;
             }
-            if x.iter().all(|v| v.is_finite()) {
+            if x.iter().chain(&xf).all(|v| v.is_finite()) {
                 for i in 0..3 {
                     acc_x[i] += x[i];
+                    acc_xf[i] += xf[i];
                 }
                 nx += 1;
             }
         }
-        for v in acc_x.iter_mut() {
+        for v in acc_x.iter_mut().chain(acc_xf.iter_mut()) {
             *v /= nx.max(1) as f64;
         }
         let label = if sigma == 0.002 { "2mm" } else { "0.5mm" };
         println!(
-            "{:>8} | {:>6.3} {:>6.3} {:>6.3}    | {:>6.3} {:>6.3} {:>6.3}    | {:>6.3} {:>6.3} {:>6.3}    | {:>6.3} {:>6.3} {:>6.3}",
-            label, pp, pr, py, acc_f[1], acc_f[0], acc_f[2], acc_e[1], acc_e[0], acc_e[2], acc_x[1], acc_x[0], acc_x[2]
+            "{:>8} | {:>6.3} {:>6.3} {:>6.3}    | {:>6.3} {:>6.3} {:>6.3}    | {:>6.3} {:>6.3} {:>6.3}    | {:>6.3} {:>6.3} {:>6.3}    | {:>6.3} {:>6.3} {:>6.3}",
+            label, pp, pr, py, acc_f[1], acc_f[0], acc_f[2], acc_e[1], acc_e[0], acc_e[2], acc_x[1], acc_x[0], acc_x[2], acc_xf[1], acc_xf[0], acc_xf[2]
         );
         t1.insert(
             label.into(),
@@ -200,6 +210,7 @@ fn seed003(a: Seed003Args) -> Result<(), String> {
                 "pitch_deg": acc_f[1], "roll_deg": acc_f[0], "yaw_deg": acc_f[2],
                 "paper": {"pitch_deg": pp, "roll_deg": pr, "yaw_deg": py},
                 "fixed_wahba": {"pitch_deg": acc_x[1], "roll_deg": acc_x[0], "yaw_deg": acc_x[2]},
+                "fixed_att_filter": {"pitch_deg": acc_xf[1], "roll_deg": acc_xf[0], "yaw_deg": acc_xf[2]},
                 "float_exact_dd_cov": {"pitch_deg": acc_e[1], "roll_deg": acc_e[0], "yaw_deg": acc_e[2]},
                 "seeds": a.seeds,
             }),
@@ -242,8 +253,17 @@ fn lambda_part(
     let mut total_epochs = 0usize;
     let mut lambda_only_first = Vec::new();
     // Attitude errors [deg] over fixed epochs: filter, per-epoch Wahba, per-epoch joint LS.
-    let methods = [Method::Fixed, Method::FixedWahba, Method::FixedJoint];
-    let mut err: [[Vec<f64>; 3]; 3] = Default::default();
+    let methods = [
+        Method::Fixed,
+        Method::FixedWahba,
+        Method::FixedJoint,
+        Method::FixedSmoothed,
+    ];
+    let mut err: [[Vec<f64>; 3]; 4] = Default::default();
+    let mut fc = FixConfig::default();
+    if let Some(ac) = fc.att_filter.as_mut() {
+        ac.smoother_lag = a.smoother_lag;
+    }
     let mut first_fix = Vec::new();
     let (mut nis_sum, mut nis_n) = (0.0, 0usize);
     let (mut ssr_sum, mut ssr_n) = (0.0, 0usize);
@@ -254,12 +274,7 @@ fn lambda_part(
             ..base.clone()
         };
         let scene = simulate(&cfg, orbits);
-        let run = run_scene(
-            &scene,
-            &cfg,
-            CpAttConfig::default(),
-            Some(FixConfig::default()),
-        );
+        let run = run_scene(&scene, &cfg, CpAttConfig::default(), Some(fc));
         // Consistency: the filter's NIS (χ²(3)) and the joint LS's SSR per
         // degree of freedom (3(n−1) − 3 for 3 baselines) over fixed epochs.
         for r in &run.rows {
@@ -319,6 +334,7 @@ fn lambda_part(
     let ssr_per_dof = ssr_sum / ssr_n.max(1) as f64;
     let r_wahba = rms3(&err[1]);
     let r_joint = rms3(&err[2]);
+    let r_smooth = rms3(&err[3]);
     let mean = |v: &[f64]| v.iter().sum::<f64>() / v.len().max(1) as f64;
     println!(
         "\nInteger fixing at 2 mm ({} seeded runs × {} epochs): LAMBDA on the float KF, else a single-epoch length-constrained search; ratio ≥ 3, length and angle integrity",
@@ -358,6 +374,15 @@ fn lambda_part(
         r[1], r[0], r[2]
     );
     println!(
+        "    same, fixed-lag smoothed ({} fixes = {:.0} s latency; {} of the fixed epochs): {:.3}° {:.3}° {:.3}°",
+        a.smoother_lag,
+        a.smoother_lag as f64 * base.dt,
+        err[3][0].len(),
+        r_smooth[1],
+        r_smooth[0],
+        r_smooth[2]
+    );
+    println!(
         "  consistency: joint LS SSR per degree of freedom {ssr_per_dof:.3} (1 expected), attitude filter mean NIS {mean_nis:.2} (3 expected)"
     );
     println!(
@@ -379,6 +404,8 @@ fn lambda_part(
         "rms_after_fix_method": "rigid-body attitude filter on all fixed DDs",
         "rms_after_fix_wahba_deg": {"pitch": r_wahba[1], "roll": r_wahba[0], "yaw": r_wahba[2]},
         "rms_after_fix_joint_ls_deg": {"pitch": r_joint[1], "roll": r_joint[0], "yaw": r_joint[2]},
+        "rms_after_fix_smoothed_deg": {"pitch": r_smooth[1], "roll": r_smooth[0], "yaw": r_smooth[2],
+            "lag_fixes": a.smoother_lag, "epochs": err[3][0].len()},
         "joint_ls_ssr_per_dof": ssr_per_dof,
         "att_filter_mean_nis": mean_nis,
         "float_lambda_only_mean_first_fix_epoch": mean(&lambda_only_first),
@@ -626,6 +653,7 @@ mod tests {
         let json = std::env::temp_dir().join(format!("seed003_{}.json", std::process::id()));
         seed003(Seed003Args {
             lambda_seed0: 5000,
+            smoother_lag: 3,
             seeds: 2,
             epochs: 200,
             after: 150,
