@@ -6,7 +6,9 @@ use clap::{Args as ClapArgs, ValueEnum};
 use std::io::Write;
 use std::path::PathBuf;
 
-use navfuse_core::estimators::cp_attitude::{CpAttConfig, CpAttitude, FixConfig, FixMethod};
+use navfuse_core::estimators::cp_attitude::{
+    AttFilterConfig, CpAttConfig, CpAttitude, FixConfig, FixMethod,
+};
 use navfuse_core::gnss::dd::DdNoise;
 use navfuse_core::Vec3;
 use navfuse_sim::carrier_phase::{
@@ -80,6 +82,8 @@ pub struct Row {
     pub n_sats: usize,
     pub rpy_true: Vec3,
     pub rpy_float: Vec3,
+    /// Float baselines through equal-weight Wahba instead of eq. 4.
+    pub rpy_float_wahba: Vec3,
     pub rpy_fixed: Option<Vec3>,
     /// Same epochs: per-epoch weighted Wahba on per-baseline fixed baselines.
     pub rpy_wahba: Option<Vec3>,
@@ -108,6 +112,7 @@ impl Row {
     pub fn est(&self, method: Method) -> Option<Vec3> {
         match method {
             Method::Float => Some(self.rpy_float),
+            Method::FloatWahba => Some(self.rpy_float_wahba),
             Method::Fixed => self.rpy_fixed,
             Method::FixedWahba => self.rpy_wahba,
             Method::FixedJoint => self.rpy_joint,
@@ -128,6 +133,8 @@ pub struct SceneRun {
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Method {
     Float,
+    /// Float baselines, equal-weight Wahba instead of eq. 4.
+    FloatWahba,
     /// The fixed solution (rigid-body attitude filter by default).
     Fixed,
     /// Per-epoch weighted Wahba on the fixed baselines (the earlier fixed solution).
@@ -188,6 +195,7 @@ pub fn run_scene(
             n_sats: s.epoch.n_sats,
             rpy_true: s.rpy,
             rpy_float: sol.rpy_float,
+            rpy_float_wahba: sol.rpy_float_wahba,
             rpy_fixed: sol.rpy_fixed,
             rpy_wahba: sol.rpy_wahba,
             rpy_joint: sol.rpy_joint,
@@ -266,8 +274,14 @@ pub fn run(args: Args) -> Result<(), String> {
         ..Default::default()
     };
     let scene = simulate(&cfg, &orbits);
+    // Attitude filter noise from the simulated motion's dynamics bounds.
+    let (w_max, a_max, j_h, j_v) = cfg.motion.dynamics_bounds(3600.0);
     let fix = FixConfig {
         q_fixed: args.q_fixed,
+        att_filter: Some(AttFilterConfig {
+            smoother_lag: 0,
+            ..AttFilterConfig::from_dynamics(w_max, a_max, j_h, j_v, cfg.dt)
+        }),
         ..Default::default()
     };
     let run = run_scene(&scene, &cfg, fcfg, Some(fix));
@@ -338,7 +352,7 @@ pub fn run(args: Args) -> Result<(), String> {
             .filter(|r| r.fix_correct == Some(false))
             .count();
         println!(
-            "fixed attitude RMS after epoch {}: roll {:.3}°, pitch {:.3}°, yaw {:.3}° ({} of {} epochs fixed, {} wrong)",
+            "fixed attitude RMS after epoch {} (rigid-body attitude filter): roll {:.3}°, pitch {:.3}°, yaw {:.3}° ({} of {} epochs fixed, {} wrong)",
             args.after,
             x[0],
             x[1],
@@ -347,6 +361,16 @@ pub fn run(args: Args) -> Result<(), String> {
             run.rows.len(),
             wrong
         );
+        for (m, name) in [
+            (Method::FixedJoint, "per-epoch joint LS on all fixed DDs"),
+            (Method::FixedWahba, "per-epoch per-baseline LS + Wahba"),
+        ] {
+            let v = stat(m);
+            println!(
+                "  same epochs, {name}: roll {:.3}°, pitch {:.3}°, yaw {:.3}°",
+                v[0], v[1], v[2]
+            );
+        }
     }
     Ok(())
 }

@@ -18,7 +18,7 @@ use clap::{Args as ClapArgs, Subcommand};
 use std::path::PathBuf;
 
 use crate::attitude::{run_scene, wrap_deg, Method, SceneRun};
-use navfuse_core::estimators::cp_attitude::{CpAttConfig, FixConfig};
+use navfuse_core::estimators::cp_attitude::{AttFilterConfig, CpAttConfig, FixConfig};
 use navfuse_sim::carrier_phase::{simulate, SceneConfig};
 
 /// Reproduce a seed paper's experiment and print its table beside ours.
@@ -58,8 +58,8 @@ pub struct Seed003Args {
     pub lambda_seed0: u64,
     /// Lag [fixed epochs] of the attitude smoother reported beside the
     /// real-time attitude filter in the LAMBDA part (3: where the gain levels
-    /// off on the independent seeds 9000–9029 — lag 1/2/3/4/6 gave pitch
-    /// 0.070/0.069/0.062/0.060/0.059°).
+    /// off on the independent seeds 9000–9029 — lag 1/2/3/4 gave pitch
+    /// 0.072/0.070/0.064/0.063°).
     #[arg(long, default_value_t = 3)]
     pub smoother_lag: usize,
     /// YUMA almanac (default: gnss/almanac/yuma_week1011.alm under the data root).
@@ -157,6 +157,7 @@ fn seed003(a: Seed003Args) -> Result<(), String> {
         let mut acc_x = [0.0; 3];
         let mut acc_xf = [0.0; 3];
         let mut acc_e = [0.0; 3];
+        let mut acc_fw = [0.0; 3];
         let mut nx = 0usize;
         for s in 0..a.seeds {
             let cfg = SceneConfig {
@@ -172,6 +173,7 @@ fn seed003(a: Seed003Args) -> Result<(), String> {
                 Some(FixConfig::default()),
             );
             let f = rms_after(&run, a.after, Method::Float);
+            let fw = rms_after(&run, a.after, Method::FloatWahba);
             let x = rms_after(&run, a.after, Method::FixedWahba);
             let xf = rms_after(&run, a.after, Method::Fixed);
             // The same float filter with the exact (correlated) DD covariance.
@@ -187,6 +189,7 @@ fn seed003(a: Seed003Args) -> Result<(), String> {
             for i in 0..3 {
                 acc_f[i] += f[i] / a.seeds as f64;
                 acc_e[i] += e[i] / a.seeds as f64;
+                acc_fw[i] += fw[i] / a.seeds as f64;
             }
             if x.iter().chain(&xf).all(|v| v.is_finite()) {
                 for i in 0..3 {
@@ -211,6 +214,7 @@ fn seed003(a: Seed003Args) -> Result<(), String> {
                 "paper": {"pitch_deg": pp, "roll_deg": pr, "yaw_deg": py},
                 "fixed_wahba": {"pitch_deg": acc_x[1], "roll_deg": acc_x[0], "yaw_deg": acc_x[2]},
                 "fixed_att_filter": {"pitch_deg": acc_xf[1], "roll_deg": acc_xf[0], "yaw_deg": acc_xf[2]},
+                "float_wahba_equal_weights": {"pitch_deg": acc_fw[1], "roll_deg": acc_fw[0], "yaw_deg": acc_fw[2]},
                 "float_exact_dd_cov": {"pitch_deg": acc_e[1], "roll_deg": acc_e[0], "yaw_deg": acc_e[2]},
                 "seeds": a.seeds,
             }),
@@ -260,10 +264,15 @@ fn lambda_part(
         Method::FixedSmoothed,
     ];
     let mut err: [[Vec<f64>; 3]; 4] = Default::default();
-    let mut fc = FixConfig::default();
-    if let Some(ac) = fc.att_filter.as_mut() {
-        ac.smoother_lag = a.smoother_lag;
-    }
+    // Attitude filter noise from the scene's dynamics bounds (ENU angular jerk).
+    let (w_max, a_max, j_h, j_v) = base.motion.dynamics_bounds(3600.0);
+    let fc = FixConfig {
+        att_filter: Some(AttFilterConfig {
+            smoother_lag: a.smoother_lag,
+            ..AttFilterConfig::from_dynamics(w_max, a_max, j_h, j_v, base.dt)
+        }),
+        ..Default::default()
+    };
     let mut first_fix = Vec::new();
     let (mut nis_sum, mut nis_n) = (0.0, 0usize);
     let (mut ssr_sum, mut ssr_n) = (0.0, 0usize);

@@ -986,8 +986,8 @@ impl AttSmoother {
 /// acceleration model per axis). The measurement is every fixed DD of every
 /// baseline with the exact correlated covariance (`FixedDds`); as the DDs
 /// enter only through `δθ`, the stacked update equals the update with the
-/// joint least-squares rotation `N⁻¹ g` and covariance `N⁻¹` (sufficient
-/// statistic), iterated (IEKF) about the updated attitude.
+/// joint least-squares rotation and covariance `N⁻¹` (sufficient
+/// statistic; [`RigidAttFilter::update_ls`]).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct RigidAttFilter {
     pub c_bn: Mat3,
@@ -1093,52 +1093,42 @@ impl RigidAttFilter {
         self.pred = (self.c_bn, self.w_n, self.a_n, self.p);
     }
 
-    /// Measurement update with the fixed DDs of one epoch (IEKF, re-linearised
-    /// until the step is below 1e-12 rad, at most 6 iterations). Returns false when the χ²(3) gate rejects it (state
-    /// unchanged) or the geometry is singular.
+    /// Measurement update with the fixed DDs of one epoch: solves the joint
+    /// LS from the predicted attitude and calls [`Self::update_ls`].
     pub fn update(&mut self, dds: &FixedDds, b_b: &[Vec3], cfg: &AttFilterConfig) -> bool {
-        let mut d = Vec3::zeros(); // error-state θ estimate at the current iterate
-        let mut dx = SVector::<f64, 9>::zeros();
-        let mut gain = SMatrix::<f64, 9, 3>::zeros();
-        let mut r_meas = Mat3::identity();
-        let mut p_tt = Mat3::zeros();
-        for i in 0..3 {
-            for j in 0..3 {
-                p_tt[(i, j)] = self.p[(i, j)];
-            }
+        match dds.solve(&self.c_bn, b_b) {
+            Some((c_ls, n_info)) => self.update_ls(&c_ls, &n_info, cfg),
+            None => false,
+        }
+    }
+
+    /// Measurement update with the epoch's joint LS attitude `c_ls` and its
+    /// information `n_info` (`FixedDds::solve`). The DDs enter only through
+    /// `δθ`, so the stacked DD update linearised at the LS solution equals
+    /// the update with the pseudo-measurement `z = rotvec(c_ls ĉ_bnᵀ)`,
+    /// `R = N⁻¹`, `H = [I 0 0]` (sufficient statistic); linearising at the
+    /// LS solution, not at the prediction, keeps it exact when the
+    /// prediction is poor. Returns false when the χ²(3) gate rejects it
+    /// (state unchanged) or `N` is singular.
+    pub fn update_ls(&mut self, c_ls: &Mat3, n_info: &Mat3, cfg: &AttFilterConfig) -> bool {
+        let Some(r_meas) = n_info.cholesky().map(|ch| ch.inverse()) else {
+            return false;
+        };
+        let z = crate::attitude::rotvec_from_dcm(&(c_ls * self.c_bn.transpose()));
+        let p_tt = self.p.fixed_view::<3, 3>(0, 0).into_owned();
+        let Some(s_ch) = (p_tt + r_meas).cholesky() else {
+            return false;
+        };
+        self.nis = z.dot(&s_ch.solve(&z));
+        if cfg.gate > 0.0 && self.nis > chi2_quantile(3.0, cfg.gate) {
+            self.rejected += 1;
+            self.rejected_run += 1;
+            return false;
         }
         let p_xt = self.p.fixed_view::<9, 3>(0, 0).into_owned();
-        for it in 0..6 {
-            let c_lin = crate::attitude::dcm_from_rotvec(&d) * self.c_bn;
-            let (n, g, _) = dds.normal(&c_lin, b_b);
-            let Some(ch) = n.cholesky() else {
-                return false;
-            };
-            r_meas = ch.inverse();
-            // Pseudo-measurement of the error state: z = d + N⁻¹ g.
-            let z = d + ch.solve(&g);
-            let s = p_tt + r_meas;
-            let Some(s_ch) = s.cholesky() else {
-                return false;
-            };
-            if it == 0 {
-                self.nis = z.dot(&s_ch.solve(&z));
-                if cfg.gate > 0.0 && self.nis > chi2_quantile(3.0, cfg.gate) {
-                    self.rejected += 1;
-                    self.rejected_run += 1;
-                    return false;
-                }
-            }
-            gain = p_xt * s_ch.inverse();
-            dx = gain * z;
-            let d_new = Vec3::new(dx[0], dx[1], dx[2]);
-            let step = (d_new - d).norm();
-            d = d_new;
-            if step < 1e-12 {
-                break;
-            }
-        }
-        self.c_bn = crate::attitude::dcm_from_rotvec(&d) * self.c_bn;
+        let gain = p_xt * s_ch.inverse();
+        let dx = gain * z;
+        self.c_bn = crate::attitude::dcm_from_rotvec(&Vec3::new(dx[0], dx[1], dx[2])) * self.c_bn;
         self.w_n += Vec3::new(dx[3], dx[4], dx[5]);
         self.a_n += Vec3::new(dx[6], dx[7], dx[8]);
         // Joseph form with H = [I 0 0].
@@ -1322,6 +1312,14 @@ pub struct CpAttSolution {
     pub t: f64,
     /// Paper's (roll, pitch, yaw) [rad] from the float baselines by eq. 4 and eq. 2.
     pub rpy_float: Vec3,
+    /// The same float baselines through equal-weight Wahba (orthonormal).
+    /// With eq. 4 and orthonormal body baselines `C_nb = R_n⁻¹`, whose rows
+    /// are cross products of the *other two* baselines: to first order yaw
+    /// sees only the north error of b_x, pitch the north error of b_z and
+    /// roll the east error of b_z (one horizontal component each), whereas
+    /// Wahba averages two baselines per angle (yaw: both horizontal, pitch
+    /// and roll: one horizontal, one vertical).
+    pub rpy_float_wahba: Vec3,
     /// Float baselines, ENU [m].
     pub b_n_float: [Vec3; MAX_BASELINES],
     pub n_sats: usize,
@@ -1396,6 +1394,7 @@ impl CpAttitude {
             t: ep.t,
             n_sats: ep.n_sats,
             rpy_float: Vec3::repeat(f64::NAN),
+            rpy_float_wahba: Vec3::repeat(f64::NAN),
             att_nis: f64::NAN,
             ..Default::default()
         };
@@ -1406,6 +1405,10 @@ impl CpAttitude {
         if nb >= 3 {
             if let Some(c) = ls_dcm(&self.b_b[..nb], &sol.b_n_float[..nb]) {
                 sol.rpy_float = paper_euler(&c);
+            }
+            let ones = [1.0; MAX_BASELINES];
+            if let Some(c) = wahba_nb(&self.b_b[..nb], &sol.b_n_float[..nb], &ones[..nb]) {
+                sol.rpy_float_wahba = paper_euler(&c);
             }
         }
         if let Some(fc) = self.fix {
@@ -1498,7 +1501,7 @@ impl CpAttitude {
         let mut predicted = false;
         if self.att.active {
             self.att.predict(ep.t, &ac);
-            let ok = self.att.update(&dds, b_b, &ac);
+            let ok = self.att.update_ls(&c_j, &n_j, &ac);
             sol.att_nis = self.att.nis;
             if ok {
                 sol.rpy_fixed = Some(paper_euler(&self.att.c_nb()));
@@ -1638,6 +1641,26 @@ mod tests {
         if let Some(g) = constrained_search(&ds, &z, &r, 1.2, &cfg) {
             assert_ne!(&g.n_dd[..8], &n_true);
         }
+    }
+
+    /// Why the float yaw of eq. 4 is no better than its pitch/roll (level,
+    /// yaw 0, body x/y/z = E/N/U): eq. 4 yaw moves with the north error of
+    /// b_x only and ignores the east error of b_y; Wahba takes half of each.
+    #[test]
+    fn eq4_yaw_sees_one_horizontal_error_wahba_two() {
+        let b_b = [Vec3::x(), Vec3::y(), Vec3::z()];
+        let eps = 1e-4;
+        let yaw = |b_n: &[Vec3; 3]| {
+            let ls = paper_euler(&ls_dcm(&b_b, b_n).unwrap()).z;
+            let wa = paper_euler(&wahba_nb(&b_b, b_n, &[1.0; 3]).unwrap()).z;
+            (ls, wa)
+        };
+        let (ls_x, wa_x) = yaw(&[Vec3::new(1.0, eps, 0.0), Vec3::y(), Vec3::z()]);
+        let (ls_y, wa_y) = yaw(&[Vec3::x(), Vec3::new(-eps, 1.0, 0.0), Vec3::z()]);
+        assert!((ls_x.abs() - eps).abs() < 1e-8, "{ls_x}");
+        assert!(ls_y.abs() < 1e-8, "{ls_y}");
+        assert!((wa_x.abs() - eps / 2.0).abs() < 1e-8, "{wa_x}");
+        assert!((wa_y.abs() - eps / 2.0).abs() < 1e-8, "{wa_y}");
     }
 
     #[test]
