@@ -67,6 +67,10 @@ pub struct Args {
     /// Process noise q of the fixed-baseline filter [m²/s³] (0: epoch-wise fixed baselines).
     #[arg(long, default_value_t = FixConfig::default().q_fixed)]
     pub q_fixed: f64,
+    /// Kinematic order of the attitude filter on the fixed DDs (2: rate +
+    /// angular acceleration, white jerk; 3: + jerk, white snap).
+    #[arg(long, default_value_t = 2)]
+    pub att_order: usize,
     /// Statistics over epochs after this one.
     #[arg(long, default_value_t = 150)]
     pub after: usize,
@@ -275,13 +279,14 @@ pub fn run(args: Args) -> Result<(), String> {
     };
     let scene = simulate(&cfg, &orbits);
     // Attitude filter noise from the simulated motion's dynamics bounds.
-    let (w_max, a_max, j_h, j_v) = cfg.motion.dynamics_bounds(3600.0);
+    let bounds = cfg.motion.dynamics_bounds(3600.0);
     let fix = FixConfig {
         q_fixed: args.q_fixed,
-        att_filter: Some(AttFilterConfig {
-            smoother_lag: 0,
-            ..AttFilterConfig::from_dynamics(w_max, a_max, j_h, j_v, cfg.dt)
-        }),
+        att_filter: Some(AttFilterConfig::from_bounds(
+            &bounds,
+            args.att_order,
+            cfg.dt,
+        )),
         ..Default::default()
     };
     let run = run_scene(&scene, &cfg, fcfg, Some(fix));

@@ -62,6 +62,10 @@ pub struct Seed003Args {
     /// 0.072/0.070/0.064/0.063°).
     #[arg(long, default_value_t = 3)]
     pub smoother_lag: usize,
+    /// Kinematic order of the attitude filter (2: rate + angular
+    /// acceleration, white jerk; 3: + jerk, white snap).
+    #[arg(long, default_value_t = 2)]
+    pub att_order: usize,
     /// YUMA almanac (default: gnss/almanac/yuma_week1011.alm under the data root).
     #[arg(long)]
     pub almanac: Option<PathBuf>,
@@ -265,11 +269,11 @@ fn lambda_part(
     ];
     let mut err: [[Vec<f64>; 3]; 4] = Default::default();
     // Attitude filter noise from the scene's dynamics bounds (ENU angular jerk).
-    let (w_max, a_max, j_h, j_v) = base.motion.dynamics_bounds(3600.0);
+    let bounds = base.motion.dynamics_bounds(3600.0);
     let fc = FixConfig {
         att_filter: Some(AttFilterConfig {
             smoother_lag: a.smoother_lag,
-            ..AttFilterConfig::from_dynamics(w_max, a_max, j_h, j_v, base.dt)
+            ..AttFilterConfig::from_bounds(&bounds, a.att_order, base.dt)
         }),
         ..Default::default()
     };
@@ -663,6 +667,7 @@ mod tests {
         seed003(Seed003Args {
             lambda_seed0: 5000,
             smoother_lag: 3,
+            att_order: 2,
             seeds: 2,
             epochs: 200,
             after: 150,
