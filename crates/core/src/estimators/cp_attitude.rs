@@ -16,6 +16,15 @@
 //!
 //! Attitude: the paper's least squares `C_nb = R_b R_nᵀ (R_n R_nᵀ)⁻¹` (eq. 4)
 //! and its angles (eq. 2); or Wahba/SVD with the known body geometry.
+//!
+//! After the integer fix ("beyond" the paper): the fixed DD phases of all
+//! baselines are mm-level ranges of the known rigid body, so the attitude is
+//! estimated from all of them jointly with their exact covariance
+//! (tridiagonal per baseline, correlated across baselines through the
+//! master antenna; [`FixedDds`]) and carried across epochs by a rigid-body
+//! multiplicative EKF ([`RigidAttFilter`], with an optional fixed-lag RTS
+//! smoother [`AttSmoother`]). The earlier per-baseline LS + weighted Wahba
+//! stays available (`CpAttSolution::rpy_wahba`).
 //! Measurement sign: the single difference is `Δφ = φ_master − φ_slave` [m],
 //! so `Δφ − λΔN = sᵀ b` with `s` the ENU unit vector master → satellite.
 
@@ -1867,11 +1876,11 @@ mod att_filter_tests {
         crate::attitude::rotvec_from_dcm(&(a * b.transpose()))
     }
 
-    /// Noise-free: the joint LS is exact, and the filter's one-step (orders 2
-    /// and 3)
-    /// prediction stays within the error of extrapolating a quadratic fitted
-    /// to past attitudes, `j_max dt³` (Lagrange remainder `j/6 · dt·2dt·3dt`),
-    /// 4.6e-3 rad — against ~0.2 rad for a wrong rotation sense.
+    /// Noise-free: the joint LS is exact, and the filter's one-step
+    /// prediction (orders 2 and 3) stays within the error of extrapolating a
+    /// quadratic fitted to past attitudes, `j_max dt³` (Lagrange remainder
+    /// `j/6 · dt·2dt·3dt`), 4.6e-3 rad — against ~0.2 rad for a wrong
+    /// rotation sense; order 3 extrapolates the smooth motion better.
     #[test]
     fn joint_ls_exact_and_prediction_within_jerk_bound() {
         let b_b = [Vec3::x(), Vec3::y(), Vec3::z()];
