@@ -6,7 +6,9 @@ use clap::{Args as ClapArgs, ValueEnum};
 use std::io::Write;
 use std::path::PathBuf;
 
-use navfuse_core::estimators::cp_attitude::{CpAttConfig, CpAttitude, FixConfig, FixMethod};
+use navfuse_core::estimators::cp_attitude::{
+    AttFilterConfig, CpAttConfig, CpAttitude, FixConfig, FixMethod,
+};
 use navfuse_core::gnss::dd::DdNoise;
 use navfuse_core::Vec3;
 use navfuse_sim::carrier_phase::{
@@ -65,6 +67,10 @@ pub struct Args {
     /// Process noise q of the fixed-baseline filter [m²/s³] (0: epoch-wise fixed baselines).
     #[arg(long, default_value_t = FixConfig::default().q_fixed)]
     pub q_fixed: f64,
+    /// Kinematic order of the attitude filter on the fixed DDs (2: rate +
+    /// angular acceleration, white jerk; 3: + jerk, white snap).
+    #[arg(long, default_value_t = 2)]
+    pub att_order: usize,
     /// Statistics over epochs after this one.
     #[arg(long, default_value_t = 150)]
     pub after: usize,
@@ -80,7 +86,20 @@ pub struct Row {
     pub n_sats: usize,
     pub rpy_true: Vec3,
     pub rpy_float: Vec3,
+    /// Float baselines through equal-weight Wahba instead of eq. 4.
+    pub rpy_float_wahba: Vec3,
     pub rpy_fixed: Option<Vec3>,
+    /// Same epochs: per-epoch weighted Wahba on per-baseline fixed baselines.
+    pub rpy_wahba: Option<Vec3>,
+    /// Same epochs: per-epoch joint LS on all fixed DDs.
+    pub rpy_joint: Option<Vec3>,
+    /// Same epochs: fixed-lag smoothed attitude filter (filled in when the
+    /// smoother releases this epoch, `smoother_lag` fixes later).
+    pub rpy_smoothed: Option<Vec3>,
+    /// NIS of the attitude filter's update at this epoch (NaN: none).
+    pub att_nis: f64,
+    /// Weighted SSR of the epoch's joint LS on the fixed DDs.
+    pub joint_ssr: f64,
     /// Whether every baseline's fixed integers equal the truth (None: not fixed).
     pub fix_correct: Option<bool>,
     /// Every baseline fixed by LAMBDA on the float filter (not the search).
@@ -90,6 +109,20 @@ pub struct Row {
     pub amb_sd0: f64,
     /// Every float DD ambiguity of baseline 1: (PRN pair, error [m], √P [m]).
     pub amb: Vec<(u8, u8, f64, f64)>,
+}
+
+impl Row {
+    /// The estimate of `method` at this epoch (None: not available).
+    pub fn est(&self, method: Method) -> Option<Vec3> {
+        match method {
+            Method::Float => Some(self.rpy_float),
+            Method::FloatWahba => Some(self.rpy_float_wahba),
+            Method::Fixed => self.rpy_fixed,
+            Method::FixedWahba => self.rpy_wahba,
+            Method::FixedJoint => self.rpy_joint,
+            Method::FixedSmoothed => self.rpy_smoothed,
+        }
+    }
 }
 
 /// A processed scene.
@@ -104,7 +137,16 @@ pub struct SceneRun {
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Method {
     Float,
+    /// Float baselines, equal-weight Wahba instead of eq. 4.
+    FloatWahba,
+    /// The fixed solution (rigid-body attitude filter by default).
     Fixed,
+    /// Per-epoch weighted Wahba on the fixed baselines (the earlier fixed solution).
+    FixedWahba,
+    /// Per-epoch joint LS on all fixed DDs.
+    FixedJoint,
+    /// Fixed-lag smoothed attitude filter.
+    FixedSmoothed,
 }
 
 /// Wrap degrees to (−180, 180].
@@ -157,7 +199,13 @@ pub fn run_scene(
             n_sats: s.epoch.n_sats,
             rpy_true: s.rpy,
             rpy_float: sol.rpy_float,
+            rpy_float_wahba: sol.rpy_float_wahba,
             rpy_fixed: sol.rpy_fixed,
+            rpy_wahba: sol.rpy_wahba,
+            rpy_joint: sol.rpy_joint,
+            rpy_smoothed: None,
+            att_nis: sol.att_nis,
+            joint_ssr: sol.joint_ssr,
             fix_correct: sol.rpy_fixed.map(|_| {
                 (0..cfg.b_b.len().min(3)).all(|k| {
                     let f = &sol.fixes[k];
@@ -172,6 +220,11 @@ pub fn run_scene(
             amb_sd0,
             amb,
         });
+        if let Some((t, rpy)) = sol.smoothed {
+            if let Some(r) = rows.iter_mut().rev().find(|r| r.t == t) {
+                r.rpy_smoothed = Some(rpy);
+            }
+        }
     }
     let nb = cfg.b_b.len().min(est.filters.len());
     SceneRun {
@@ -225,8 +278,15 @@ pub fn run(args: Args) -> Result<(), String> {
         ..Default::default()
     };
     let scene = simulate(&cfg, &orbits);
+    // Attitude filter noise from the simulated motion's dynamics bounds.
+    let bounds = cfg.motion.dynamics_bounds(3600.0);
     let fix = FixConfig {
         q_fixed: args.q_fixed,
+        att_filter: Some(AttFilterConfig::from_bounds(
+            &bounds,
+            args.att_order,
+            cfg.dt,
+        )),
         ..Default::default()
     };
     let run = run_scene(&scene, &cfg, fcfg, Some(fix));
@@ -269,13 +329,7 @@ pub fn run(args: Args) -> Result<(), String> {
     let stat = |m: Method| -> [f64; 3] {
         let mut e = [Vec::new(), Vec::new(), Vec::new()];
         for r in run.rows.iter().skip(args.after) {
-            let v = match m {
-                Method::Float => r.rpy_float,
-                Method::Fixed => match r.rpy_fixed {
-                    Some(v) => v,
-                    None => continue,
-                },
-            };
+            let Some(v) = r.est(m) else { continue };
             for a in 0..3 {
                 e[a].push(wrap_deg((v[a] - r.rpy_true[a]).to_degrees()));
             }
@@ -303,7 +357,7 @@ pub fn run(args: Args) -> Result<(), String> {
             .filter(|r| r.fix_correct == Some(false))
             .count();
         println!(
-            "fixed attitude RMS after epoch {}: roll {:.3}°, pitch {:.3}°, yaw {:.3}° ({} of {} epochs fixed, {} wrong)",
+            "fixed attitude RMS after epoch {} (rigid-body attitude filter): roll {:.3}°, pitch {:.3}°, yaw {:.3}° ({} of {} epochs fixed, {} wrong)",
             args.after,
             x[0],
             x[1],
@@ -312,6 +366,16 @@ pub fn run(args: Args) -> Result<(), String> {
             run.rows.len(),
             wrong
         );
+        for (m, name) in [
+            (Method::FixedJoint, "per-epoch joint LS on all fixed DDs"),
+            (Method::FixedWahba, "per-epoch per-baseline LS + Wahba"),
+        ] {
+            let v = stat(m);
+            println!(
+                "  same epochs, {name}: roll {:.3}°, pitch {:.3}°, yaw {:.3}°",
+                v[0], v[1], v[2]
+            );
+        }
     }
     Ok(())
 }

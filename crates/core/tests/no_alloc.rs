@@ -1,7 +1,7 @@
 //! Proves that the per-step code never touches the heap: a counting global
 //! allocator records allocations made on the test's own thread while the
-//! Kalman step and every streaming estimator (ESKF, PF-LC, GPS-ACC, GPS hold)
-//! process a synthetic drive.
+//! Kalman step and every streaming estimator (ESKF, PF-LC, GPS-ACC, GPS hold,
+//! CP-ATT) process a synthetic drive.
 
 use nalgebra::{SMatrix, SVector};
 use navfuse_core::estimators::accel_dr::{AccelDr, AccelDrConfig, GpsHold};
@@ -196,4 +196,64 @@ fn eskf_and_pf_lc_push_do_not_allocate() {
     assert_eq!(allocs(), before, "push allocated");
     assert!(outputs > 10_000, "{outputs} solutions");
     assert!(eskf.solution().lat.is_finite());
+}
+
+/// Seed 003: float filters, integer fixing, joint fixed-DD attitude, the
+/// rigid-body attitude filter and its smoother allocate nothing per epoch.
+#[test]
+fn cp_attitude_update_does_not_allocate() {
+    use navfuse_core::estimators::cp_attitude::{
+        paper_dcm_nb, CpAttConfig, CpAttitude, CpEpoch, FixConfig,
+    };
+    const LAM: f64 = 0.190293673;
+    let b_b = [Vec3::x(), Vec3::y(), Vec3::z()];
+    let mut fc = FixConfig::default();
+    if let Some(a) = fc.att_filter.as_mut() {
+        a.smoother_lag = 2;
+    }
+    let mut est = CpAttitude::new(CpAttConfig::default(), &b_b).with_fixing(fc);
+    // Epochs prepared before counting: 8 satellites, slowly turning body.
+    let epochs: Vec<CpEpoch> = (0..40)
+        .map(|e| {
+            let t = 10.0 * e as f64;
+            let c_bn =
+                paper_dcm_nb(0.1 * (0.02 * t).sin(), 0.05, 0.3 * (0.02 * t).cos()).transpose();
+            let mut ep = CpEpoch {
+                t,
+                n_sats: 8,
+                n_baselines: 3,
+                ..Default::default()
+            };
+            let mut prng = 0x9E37_79B9_7F4A_7C15u64 ^ e as u64;
+            for s in 0..8 {
+                let el = 1.4 - 0.16 * s as f64;
+                let az = 0.8 * s as f64 + 0.001 * e as f64;
+                ep.prn[s] = s as u8 + 1;
+                ep.los_enu[s] = Vec3::new(el.cos() * az.sin(), el.cos() * az.cos(), el.sin());
+                ep.sigma[s] = 0.002;
+                for (k, bk) in b_b.iter().enumerate() {
+                    prng = prng
+                        .wrapping_mul(6364136223846793005)
+                        .wrapping_add(1442695040888963407);
+                    let noise = ((prng >> 33) as f64 / (1u64 << 31) as f64 - 0.5) * 0.002;
+                    let amb = ((s * 5 + k * 3) % 11) as f64 - 5.0;
+                    ep.sd_phase[k][s] = ep.los_enu[s].dot(&(c_bn * bk)) + LAM * amb + noise;
+                }
+            }
+            ep
+        })
+        .collect();
+    let mut fixed = 0;
+    let mut smoothed = 0;
+    let before = allocs();
+    for ep in &epochs {
+        let sol = est.update(ep);
+        fixed += sol.rpy_fixed.is_some() as usize;
+        smoothed += sol.smoothed.is_some() as usize;
+    }
+    assert_eq!(allocs(), before, "CpAttitude::update allocated");
+    assert!(
+        fixed > 30 && smoothed > 25,
+        "fixed {fixed}, smoothed {smoothed}"
+    );
 }
