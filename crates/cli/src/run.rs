@@ -948,6 +948,29 @@ pub fn read_kfgins(cfg: &KfGinsConfig) -> Result<RunInput, String> {
 mod tests {
     use super::*;
 
+    /// `navfuse run CONFIG --output OUT` with the config's estimator.
+    fn run_to(config: &Path, out: &Path) -> Result<(), String> {
+        run(Args {
+            config: config.to_path_buf(),
+            output: Some(out.to_path_buf()),
+            estimator: None,
+            report: false,
+            truth: None,
+        })
+    }
+
+    /// [`run_to`], then its `solution.nav` (GPS week `week` for TOW-only
+    /// lines) and `summary.json`.
+    fn run_and_read(config: &Path, out: &Path, week: u32) -> (Vec<NavSolution>, serde_json::Value) {
+        run_to(config, out).unwrap();
+        let (sols, _) =
+            crate::eval::read_trajectory(&out.join("solution.nav"), week, false).unwrap();
+        let summary =
+            serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap())
+                .unwrap();
+        (sols, summary)
+    }
+
     #[test]
     fn out_formats_by_extension_and_unknown_named() {
         let f = out_formats(&["csv".into(), "geojson".into(), "gpx".into()]).unwrap();
@@ -1114,20 +1137,8 @@ mod tests {
         )
         .unwrap();
         let last = |name: &str| -> (NavSolution, serde_json::Value) {
-            let out = dir.join(name);
-            run(Args {
-                config: dir.join(format!("{name}.toml")),
-                output: Some(out.clone()),
-                estimator: None,
-                report: false,
-                truth: None,
-            })
-            .unwrap();
-            let (sols, _) =
-                crate::eval::read_trajectory(&out.join("solution.nav"), 0, false).unwrap();
-            let summary: serde_json::Value =
-                serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap())
-                    .unwrap();
+            let (sols, summary) =
+                run_and_read(&dir.join(format!("{name}.toml")), &dir.join(name), 0);
             (*sols.last().unwrap(), summary)
         };
         let (a, _) = last("txt");
@@ -1229,22 +1240,9 @@ mod tests {
             ("auto", "AHRS"),
         ] {
             std::fs::write(dir.join("run.toml"), toml(heading)).unwrap();
-            let out = dir.join(heading);
-            run(Args {
-                config: dir.join("run.toml"),
-                output: Some(out.clone()),
-                estimator: None,
-                report: false,
-                truth: None,
-            })
-            .unwrap();
-            let summary: serde_json::Value =
-                serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap())
-                    .unwrap();
+            let (sols, summary) = run_and_read(&dir.join("run.toml"), &dir.join(heading), 0);
             let how = summary["alignment"].as_str().unwrap();
             assert!(how.contains(expect), "{heading}: {how}");
-            let (sols, _) =
-                crate::eval::read_trajectory(&out.join("solution.nav"), 0, false).unwrap();
             let first = sols.first().unwrap();
             let d = (first.rpy.z - yaw).to_degrees();
             assert!(
@@ -1259,14 +1257,7 @@ mod tests {
         }
         // Without a magnetometer or AHRS a parked start has no heading: said so.
         std::fs::write(dir.join("run.toml"), toml("course")).unwrap();
-        let e = run(Args {
-            config: dir.join("run.toml"),
-            output: Some(dir.join("course")),
-            estimator: None,
-            report: false,
-            truth: None,
-        })
-        .unwrap_err();
+        let e = run_to(&dir.join("run.toml"), &dir.join("course")).unwrap_err();
         assert!(e.contains("no GNSS course"), "{e}");
         // The IMU noise in KF-GINS units is checked like KF-GINS's YAML.
         let noise = "[filter.imu_noise]\narw = [-1.0, 1.0, 1.0]\nvrw = [1.0, 1.0, 1.0]\n\
@@ -1285,14 +1276,7 @@ mod tests {
                 format!("{}{extra}", toml("magnetometer")),
             )
             .unwrap();
-            let e = run(Args {
-                config: dir.join("run.toml"),
-                output: Some(dir.join("noise")),
-                estimator: None,
-                report: false,
-                truth: None,
-            })
-            .unwrap_err();
+            let e = run_to(&dir.join("run.toml"), &dir.join("noise")).unwrap_err();
             assert!(e.contains(expect), "{e}");
         }
         let _ = std::fs::remove_dir_all(&dir);
@@ -1345,21 +1329,9 @@ mod tests {
             ),
         )
         .unwrap();
-        let out = dir.join("out");
-        run(Args {
-            config: dir.join("run.toml"),
-            output: Some(out.clone()),
-            estimator: None,
-            report: false,
-            truth: None,
-        })
-        .unwrap();
-        let summary: serde_json::Value =
-            serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap())
-                .unwrap();
+        let (sols, summary) = run_and_read(&dir.join("run.toml"), &dir.join("out"), 0);
         let how = summary["alignment"].as_str().unwrap();
         assert!(how.contains("magnetometer"), "{how}");
-        let (sols, _) = crate::eval::read_trajectory(&out.join("solution.nav"), 0, false).unwrap();
         assert!(sols.len() > 1500, "{} solutions", sols.len());
         let (lat0, lon0) = ((lat_sum / n).to_radians(), (lon_sum / n).to_radians());
         let (rm, rn) = navfuse_core::earth::radii(lat0);
@@ -1412,17 +1384,8 @@ mod tests {
         .unwrap();
         let (reference, _) = crate::eval::read_trajectory(&pos, 0, false).unwrap();
         let rms = |name: &str| -> (f64, serde_json::Value) {
-            let out = dir.join(name);
-            run(Args {
-                config: dir.join(format!("{name}.toml")),
-                output: Some(out.clone()),
-                estimator: None,
-                report: false,
-                truth: None,
-            })
-            .unwrap();
-            let (mut sols, _) =
-                crate::eval::read_trajectory(&out.join("solution.nav"), 2374, false).unwrap();
+            let (mut sols, summary) =
+                run_and_read(&dir.join(format!("{name}.toml")), &dir.join(name), 2374);
             for s in sols.iter_mut() {
                 if s.t < 604_800.0 {
                     s.t += 2374.0 * 604_800.0;
@@ -1433,9 +1396,6 @@ mod tests {
                 ..Default::default()
             };
             let ev = navfuse_eval::evaluate(&sols, &reference, &cfg, None, None).unwrap();
-            let summary: serde_json::Value =
-                serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap())
-                    .unwrap();
             (ev.summary.horizontal.unwrap().rms, summary)
         };
         let (rms_txt, _) = rms("txt");

@@ -435,6 +435,22 @@ mod tests {
         }
     }
 
+    /// A filter with `cfg` after 3 s level and at rest (its alignment), and
+    /// the noise generator with `seed` as left by those samples.
+    fn aligned_level(cfg: AttitudeKfConfig, seed: u64) -> (AttitudeKf, SplitMix64) {
+        let mut rng = SplitMix64::new(seed);
+        let mut a = AttitudeKf::new(cfg);
+        for k in 0..300 {
+            a.push(&static_sample(
+                k as f64 * 0.01,
+                &Mat3::identity(),
+                &Vec3::zeros(),
+                &mut rng,
+            ));
+        }
+        (a, rng)
+    }
+
     #[test]
     fn aligns_level_and_estimates_gyro_bias_then_holds_tilt() {
         let truth = dcm_from_euler(&Vec3::new(0.05, -0.03, 0.0));
@@ -463,20 +479,12 @@ mod tests {
     #[test]
     fn steady_turn_keeps_level_with_centripetal_compensation() {
         let run = |compensate: bool| {
-            let mut a = AttitudeKf::new(AttitudeKfConfig {
+            let cfg = AttitudeKfConfig {
                 hdr_step_rad_s: 0.0,
                 centripetal_compensation: compensate,
                 ..Default::default()
-            });
-            let mut rng = SplitMix64::new(9);
-            for k in 0..300 {
-                a.push(&static_sample(
-                    k as f64 * 0.01,
-                    &Mat3::identity(),
-                    &Vec3::zeros(),
-                    &mut rng,
-                ));
-            }
+            };
+            let (mut a, mut rng) = aligned_level(cfg, 9);
             a.set_yaw(0.0);
             let (v, w) = (19.0, 4.0f64.to_radians());
             let mut yaw = 0.0f64;
@@ -507,16 +515,7 @@ mod tests {
     #[test]
     fn tilt_correction_pulls_back_a_wrong_roll() {
         let truth = Mat3::identity();
-        let mut rng = SplitMix64::new(6);
-        let mut a = AttitudeKf::new(AttitudeKfConfig::default());
-        for k in 0..300 {
-            a.push(&static_sample(
-                k as f64 * 0.01,
-                &truth,
-                &Vec3::zeros(),
-                &mut rng,
-            ));
-        }
+        let (mut a, mut rng) = aligned_level(AttitudeKfConfig::default(), 6);
         // Disturb roll by 3° and watch the tilt updates remove it.
         a.c_bn = dcm_from_euler(&Vec3::new(3f64.to_radians(), 0.0, 0.0)) * a.c_bn;
         for k in 300..3300 {
@@ -533,19 +532,11 @@ mod tests {
     #[test]
     fn hdr_removes_residual_yaw_rate_bias_when_straight() {
         let truth = Mat3::identity();
-        let mut rng = SplitMix64::new(8);
-        let mut a = AttitudeKf::new(AttitudeKfConfig {
+        let cfg = AttitudeKfConfig {
             hdr_step_rad_s: 1e-5,
             ..Default::default()
-        });
-        for k in 0..300 {
-            a.push(&static_sample(
-                k as f64 * 0.01,
-                &truth,
-                &Vec3::zeros(),
-                &mut rng,
-            ));
-        }
+        };
+        let (mut a, mut rng) = aligned_level(cfg, 8);
         a.set_yaw(0.0);
         // Bias appears after alignment (a turn-on drift) — HDR must take it out.
         let bias = Vec3::new(0.0, 0.0, 0.005);
@@ -555,19 +546,11 @@ mod tests {
         assert!((a.gyro_bias().z - 0.005).abs() < 0.001, "{}", a.gyro_bias());
         assert!(a.stats().hdr_steps > 100);
         // Without HDR the bias stays uncorrected.
-        let mut b = AttitudeKf::new(AttitudeKfConfig {
+        let cfg = AttitudeKfConfig {
             hdr_step_rad_s: 0.0,
             ..Default::default()
-        });
-        let mut rng = SplitMix64::new(8);
-        for k in 0..300 {
-            b.push(&static_sample(
-                k as f64 * 0.01,
-                &truth,
-                &Vec3::zeros(),
-                &mut rng,
-            ));
-        }
+        };
+        let (mut b, mut rng) = aligned_level(cfg, 8);
         for k in 300..12300 {
             b.push(&static_sample(k as f64 * 0.01, &truth, &bias, &mut rng));
         }
@@ -576,16 +559,7 @@ mod tests {
 
     #[test]
     fn course_update_corrects_yaw() {
-        let mut rng = SplitMix64::new(9);
-        let mut a = AttitudeKf::new(AttitudeKfConfig::default());
-        for k in 0..300 {
-            a.push(&static_sample(
-                k as f64 * 0.01,
-                &Mat3::identity(),
-                &Vec3::zeros(),
-                &mut rng,
-            ));
-        }
+        let (mut a, _) = aligned_level(AttitudeKfConfig::default(), 9);
         a.set_yaw(0.2);
         for _ in 0..50 {
             a.update_course(0.0);
