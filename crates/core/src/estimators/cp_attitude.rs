@@ -299,15 +299,20 @@ impl BaselineFilter {
         true
     }
 
-    /// Measurement update (eq. 12) with the DDs of baseline `k` of `ep`,
-    /// Joseph form. Returns the normalised innovation squared.
-    fn correct(&mut self, ep: &CpEpoch, k: usize, cfg: &CpAttConfig) -> f64 {
+    /// Measurement model of the DDs of baseline `k` (eq. 11–12): `H`
+    /// (LOS differences in ENU, +1 on the DD ambiguity in metres), the DDs
+    /// `z` [m] and their covariance `R`; rows beyond `n − 1` are zero.
+    #[allow(clippy::type_complexity)]
+    fn dd_model(
+        ep: &CpEpoch,
+        k: usize,
+        cfg: &CpAttConfig,
+    ) -> (SMatrix<f64, MAX_DD, NS>, DdVec, DdMat) {
         let n = ep.n_sats;
-        let m = n - 1;
         let r: DdMat = dd_covariance(&ep.sigma[..n], cfg.dd_noise);
         let mut h = SMatrix::<f64, MAX_DD, NS>::zeros();
         let mut z = DdVec::zeros();
-        for i in 0..m {
+        for i in 0..n - 1 {
             let ds = ep.los_enu[i] - ep.los_enu[i + 1];
             for c in 0..3 {
                 h[(i, c)] = ds[c];
@@ -315,6 +320,13 @@ impl BaselineFilter {
             h[(i, 6 + i)] = 1.0;
             z[i] = ep.sd_phase[k][i] - ep.sd_phase[k][i + 1];
         }
+        (h, z, r)
+    }
+
+    /// Measurement update (eq. 12) with the DDs of baseline `k` of `ep`,
+    /// Joseph form. Returns the normalised innovation squared.
+    fn correct(&mut self, ep: &CpEpoch, k: usize, cfg: &CpAttConfig) -> f64 {
+        let (h, z, r) = Self::dd_model(ep, k, cfg);
         let innov = z - h * self.x;
         let ph = self.p * h.transpose();
         let s = h * ph + r;
@@ -353,19 +365,7 @@ impl BaselineFilter {
     /// Normalised innovation squared of the DDs of baseline `k` against the
     /// current (predicted) state, without updating.
     fn nis(&self, ep: &CpEpoch, k: usize, cfg: &CpAttConfig) -> f64 {
-        let n = ep.n_sats;
-        let m = n - 1;
-        let r: DdMat = dd_covariance(&ep.sigma[..n], cfg.dd_noise);
-        let mut h = SMatrix::<f64, MAX_DD, NS>::zeros();
-        let mut z = DdVec::zeros();
-        for i in 0..m {
-            let ds = ep.los_enu[i] - ep.los_enu[i + 1];
-            for c in 0..3 {
-                h[(i, c)] = ds[c];
-            }
-            h[(i, 6 + i)] = 1.0;
-            z[i] = ep.sd_phase[k][i] - ep.sd_phase[k][i + 1];
-        }
+        let (h, z, r) = Self::dd_model(ep, k, cfg);
         let innov = z - h * self.x;
         let s = h * self.p * h.transpose() + r;
         match s.cholesky() {
