@@ -1059,10 +1059,10 @@ mod tests {
 
     /// The same 60 s drive north (level, 5 m/s) given twice: as KF-GINS
     /// text (time of week) and as a generic CSV IMU in rates (GPS seconds,
-    /// header, own column names) with NMEA fixes. Both runs of the ESKF
+    /// header, own column names) with NMEA fixes, and with UBX NAV-PVT. The ESKF runs
     /// must agree, and the summary must account for every line of each file.
     #[test]
-    fn csv_imu_and_nmea_gnss_run_like_kfgins_text() {
+    fn csv_imu_with_nmea_or_ubx_gnss_runs_like_kfgins_text() {
         use navfuse_io::nmea::NmeaWriter;
         use std::fmt::Write as _;
         let dir = std::env::temp_dir().join(format!("navfuse-run-csv-{}", std::process::id()));
@@ -1096,12 +1096,43 @@ mod tests {
             let r: Vec<String> = r1.iter().map(|x| format!("{x:.9}")).collect();
             let _ = writeln!(imu_csv, "{:.3},{}", week * 604_800.0 + tow, r.join(","));
         }
-        let (mut gnss_txt, mut nmea) = (String::new(), Vec::new());
+        let (mut gnss_txt, mut nmea, mut ubx) = (String::new(), Vec::new(), Vec::new());
         {
             let mut w = NmeaWriter::new(&mut nmea);
             for k in 0..=60 {
                 let tow = tow0 + k as f64;
                 let lat = lat0 + v * (tow - tow0) / (rm + h);
+                // The same fix as UBX NAV-PVT (UTC calendar, 1e-7°, mm, mm/s).
+                let c = navfuse_io::time::calendar_from_gps(
+                    week * 604_800.0 + tow,
+                    navfuse_io::time::TimeSystem::Utc,
+                    3,
+                );
+                let pvt = navfuse_io::ubx::NavPvt {
+                    itow_ms: (tow * 1e3).round() as u32,
+                    year: c.year as u16,
+                    month: c.month,
+                    day: c.day,
+                    hour: c.hour,
+                    min: c.minute,
+                    sec: c.second.floor() as u8,
+                    nano_ns: ((c.second - c.second.floor()) * 1e9).round() as i32,
+                    valid: 0x07,
+                    fix_type: 3,
+                    flags: 0x01,
+                    num_sv: 9,
+                    lat_e7: (lat.to_degrees() * 1e7).round() as i32,
+                    lon_e7: (lon0.to_degrees() * 1e7).round() as i32,
+                    height_mm: (h * 1e3) as i32,
+                    h_acc_mm: 707,
+                    v_acc_mm: 1000,
+                    vel_n_mms: (v * 1e3) as i32,
+                    s_acc_mms: 200,
+                    ..Default::default()
+                };
+                ubx.extend(navfuse_io::ubx::encode(
+                    &navfuse_io::ubx::UbxMessage::NavPvt(pvt),
+                ));
                 let _ = writeln!(
                     gnss_txt,
                     "{tow:.3} {:.9} {:.9} {h:.3} 0.5 0.5 1.0",
@@ -1125,6 +1156,7 @@ mod tests {
         std::fs::write(dir.join("gnss.txt"), gnss_txt).unwrap();
         std::fs::write(dir.join("imu.csv"), imu_csv).unwrap();
         std::fs::write(dir.join("gnss.nmea"), nmea).unwrap();
+        std::fs::write(dir.join("gnss.ubx"), ubx).unwrap();
         std::fs::write(
             dir.join("txt.toml"),
             "[input]\nimu = \"imu.txt\"\ngnss = \"gnss.txt\"\n",
@@ -1141,8 +1173,25 @@ mod tests {
                 run_and_read(&dir.join(format!("{name}.toml")), &dir.join(name), 0);
             (*sols.last().unwrap(), summary)
         };
+        std::fs::write(
+            dir.join("ubx.toml"),
+            std::fs::read_to_string(dir.join("csv.toml"))
+                .unwrap()
+                .replace("gnss.nmea", "gnss.ubx"),
+        )
+        .unwrap();
         let (a, _) = last("txt");
         let (b, sb) = last("csv");
+        // UBX NAV-PVT (with velocity, which the other two files lack).
+        let (u, su) = last("ubx");
+        assert_eq!(su["inputs"]["gnss"]["format"], "ubx");
+        assert_eq!(su["inputs"]["gnss"]["records"], 61);
+        let truth_n = v * (u.t - week * 604_800.0 - tow0);
+        let dn_u = (u.lat - lat0) * (rm + h) - truth_n;
+        assert!(
+            dn_u.abs() < 0.5 && ((u.lon - lon0) * rm).abs() < 0.5,
+            "UBX end {dn_u} m"
+        );
         let inputs = &sb["inputs"];
         assert_eq!(inputs["imu"]["format"], "csv");
         assert_eq!(inputs["gnss"]["format"], "nmea");

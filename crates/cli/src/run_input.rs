@@ -125,7 +125,7 @@ impl InputReport {
 
     fn reject(&mut self, reason: &str, n: u64) {
         if n > 0 {
-            self.used -= n;
+            self.used = self.used.saturating_sub(n);
             let e = self.rejected.entry(reason).or_insert(0.into());
             *e = (e.as_u64().unwrap_or(0) + n).into();
         }
@@ -482,7 +482,7 @@ fn read_ubx(path: &Path) -> Result<(Vec<GnssFix>, InputReport), String> {
     }
     let mut rep = InputReport::new(path, "ubx", r.stats(), fixes.len());
     rep.reject("NAV-PVT: no valid 3-D fix", no_fix);
-    rep.used -= other;
+    rep.used = rep.used.saturating_sub(other);
     rep.skipped += other;
     Ok((fixes, rep))
 }
