@@ -1057,10 +1057,11 @@ mod tests {
         let _ = std::fs::remove_dir_all(&dir);
     }
 
-    /// The same 60 s drive north (level, 5 m/s) given twice: as KF-GINS
-    /// text (time of week) and as a generic CSV IMU in rates (GPS seconds,
-    /// header, own column names) with NMEA fixes, and with UBX NAV-PVT. The ESKF runs
-    /// must agree, and the summary must account for every line of each file.
+    /// The same 60 s drive north (level, 5 m/s) as KF-GINS text (time of
+    /// week) and as a generic CSV IMU in rates (GPS seconds, header, own
+    /// column names) with NMEA fixes: the two ESKF runs must agree and the
+    /// summary must account for every line of each file. The CSV with UBX
+    /// NAV-PVT fixes (which carry velocity) must end on the truth.
     #[test]
     fn csv_imu_with_nmea_or_ubx_gnss_runs_like_kfgins_text() {
         use navfuse_io::nmea::NmeaWriter;
