@@ -98,6 +98,8 @@ fn read_samples(path: &Path, format: &str) -> Result<Vec<ImuSample>, String> {
                 misalign_rpy_deg: None,
                 reject_repeated_values: false,
                 nominal_rate_hz: None,
+                mag: None,
+                yaw_deg: None,
             };
             collect(&mut CsvImuReader::new(r, &name, cfg))
         }

@@ -168,27 +168,18 @@ pub fn run_config(args: &Args) -> Result<KfGinsRun, String> {
     let t_read = Instant::now();
     let cfg = KfGinsConfig::load(&args.config)?;
     let mut input = ingest::read_kfgins(&cfg)?;
-    let mode = args
-        .time_offset
-        .clone()
-        .unwrap_or_else(|| if args.enhanced { "auto" } else { "none" }.into());
-    let applied = match mode.as_str() {
-        "none" => None,
-        "auto" => match ingest::estimate_time_offset(&input.imu, &input.gnss, 0.5) {
-            Some((tau, r)) => Some((tau, format!("course-rate/yaw-rate correlation, r = {r:.4}"))),
-            None => {
-                eprintln!("IMU–GNSS time offset: not estimable (too little turning at speed); none applied");
-                None
-            }
-        },
-        s => match s.parse::<f64>() {
-            Ok(v) if v.is_finite() && v.abs() < 10.0 => Some((v, "given".into())),
-            _ => {
-                return Err(format!(
-                    "--time-offset {s:?}: expected seconds (|τ| < 10), auto or none"
-                ))
-            }
-        },
+    let mode = match &args.time_offset {
+        Some(s) => ingest::TimeOffset::parse(s).map_err(|e| format!("--time-offset: {e}"))?,
+        None if args.enhanced => ingest::TimeOffset::Auto,
+        None => ingest::TimeOffset::None,
+    };
+    let applied = match mode.resolve(&input.imu, &input.gnss) {
+        Ok(a) => a,
+        // auto without an estimate: run without an offset, as KF-GINS does.
+        Err(e) => {
+            eprintln!("IMU–GNSS {e}; none applied");
+            None
+        }
     };
     if let Some((tau, how)) = &applied {
         for s in input.imu.iter_mut() {
@@ -822,9 +813,7 @@ mod tests {
     }
 
     fn temp_dir(name: &str) -> PathBuf {
-        let d = std::env::temp_dir().join(format!("navfuse-kfgins-{name}-{}", std::process::id()));
-        std::fs::create_dir_all(&d).unwrap();
-        d
+        crate::test_dir(&format!("kfgins-{name}"))
     }
 
     fn args(config: PathBuf, out: &Path) -> Args {

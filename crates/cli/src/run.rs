@@ -734,6 +734,57 @@ fn run_report(out_dir: &Path, truth: Option<&Path>, gnss: &Path) -> Result<(), S
     Ok(())
 }
 
+/// Which IMU time offset a run applies (true time = IMU stamp + τ).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum TimeOffset {
+    None,
+    /// Estimated by [`estimate_time_offset`] (±0.5 s).
+    Auto,
+    Seconds(f64),
+}
+
+impl TimeOffset {
+    /// `none`, `auto` or a number of seconds (finite, |τ| < 10 s).
+    pub fn parse(s: &str) -> Result<Self, String> {
+        match s {
+            "none" => Ok(TimeOffset::None),
+            "auto" => Ok(TimeOffset::Auto),
+            _ => s
+                .parse::<f64>()
+                .ok()
+                .filter(|v| v.is_finite() && v.abs() < 10.0)
+                .map(TimeOffset::Seconds)
+                .ok_or_else(|| {
+                    format!("time offset {s:?}: expected seconds (|τ| < 10), auto or none")
+                }),
+        }
+    }
+
+    /// The offset [s] and how it was found; an error when `Auto` finds no
+    /// estimate (too little turning at speed).
+    pub fn resolve(
+        self,
+        imu: &[ImuSample],
+        gnss: &[GnssFix],
+    ) -> Result<Option<(f64, String)>, String> {
+        match self {
+            TimeOffset::None => Ok(None),
+            TimeOffset::Seconds(s) => Ok(Some((s, "given".into()))),
+            TimeOffset::Auto => estimate_time_offset(imu, gnss, 0.5)
+                .map(|(tau, r)| {
+                    Some((
+                        tau,
+                        format!("estimated by course-rate / yaw-rate cross-correlation (r = {r:.4})"),
+                    ))
+                })
+                .ok_or_else(|| {
+                    "time offset auto: no estimate (needs ≥ 30 turning GNSS course pairs at ≥ 3 m/s)"
+                        .into()
+                }),
+        }
+    }
+}
+
 /// IMU–GNSS time offset by cross-correlation of the GNSS course rate with the
 /// IMU yaw rate (body z gyro, FRD: both positive turning right), over
 /// intervals between consecutive fixes (thinned to ~1 s) with speed ≥ 3 m/s;
@@ -986,8 +1037,7 @@ mod tests {
     #[test]
     fn run_other_estimators_write_solutions_and_summary() {
         use std::fmt::Write as _;
-        let dir = std::env::temp_dir().join(format!("navfuse-run-other-{}", std::process::id()));
-        std::fs::create_dir_all(&dir).unwrap();
+        let dir = crate::test_dir("run-other");
         let (lat0, lon0, h) = (40.0f64.to_radians(), -105.0f64.to_radians(), 1600.0);
         let (rm, _) = navfuse_core::earth::radii(lat0);
         let (t0, v, g) = (1000.0, 5.0, 9.8);
@@ -1066,8 +1116,7 @@ mod tests {
     fn csv_imu_with_nmea_or_ubx_gnss_runs_like_kfgins_text() {
         use navfuse_io::nmea::NmeaWriter;
         use std::fmt::Write as _;
-        let dir = std::env::temp_dir().join(format!("navfuse-run-csv-{}", std::process::id()));
-        std::fs::create_dir_all(&dir).unwrap();
+        let dir = crate::test_dir("run-csv");
         let week = 2374.0;
         let (lat0, lon0, h) = (40.0f64.to_radians(), -105.0f64.to_radians(), 1600.0);
         let (rm, _) = navfuse_core::earth::radii(lat0);
@@ -1237,8 +1286,7 @@ mod tests {
     fn static_start_takes_the_heading_from_the_magnetometer_or_ahrs() {
         use navfuse_core::attitude::dcm_from_euler;
         use std::fmt::Write as _;
-        let dir = std::env::temp_dir().join(format!("navfuse-run-mag-{}", std::process::id()));
-        std::fs::create_dir_all(&dir).unwrap();
+        let dir = crate::test_dir("run-mag");
         let (yaw, roll, dec) = (
             123.0f64.to_radians(),
             2.0f64.to_radians(),
@@ -1341,8 +1389,7 @@ mod tests {
     fn parked_vn310_starts_from_its_magnetometer() {
         let imu = navfuse_io::data::require("static_vn310/vn310-imu.csv");
         let gnss_csv = navfuse_io::data::require("static_vn310/vn310-gnss.csv");
-        let dir = std::env::temp_dir().join(format!("navfuse-run-vn310-{}", std::process::id()));
-        std::fs::create_dir_all(&dir).unwrap();
+        let dir = crate::test_dir("run-vn310");
         // The receiver's fixes as KF-GINS GNSS text (TOW, lat, lon, h, σNED).
         let text = std::fs::read_to_string(&gnss_csv).unwrap();
         let mut lines = text.lines();
@@ -1410,8 +1457,7 @@ mod tests {
         let imu_csv = navfuse_io::data::require("drive_0708/imu_1934_gpst.csv");
         let imu_txt = navfuse_io::data::require("drive_0708/kfgins/imu.txt");
         let pos = navfuse_io::data::require("drive_0708/gnss_1934_sf.pos");
-        let dir = std::env::temp_dir().join(format!("navfuse-run-raw-{}", std::process::id()));
-        std::fs::create_dir_all(&dir).unwrap();
+        let dir = crate::test_dir("run-raw");
         let q = |p: &Path| format!("{:?}", p.display().to_string());
         std::fs::write(
             dir.join("csv.toml"),

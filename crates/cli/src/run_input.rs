@@ -14,9 +14,10 @@
 //! IMU–GNSS lag; `"auto"` estimates it first by course-rate / yaw-rate
 //! cross-correlation ([`crate::run::estimate_time_offset`]).
 
+use crate::run::TimeOffset;
 use navfuse_core::types::{GnssFix, ImuSample};
-use navfuse_core::{Mat3, Vec3};
-use navfuse_io::csv_imu::{AccelUnit, Col, CsvImuConfig, CsvImuReader, CsvTime, GyroUnit};
+use navfuse_core::Vec3;
+use navfuse_io::csv_imu::{AccelUnit, Col, CsvAux, CsvImuConfig, CsvImuReader, CsvTime, GyroUnit};
 use navfuse_io::error::RecordStats;
 use navfuse_io::imu::ImuForm;
 use navfuse_io::kfgins::{KfGinsGnssReader, KfGinsImuOptions, KfGinsImuReader};
@@ -147,147 +148,35 @@ pub struct Loaded {
 }
 
 /// Magnetometer (body FRD, mounting applied) and AHRS yaw rows of a CSV IMU
-/// file, on the IMU's time base.
+/// file ([`CsvImuReader::aux`]), on the IMU's time base.
 #[derive(Clone, Debug, Default)]
-pub struct AuxSeries {
-    pub t: Vec<f64>,
-    pub mag_b: Option<Vec<Vec3>>,
-    /// AHRS yaw [rad].
-    pub yaw: Option<Vec<f64>>,
-}
+pub struct AuxSeries(pub Vec<CsvAux>);
 
 impl AuxSeries {
-    fn window(&self, t0: f64, t1: f64) -> core::ops::Range<usize> {
-        self.t.partition_point(|t| *t < t0)..self.t.partition_point(|t| *t <= t1)
+    fn window(&self, t0: f64, t1: f64) -> &[CsvAux] {
+        let r = &self.0;
+        &r[r.partition_point(|a| a.t < t0)..r.partition_point(|a| a.t <= t1)]
     }
 
     /// Mean magnetometer vector over `[t0, t1]`.
     pub fn mean_mag(&self, t0: f64, t1: f64) -> Option<Vec3> {
-        let m = self.mag_b.as_ref()?;
-        let r = self.window(t0, t1);
-        (!r.is_empty()).then(|| m[r.clone()].iter().sum::<Vec3>() / r.len() as f64)
+        let (sum, n) = self
+            .window(t0, t1)
+            .iter()
+            .filter_map(|a| a.mag_b)
+            .fold((Vec3::zeros(), 0usize), |(s, n), m| (s + m, n + 1));
+        (n > 0).then(|| sum / n as f64)
     }
 
     /// Circular mean of the AHRS yaw over `[t0, t1]` [rad].
     pub fn mean_yaw(&self, t0: f64, t1: f64) -> Option<f64> {
-        let y = self.yaw.as_ref()?;
-        let r = self.window(t0, t1);
-        let (s, c) = y[r]
+        let (s, c) = self
+            .window(t0, t1)
             .iter()
-            .fold((0.0, 0.0), |(s, c), a| (s + a.sin(), c + a.cos()));
+            .filter_map(|a| a.yaw)
+            .fold((0.0, 0.0), |(s, c), y: f64| (s + y.sin(), c + y.cos()));
         (s != 0.0 || c != 0.0).then(|| s.atan2(c))
     }
-}
-
-/// Second pass over a CSV IMU file for the magnetometer and AHRS-yaw
-/// columns (the IMU reader has already validated the rows it uses; a row
-/// whose extra fields are not numbers is an error naming line and field).
-fn read_aux(path: &Path, cfg: &CsvImuConfig, csv: &CsvCfg) -> Result<Option<AuxSeries>, String> {
-    if csv.mag.is_none() && csv.ahrs_yaw.is_none() {
-        return Ok(None);
-    }
-    let text = std::fs::read_to_string(path)
-        .map_err(|e| format!("{}: cannot read: {e}", path.display()))?;
-    let file = path.display();
-    let delim = cfg.delimiter as char;
-    let mut names: Option<Vec<String>> = None;
-    // (column, label) of time (1 or 2), mag (0 or 3), yaw (0 or 1).
-    let mut cols: Option<Vec<(usize, String)>> = None;
-    let mut out = AuxSeries {
-        mag_b: csv.mag.as_ref().map(|_| Vec::new()),
-        yaw: csv.ahrs_yaw.as_ref().map(|_| Vec::new()),
-        ..Default::default()
-    };
-    let c_sb = {
-        let d = |r: [f64; 3]| {
-            navfuse_core::attitude::dcm_from_euler(&Vec3::new(
-                r[0].to_radians(),
-                r[1].to_radians(),
-                r[2].to_radians(),
-            ))
-        };
-        cfg.misalign_rpy_deg.map_or(Mat3::identity(), d)
-            * cfg.mount_rpy_deg.map_or(Mat3::identity(), d)
-    };
-    let week_s = f64::from(cfg.week) * WEEK;
-    for (i, line) in text.lines().enumerate() {
-        let ln = i + 1;
-        let trimmed = line.trim();
-        if trimmed.is_empty() || cfg.comment.is_some_and(|c| trimmed.as_bytes()[0] == c) {
-            continue;
-        }
-        if cfg.header && names.is_none() {
-            names = Some(line.split(delim).map(|f| f.trim().to_string()).collect());
-            continue;
-        }
-        let cols = match &mut cols {
-            Some(c) => c,
-            None => {
-                let find = |c: &Col| -> Result<(usize, String), String> {
-                    match c {
-                        Col::Index(k) => Ok((*k, format!("column {k}"))),
-                        Col::Name(n) => names
-                            .as_ref()
-                            .and_then(|v| v.iter().position(|x| x == n))
-                            .map(|k| (k, n.clone()))
-                            .ok_or_else(|| {
-                                format!("{file}:{ln}: field `{n}`: no such column in the header")
-                            }),
-                    }
-                };
-                let mut v = Vec::new();
-                match &cfg.time {
-                    CsvTime::Seconds(c) => v.push(find(c)?),
-                    CsvTime::WeekTow { week, tow } => {
-                        v.push(find(week)?);
-                        v.push(find(tow)?);
-                    }
-                }
-                if let Some(m) = &csv.mag {
-                    for c in m {
-                        v.push(find(&c.col())?);
-                    }
-                }
-                if let Some(y) = &csv.ahrs_yaw {
-                    v.push(find(&y.col())?);
-                }
-                cols.insert(v)
-            }
-        };
-        let fields: Vec<&str> = line.split(delim).map(str::trim).collect();
-        let mut vals = Vec::with_capacity(cols.len());
-        for (k, label) in cols.iter() {
-            let f = fields
-                .get(*k)
-                .ok_or_else(|| format!("{file}:{ln}: field `{label}`: missing"))?;
-            let v = f
-                .parse::<f64>()
-                .ok()
-                .filter(|v| v.is_finite())
-                .ok_or_else(|| {
-                    format!("{file}:{ln}: field `{label}`: not a finite number: {f:?}")
-                })?;
-            vals.push(v);
-        }
-        let (t, rest) = match cfg.time {
-            CsvTime::Seconds(_) => (week_s + vals[0], &vals[1..]),
-            CsvTime::WeekTow { .. } => (vals[0] * WEEK + vals[1], &vals[2..]),
-        };
-        out.t.push(t);
-        let mut rest = rest.iter().copied();
-        if let Some(m) = &mut out.mag_b {
-            let v = Vec3::new(
-                rest.next().unwrap_or(f64::NAN),
-                rest.next().unwrap_or(f64::NAN),
-                rest.next().unwrap_or(f64::NAN),
-            );
-            m.push(c_sb * v);
-        }
-        if let Some(y) = &mut out.yaw {
-            y.push(rest.next().unwrap_or(f64::NAN).to_radians());
-        }
-    }
-    Ok(Some(out))
 }
 
 /// The IMU format named by `imu_format`, else by the extension (`.csv` →
@@ -377,6 +266,8 @@ pub fn csv_config(c: &CsvCfg, rate_hz: f64) -> Result<CsvImuConfig, String> {
                 misalign_rpy_deg: None,
                 reject_repeated_values: false,
                 nominal_rate_hz: None,
+                mag: None,
+                yaw_deg: None,
             }
         }
     };
@@ -434,6 +325,8 @@ pub fn csv_config(c: &CsvCfg, rate_hz: f64) -> Result<CsvImuConfig, String> {
         cfg.reject_repeated_values = r;
     }
     cfg.nominal_rate_hz = Some(rate_hz);
+    cfg.mag = c.mag.as_ref().map(|m| [m[0].col(), m[1].col(), m[2].col()]);
+    cfg.yaw_deg = c.ahrs_yaw.as_ref().map(ColCfg::col);
     Ok(cfg)
 }
 
@@ -442,7 +335,7 @@ fn read_imu(
     format: &'static str,
     csv: Option<&CsvCfg>,
     rate_hz: f64,
-) -> Result<(Vec<ImuSample>, InputReport), String> {
+) -> Result<(Vec<ImuSample>, InputReport, Option<AuxSeries>), String> {
     let (rdr, name) = navfuse_io::open(path).map_err(|e| e.to_string())?;
     let e = |e: navfuse_io::error::ReadError| e.to_string();
     if format == "csv" {
@@ -451,7 +344,8 @@ fn read_imu(
         let mut r = CsvImuReader::new(rdr, &name, cfg);
         let v = r.by_ref().collect::<Result<Vec<_>, _>>().map_err(e)?;
         let rep = InputReport::new(path, format, r.stats(), v.len());
-        Ok((v, rep))
+        let aux = (!r.aux().is_empty()).then(|| AuxSeries(r.aux().to_vec()));
+        Ok((v, rep, aux))
     } else {
         let opt = KfGinsImuOptions {
             week: 0,
@@ -461,7 +355,7 @@ fn read_imu(
         let mut r = KfGinsImuReader::new(rdr, &name, opt);
         let v = r.by_ref().collect::<Result<Vec<_>, _>>().map_err(e)?;
         let rep = InputReport::new(path, format, r.stats(), v.len());
-        Ok((v, rep))
+        Ok((v, rep, None))
     }
 }
 
@@ -551,45 +445,25 @@ pub struct InputSpec<'a> {
 pub fn load(spec: &InputSpec) -> Result<Loaded, String> {
     let imu_fmt = imu_format(spec.imu, spec.imu_format)?;
     let gnss_fmt = gnss_format(spec.gnss, spec.gnss_format)?;
-    let (mut imu, imu_report) = read_imu(spec.imu, imu_fmt, spec.csv, spec.imu_rate)?;
-    let mut aux = match (imu_fmt, spec.csv) {
-        ("csv", Some(c)) => read_aux(spec.imu, &csv_config(c, spec.imu_rate)?, c)?,
-        _ => None,
-    };
+    let (mut imu, imu_report, mut aux) = read_imu(spec.imu, imu_fmt, spec.csv, spec.imu_rate)?;
     let (mut gnss, gnss_report) = read_gnss(spec.gnss, gnss_fmt)?;
     gnss.sort_by(|a, b| a.t.total_cmp(&b.t));
     let time_base = align_time_bases(&imu, &mut gnss);
-    let imu_time_offset = match spec.imu_time_offset {
-        None => None,
-        Some(TimeOffsetCfg::Seconds(s)) if s.is_finite() && s.abs() < 10.0 => {
-            Some((*s, "given".to_string()))
-        }
-        Some(TimeOffsetCfg::Seconds(s)) => {
-            return Err(format!(
-            "[input] imu_time_offset {s}: expected a finite number of seconds below 10 or \"auto\""
-        ))
-        }
-        Some(TimeOffsetCfg::Named(n)) if n == "auto" => {
-            let (tau, r) = crate::run::estimate_time_offset(&imu, &gnss, 0.5).ok_or(
-                "[input] imu_time_offset = \"auto\": no estimate (needs ≥ 30 turning GNSS course pairs at ≥ 3 m/s)",
-            )?;
-            Some((
-                tau,
-                format!("estimated by course-rate / yaw-rate cross-correlation (r = {r:.4})"),
-            ))
-        }
-        Some(TimeOffsetCfg::Named(n)) => {
-            return Err(format!(
-                "[input] imu_time_offset {n:?}: expected seconds or \"auto\""
-            ))
-        }
-    };
+    let mode = match spec.imu_time_offset {
+        None => Ok(TimeOffset::None),
+        Some(TimeOffsetCfg::Seconds(s)) => TimeOffset::parse(&s.to_string()),
+        Some(TimeOffsetCfg::Named(n)) => TimeOffset::parse(n),
+    }
+    .map_err(|e| format!("[input] imu_time_offset: {e}"))?;
+    let imu_time_offset = mode
+        .resolve(&imu, &gnss)
+        .map_err(|e| format!("[input] imu_time_offset: {e}"))?;
     if let Some((tau, _)) = imu_time_offset {
         for s in imu.iter_mut() {
             s.t += tau;
         }
         if let Some(a) = &mut aux {
-            a.t.iter_mut().for_each(|t| *t += tau);
+            a.0.iter_mut().for_each(|x| x.t += tau);
         }
     }
     Ok(Loaded {

@@ -104,6 +104,21 @@ pub struct CsvImuConfig {
     pub reject_repeated_values: bool,
     /// Nominal rate [Hz] for the first sample's `dt` (None = first interval).
     pub nominal_rate_hz: Option<f64>,
+    /// Magnetometer x, y, z columns (sensor axes, any unit), read beside
+    /// each sample into [`CsvImuReader::aux`] with the mounting applied.
+    pub mag: Option<[Col; 3]>,
+    /// A column of an AHRS's own yaw [deg], read into [`CsvImuReader::aux`] [rad].
+    pub yaw_deg: Option<Col>,
+}
+
+/// Extra values of one data row (see [`CsvImuConfig::mag`],
+/// [`CsvImuConfig::yaw_deg`]): magnetometer in body FRD (mounting applied,
+/// unit of the file), yaw [rad]; `t` in GPS seconds like the samples.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct CsvAux {
+    pub t: f64,
+    pub mag_b: Option<Vec3>,
+    pub yaw: Option<f64>,
 }
 
 impl CsvImuConfig {
@@ -139,6 +154,8 @@ impl CsvImuConfig {
             misalign_rpy_deg: Some([0.0, -6.79, 5.35]),
             reject_repeated_values: true,
             nominal_rate_hz: None,
+            mag: None,
+            yaw_deg: None,
         }
     }
 
@@ -176,15 +193,22 @@ impl CsvImuConfig {
             misalign_rpy_deg: None,
             reject_repeated_values: false,
             nominal_rate_hz: None,
+            mag: None,
+            yaw_deg: None,
         }
     }
 }
 
-/// Resolved column indices: time (1 or 2), gyro 3, accel 3; with field names.
+/// Columns a row can use: time (2 slots), gyro 3, accel 3, magnetometer 3, yaw.
+const MAX_COLS: usize = 12;
+
+/// Resolved column indices (the first `n` of time ×2, gyro, accel, then the
+/// configured magnetometer and yaw); with field names.
 #[derive(Debug)]
 struct Resolved {
-    idx: [usize; 8],
-    names: [String; 8],
+    idx: [usize; MAX_COLS],
+    names: [String; MAX_COLS],
+    n: usize,
     week_tow: bool,
     ncols: Option<usize>,
 }
@@ -198,10 +222,12 @@ pub struct CsvImuReader<R> {
     prev_vals: Option<[f64; 6]>,
     asm: Assembler,
     done: bool,
+    aux: Vec<CsvAux>,
 }
 
-const DEFAULT_NAMES: [&str; 8] = [
-    "time", "tow", "gyro_x", "gyro_y", "gyro_z", "acc_x", "acc_y", "acc_z",
+const DEFAULT_NAMES: [&str; MAX_COLS] = [
+    "time", "tow", "gyro_x", "gyro_y", "gyro_z", "acc_x", "acc_y", "acc_z", "mag_x", "mag_y",
+    "mag_z", "yaw",
 ];
 
 impl<R: BufRead> CsvImuReader<R> {
@@ -225,11 +251,18 @@ impl<R: BufRead> CsvImuReader<R> {
             res: None,
             prev_vals: None,
             done: false,
+            aux: Vec::new(),
         }
     }
 
     pub fn stats(&self) -> &RecordStats {
         &self.src.stats
+    }
+
+    /// The magnetometer / yaw values of the rows read so far (empty unless
+    /// [`CsvImuConfig::mag`] or [`CsvImuConfig::yaw_deg`] is set).
+    pub fn aux(&self) -> &[CsvAux] {
+        &self.aux
     }
 
     fn cols(&self) -> Vec<&Col> {
@@ -246,6 +279,10 @@ impl<R: BufRead> CsvImuReader<R> {
         }
         v.extend(self.cfg.gyro.iter());
         v.extend(self.cfg.accel.iter());
+        if let Some(m) = &self.cfg.mag {
+            v.extend(m.iter());
+        }
+        v.extend(self.cfg.yaw_deg.iter());
         v
     }
 
@@ -253,11 +290,15 @@ impl<R: BufRead> CsvImuReader<R> {
     fn resolve(&self, header: bool) -> Result<Resolved, ReadError> {
         let s = &self.src;
         let week_tow = matches!(self.cfg.time, CsvTime::WeekTow { .. });
-        let mut idx = [0usize; 8];
-        let mut names: [String; 8] = Default::default();
-        for (k, c) in self.cols().into_iter().enumerate() {
+        let mut idx = [0usize; MAX_COLS];
+        let mut names: [String; MAX_COLS] = Default::default();
+        let cols = self.cols();
+        let n = cols.len();
+        for (k, c) in cols.into_iter().enumerate() {
             let default = if k == 0 && week_tow {
                 "week"
+            } else if k == 8 && self.cfg.mag.is_none() {
+                "yaw"
             } else {
                 DEFAULT_NAMES[k]
             };
@@ -293,6 +334,7 @@ impl<R: BufRead> CsvImuReader<R> {
         Ok(Resolved {
             idx,
             names,
+            n,
             week_tow,
             ncols: if header {
                 Some(s.n_fields())
@@ -320,12 +362,12 @@ impl<R: BufRead> CsvImuReader<R> {
             let r = self.res.as_ref().expect("resolved");
             let s = &self.src;
             let n = s.n_fields();
-            let need = r.idx.iter().max().map_or(0, |m| m + 1);
+            let used = &r.idx[..r.n];
+            let need = used.iter().max().map_or(0, |m| m + 1);
             match r.ncols {
                 Some(c) if n != c => {
                     let field = if n < c {
-                        r.idx
-                            .iter()
+                        used.iter()
                             .position(|&i| i == n)
                             .map_or_else(|| format!("<column {}>", n + 1), |k| r.names[k].clone())
                     } else {
@@ -334,7 +376,7 @@ impl<R: BufRead> CsvImuReader<R> {
                     return Err(s.err(field, format!("line has {n} columns, expected {c}")));
                 }
                 _ if n < need => {
-                    let k = r.idx.iter().position(|&i| i >= n).unwrap_or(0);
+                    let k = used.iter().position(|&i| i >= n).unwrap_or(0);
                     return Err(s.err(
                         r.names[k].clone(),
                         format!("missing (line has {n} columns)"),
@@ -379,6 +421,19 @@ impl<R: BufRead> CsvImuReader<R> {
             };
             let mut gyro = Vec3::new(v[0], v[1], v[2]) * gs;
             let mut acc = Vec3::new(v[3], v[4], v[5]) * as_;
+            let rot = |x: Vec3| self.c_sb.as_ref().map_or(x, |c| c * x);
+            if r.n > 8 {
+                let f = |k: usize| s.f64_named(r.idx[k], &r.names[k]);
+                let (mag_b, k_yaw) = match self.cfg.mag {
+                    Some(_) => (Some(rot(Vec3::new(f(8)?, f(9)?, f(10)?))), 11),
+                    None => (None, 8),
+                };
+                let yaw = match self.cfg.yaw_deg {
+                    Some(_) => Some(f(k_yaw)?.to_radians()),
+                    None => None,
+                };
+                self.aux.push(CsvAux { t, mag_b, yaw });
+            }
             if let Some(c) = &self.c_sb {
                 gyro = c * gyro;
                 acc = c * acc;
@@ -460,6 +515,41 @@ mod tests {
         let raw = Vec3::new(0.123, 0.0325, 0.999) * G0; // trapezoid mean of rows 1–2
         assert!((f - Vec3::new(-raw.x, raw.y, -raw.z)).norm() < 1e-9, "{f}");
     }
+    #[test]
+    fn magnetometer_and_yaw_columns_go_to_aux_with_the_mounting() {
+        let data = "t,wx,wy,wz,ax,ay,az,mx,my,mz,yaw\n\
+                    0,0,0,0,0,0,-9.8,20,0,45,30\n\
+                    0.01,0,0,0,0,0,-9.8,20,0,45,31\n";
+        let cfg = CsvImuConfig {
+            header: true,
+            columns: None,
+            time: CsvTime::Seconds("t".into()),
+            gyro: ["wx".into(), "wy".into(), "wz".into()],
+            accel: ["ax".into(), "ay".into(), "az".into()],
+            accel_unit: AccelUnit::Si,
+            gyro_unit: GyroUnit::Rad,
+            mount_rpy_deg: Some([0.0, 0.0, 90.0]),
+            misalign_rpy_deg: None,
+            reject_repeated_values: false,
+            mag: Some(["mx".into(), "my".into(), "mz".into()]),
+            yaw_deg: Some("yaw".into()),
+            ..CsvImuConfig::drive_0708()
+        };
+        let mut r = CsvImuReader::new(data.as_bytes(), "imu.csv", cfg.clone());
+        assert_eq!(r.by_ref().map(Result::unwrap).count(), 2);
+        let a = r.aux();
+        assert_eq!(a.len(), 2);
+        // Sensor x is body right: the 20-unit x reading becomes body +y.
+        let m = a[1].mag_b.unwrap();
+        assert!((m - Vec3::new(0.0, 20.0, 45.0)).norm() < 1e-12, "{m}");
+        assert!((a[1].yaw.unwrap() - 31f64.to_radians()).abs() < 1e-15);
+        assert_eq!(a[1].t, 0.01);
+        // A bad magnetometer field is an error naming its column.
+        let bad = data.replace(",45,31", ",x,31");
+        let e = read(bad.as_bytes(), cfg).unwrap_err();
+        assert_eq!((e.line, &*e.field), (3, "mz"), "{e}");
+    }
+
     const DRIVE: &str =
         "# gps_week,gps_tow_s,acc_x_g,acc_y_g,acc_z_g,gyro_x_dps,gyro_y_dps,gyro_z_dps\n\
 2374,243261.9850,0.115,0.036,0.985,0.099,-0.679,0.237\n\
