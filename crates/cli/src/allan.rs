@@ -13,7 +13,7 @@
 
 use clap::Args as ClapArgs;
 use navfuse_core::ImuSample;
-use navfuse_io::csv_imu::{AccelUnit, Col, CsvImuConfig, CsvImuReader, CsvTime, GyroUnit};
+use navfuse_io::csv_imu::{Col, CsvImuConfig, CsvImuReader, CsvTime, GyroUnit};
 use navfuse_io::imu::ImuForm;
 use navfuse_io::kfgins::{KfGinsImuOptions, KfGinsImuReader};
 use navfuse_io::ReadError;
@@ -83,23 +83,13 @@ fn read_samples(path: &Path, format: &str) -> Result<Vec<ImuSample>, String> {
         "sim" => {
             let c = |s: &str| Col::Name(s.to_string());
             let cfg = CsvImuConfig {
-                delimiter: b',',
-                comment: Some(b'#'),
-                header: true,
-                columns: None,
-                time: CsvTime::Seconds(c("t_gps_s")),
-                week: 0,
-                gyro: [c("dtheta_x_rad"), c("dtheta_y_rad"), c("dtheta_z_rad")],
-                accel: [c("dvel_x_m_s"), c("dvel_y_m_s"), c("dvel_z_m_s")],
                 gyro_unit: GyroUnit::Rad,
-                accel_unit: AccelUnit::Si,
                 form: ImuForm::Increment,
-                mount_rpy_deg: None,
-                misalign_rpy_deg: None,
-                reject_repeated_values: false,
-                nominal_rate_hz: None,
-                mag: None,
-                yaw_deg: None,
+                ..CsvImuConfig::new(
+                    CsvTime::Seconds(c("t_gps_s")),
+                    [c("dtheta_x_rad"), c("dtheta_y_rad"), c("dtheta_z_rad")],
+                    [c("dvel_x_m_s"), c("dvel_y_m_s"), c("dvel_z_m_s")],
+                )
             };
             collect(&mut CsvImuReader::new(r, &name, cfg))
         }

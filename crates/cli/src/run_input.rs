@@ -250,25 +250,11 @@ pub fn csv_config(c: &CsvCfg, rate_hz: f64) -> Result<CsvImuConfig, String> {
                 },
                 _ => return Err("[input.csv]: give `time`, or `week` and `tow`".into()),
             };
-            CsvImuConfig {
-                delimiter: b',',
-                comment: Some(b'#'),
-                header: true,
-                columns: None,
+            CsvImuConfig::new(
                 time,
-                week: 0,
-                gyro: [gyro[0].col(), gyro[1].col(), gyro[2].col()],
-                accel: [accel[0].col(), accel[1].col(), accel[2].col()],
-                gyro_unit: GyroUnit::Deg,
-                accel_unit: AccelUnit::Si,
-                form: ImuForm::RateTrapezoid,
-                mount_rpy_deg: None,
-                misalign_rpy_deg: None,
-                reject_repeated_values: false,
-                nominal_rate_hz: None,
-                mag: None,
-                yaw_deg: None,
-            }
+                [gyro[0].col(), gyro[1].col(), gyro[2].col()],
+                [accel[0].col(), accel[1].col(), accel[2].col()],
+            )
         }
     };
     let byte = |ch: char, key: &str| {

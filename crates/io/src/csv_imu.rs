@@ -122,6 +122,31 @@ pub struct CsvAux {
 }
 
 impl CsvImuConfig {
+    /// A comma-separated file with a header line naming the columns (or
+    /// indices), rates in deg/s and m/s² (trapezoid rule), sensor axes = body
+    /// FRD, no extra columns; change the other fields with struct update.
+    pub fn new(time: CsvTime, gyro: [Col; 3], accel: [Col; 3]) -> Self {
+        CsvImuConfig {
+            delimiter: b',',
+            comment: Some(b'#'),
+            header: true,
+            columns: None,
+            time,
+            week: 0,
+            gyro,
+            accel,
+            gyro_unit: GyroUnit::Deg,
+            accel_unit: AccelUnit::Si,
+            form: ImuForm::RateTrapezoid,
+            mount_rpy_deg: None,
+            misalign_rpy_deg: None,
+            reject_repeated_values: false,
+            nominal_rate_hz: None,
+            mag: None,
+            yaw_deg: None,
+        }
+    }
+
     /// `drive_0708/imu_1934_gpst.csv`: no header (its column list is a `#`
     /// comment), `gps_week,gps_tow_s,acc_x_g,acc_y_g,acc_z_g,gyro_x_dps,
     /// gyro_y_dps,gyro_z_dps`; rates in g and deg/s; sensor axes rotated
