@@ -16,6 +16,7 @@
 //! - [`trajectory`]: formats by name/extension (used by `navfuse convert`)
 //! - [`time`]: GPS week/TOW ↔ GPS seconds ↔ GPST/UTC calendar
 
+pub mod counter_clock;
 pub mod csv_imu;
 pub mod data;
 pub mod error;
@@ -38,6 +39,8 @@ pub mod yuma;
 
 #[cfg(test)]
 mod realdata;
+#[cfg(test)]
+mod realdata_time;
 #[cfg(test)]
 mod testutil;
 
