@@ -43,7 +43,14 @@ pub struct CounterClock {
 impl CounterClock {
     /// The line through two (counter, GPS time) points; `nominal` seconds
     /// per count, counter modulus `modulus`.
-    pub fn from_two_points(c0: f64, t0: f64, c1: f64, t1: f64, nominal: f64, modulus: Option<f64>) -> Self {
+    pub fn from_two_points(
+        c0: f64,
+        t0: f64,
+        c1: f64,
+        t1: f64,
+        nominal: f64,
+        modulus: Option<f64>,
+    ) -> Self {
         CounterClock {
             c_ref: c0,
             t_ref: t0,
@@ -126,10 +133,18 @@ fn median(v: &mut [f64]) -> f64 {
 
 /// Fit the lower envelope of `(counter_unwrapped, receive_gps_s)` pairs
 /// (counter increasing). `nominal` seconds per count.
-pub fn fit_pairs(pairs: &[(f64, f64)], nominal: f64, modulus: Option<f64>) -> Result<(CounterClock, ClockFit), String> {
+pub fn fit_pairs(
+    pairs: &[(f64, f64)],
+    nominal: f64,
+    modulus: Option<f64>,
+) -> Result<(CounterClock, ClockFit), String> {
     let bl = block_len(pairs.len());
     if pairs.len() < 2 * bl {
-        return Err(format!("{} counter/receive-time pairs, need at least {}", pairs.len(), 2 * bl));
+        return Err(format!(
+            "{} counter/receive-time pairs, need at least {}",
+            pairs.len(),
+            2 * bl
+        ));
     }
     let c_ref = pairs[0].0;
     let t_ref0 = pairs[0].1;
@@ -162,7 +177,10 @@ pub fn fit_pairs(pairs: &[(f64, f64)], nominal: f64, modulus: Option<f64>) -> Re
         }
         slope = median(&mut slopes);
     }
-    let mut res: Vec<f64> = mins.iter().map(|p| (p.1 - t_ref0) - slope * (p.0 - c_ref)).collect();
+    let mut res: Vec<f64> = mins
+        .iter()
+        .map(|p| (p.1 - t_ref0) - slope * (p.0 - c_ref))
+        .collect();
     let off = median(&mut res.clone());
     for r in res.iter_mut() {
         *r = (*r - off).abs();
@@ -229,7 +247,11 @@ impl CounterColumn {
 /// When neither length matches exactly (one file truncated), the mapping
 /// whose drift is smaller is kept: a 1-byte-per-line error in positions is a
 /// rate error of 1/line length (≈ 2 %), far beyond any crystal (≤ 100 ppm).
-pub fn fit_csv_counter(path: &Path, col: &CounterColumn, tag: &TagFile) -> Result<(CounterClock, ClockFit), ReadError> {
+pub fn fit_csv_counter(
+    path: &Path,
+    col: &CounterColumn,
+    tag: &TagFile,
+) -> Result<(CounterClock, ClockFit), ReadError> {
     let (mut rdr, name) = crate::open(path)?;
     let file: Arc<str> = Arc::from(name.as_str());
     // (counter, offset of the line end exclusive, line index)
@@ -262,7 +284,10 @@ pub fn fit_csv_counter(path: &Path, col: &CounterColumn, tag: &TagFile) -> Resul
         let Some(field) = line.split(|&b| b == col.delimiter).nth(col.index) else {
             continue;
         };
-        let Some(c) = std::str::from_utf8(field).ok().and_then(|s| s.trim().parse::<f64>().ok()) else {
+        let Some(c) = std::str::from_utf8(field)
+            .ok()
+            .and_then(|s| s.trim().parse::<f64>().ok())
+        else {
             continue;
         };
         let c = unwrap.unwrap(c, col.modulus);
@@ -290,7 +315,11 @@ pub fn fit_csv_counter(path: &Path, col: &CounterColumn, tag: &TagFile) -> Resul
         fit_with(true)
     } else {
         match (fit_with(false), fit_with(true)) {
-            (Ok(a), Ok(b)) => Ok(if a.0.drift_ppm().abs() <= b.0.drift_ppm().abs() { a } else { b }),
+            (Ok(a), Ok(b)) => Ok(if a.0.drift_ppm().abs() <= b.0.drift_ppm().abs() {
+                a
+            } else {
+                b
+            }),
             (a, b) => a.or(b),
         }
     };
@@ -326,7 +355,11 @@ mod tests {
             let c = 1000.0 + 10.0 * k as f64;
             let t = truth.gps_seconds(c) + 0.004 - 0.010 * (1.0 - rng(&mut s)).ln();
             let tick = 0.015625 * ((t - 1.4e9) / 0.015625).floor() + 1.4e9;
-            let c_obs = if rng(&mut s) < 0.001 { c + 5000.0 * (rng(&mut s) - 0.5) } else { c };
+            let c_obs = if rng(&mut s) < 0.001 {
+                c + 5000.0 * (rng(&mut s) - 0.5)
+            } else {
+                c
+            };
             v.push((c_obs, tick));
         }
         (v, truth)
@@ -338,12 +371,20 @@ mod tests {
         let (clock, fit) = fit_pairs(&pairs, 1e-3, None).unwrap();
         // Drift: the tick floor and the jitter are stationary, so the envelope's
         // slope is unbiased; 600 s span, σ of block minima ~ ms → ≲ 1 ppm.
-        assert!((clock.drift_ppm() - 150.0).abs() < 2.0, "{} ± {}", clock.drift_ppm(), fit.drift_sigma_ppm);
+        assert!(
+            (clock.drift_ppm() - 150.0).abs() < 2.0,
+            "{} ± {}",
+            clock.drift_ppm(),
+            fit.drift_sigma_ppm
+        );
         assert!(fit.drift_sigma_ppm < 2.0, "{fit:?}");
         // Offset: minimum latency 4 ms minus up to one tick (15.6 ms) of floor.
         let d = clock.gps_seconds(1000.0) - truth.gps_seconds(1000.0);
         assert!((-0.0156..0.005).contains(&d), "{d}");
-        assert!(fit.latency_median_s > 0.0 && fit.latency_p99_s > fit.latency_median_s, "{fit:?}");
+        assert!(
+            fit.latency_median_s > 0.0 && fit.latency_p99_s > fit.latency_median_s,
+            "{fit:?}"
+        );
     }
 
     #[test]
@@ -352,7 +393,11 @@ mod tests {
         let mut u = CounterUnwrap::default();
         assert_eq!(u.unwrap(4_294_967_290.0, m), 4_294_967_290.0);
         assert_eq!(u.unwrap(4.0, m), 4_294_967_300.0);
-        assert_eq!(u.unwrap(4_294_967_295.0, m), 4_294_967_295.0, "a late pre-wrap line");
+        assert_eq!(
+            u.unwrap(4_294_967_295.0, m),
+            4_294_967_295.0,
+            "a late pre-wrap line"
+        );
         assert_eq!(u.unwrap(14.0, m), 4_294_967_310.0);
         let mut u = CounterUnwrap::default();
         assert_eq!(u.unwrap(10.0, None), 10.0);

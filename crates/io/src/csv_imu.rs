@@ -21,10 +21,12 @@
 //!   previous row exactly is rejected as `repeated values` (a logger
 //!   re-sending its last sample, as in drive_0708). Fields are not quoted.
 
+use crate::counter_clock::{CounterClock, CounterUnwrap};
 use crate::error::{ReadError, RecordStats};
 use crate::imu::{Assembler, ImuForm, RawImu};
 use crate::kfgins::{imu_next, next_data_line, ImuSource};
 use crate::text::{LineSource, Sep};
+use crate::timebase::{check_stamp, now_gps_seconds, Plausibility, TimeBase};
 use navfuse_core::types::{ImuSample, Mat3, Vec3};
 use std::io::BufRead;
 
@@ -57,6 +59,50 @@ pub enum CsvTime {
     Seconds(Col),
     /// GPS week and time of week [s].
     WeekTow { week: Col, tow: Col },
+    /// One column in any [`TimeBase`] (the week of `gps_week_tow` from
+    /// [`CsvImuConfig::week`]); the first stamp is checked with
+    /// [`crate::timebase::check_stamp`]: an implausible one is an error
+    /// naming the likely base, a doubtful one a [`CsvImuReader::warnings`] entry.
+    Based { col: Col, base: TimeBase },
+    /// A device counter (unwrapped across its modulus) mapped to GPS time by
+    /// a clock, e.g. from [`crate::counter_clock::fit_csv_counter`].
+    Counter { col: Col, clock: CounterClock },
+}
+
+/// Per-reader state of the time column: counter unwrapping, the first-stamp check.
+#[derive(Debug, Default)]
+struct StampState {
+    unwrap: CounterUnwrap,
+    checked: bool,
+    warnings: Vec<String>,
+}
+
+impl StampState {
+    /// GPS seconds of the raw stamp of a [`CsvTime::Based`] / [`CsvTime::Counter`] column.
+    fn gps(&mut self, time: &CsvTime, raw: f64, week: u32) -> Result<f64, String> {
+        match time {
+            CsvTime::Based { base, .. } => {
+                if !self.checked {
+                    self.checked = true;
+                    match check_stamp(*base, raw, Some(week), now_gps_seconds()) {
+                        Plausibility::Ok => {}
+                        Plausibility::Warning(w) => self.warnings.push(w),
+                        Plausibility::Error(e) => return Err(e),
+                    }
+                }
+                base.to_gps_seconds(raw, Some(week))
+            }
+            CsvTime::Counter { clock, .. } => {
+                if !raw.is_finite() || raw < 0.0 {
+                    return Err(format!("counter {raw} is negative or not finite"));
+                }
+                Ok(clock.gps_seconds(self.unwrap.unwrap(raw, clock.modulus)))
+            }
+            CsvTime::Seconds(_) | CsvTime::WeekTow { .. } => {
+                Ok(crate::time::gps_seconds(week, raw))
+            }
+        }
+    }
 }
 
 /// Gyro unit: per second in rate form, plain angle in increment form.
@@ -248,6 +294,7 @@ pub struct CsvImuReader<R> {
     asm: Assembler,
     done: bool,
     aux: Vec<CsvAux>,
+    stamp: StampState,
 }
 
 const DEFAULT_NAMES: [&str; MAX_COLS] = [
@@ -277,6 +324,7 @@ impl<R: BufRead> CsvImuReader<R> {
             prev_vals: None,
             done: false,
             aux: Vec::new(),
+            stamp: StampState::default(),
         }
     }
 
@@ -290,10 +338,17 @@ impl<R: BufRead> CsvImuReader<R> {
         &self.aux
     }
 
+    /// Doubts about the time stamps (e.g. a time of week without a week).
+    pub fn warnings(&self) -> &[String] {
+        &self.stamp.warnings
+    }
+
     fn cols(&self) -> Vec<&Col> {
         let mut v = Vec::with_capacity(8);
         match &self.cfg.time {
-            CsvTime::Seconds(c) => {
+            CsvTime::Seconds(c)
+            | CsvTime::Based { col: c, .. }
+            | CsvTime::Counter { col: c, .. } => {
                 v.push(c);
                 v.push(c);
             }
@@ -425,8 +480,20 @@ impl<R: BufRead> CsvImuReader<R> {
             } else {
                 (self.cfg.week, s.f64_named(r.idx[0], &r.names[0])?)
             };
-            let (week, tow) = t;
-            let t = crate::time::gps_seconds(week, tow);
+            let (mut week, mut tow) = t;
+            let t = match &self.cfg.time {
+                CsvTime::Seconds(_) | CsvTime::WeekTow { .. } => {
+                    crate::time::gps_seconds(week, tow)
+                }
+                time => {
+                    let t = self
+                        .stamp
+                        .gps(time, tow, week)
+                        .map_err(|m| s.err(r.names[0].clone(), m))?;
+                    (week, tow) = crate::time::week_tow(t);
+                    t
+                }
+            };
             let mut v = [0.0; 6];
             for (k, x) in v.iter_mut().enumerate() {
                 *x = s.f64_named(r.idx[2 + k], &r.names[2 + k])?;

@@ -38,6 +38,8 @@ pub mod writers;
 pub mod yuma;
 
 #[cfg(test)]
+mod csv_time_tests;
+#[cfg(test)]
 mod realdata;
 #[cfg(test)]
 mod realdata_time;

@@ -165,12 +165,18 @@ impl TagFile {
     /// the byte offset (`FILE:0: field `<byte N>`: …`).
     pub fn read(path: &Path) -> Result<TagFile, ReadError> {
         let name: Arc<str> = Arc::from(path.display().to_string().as_str());
-        let to_err = |e: TagError| ReadError::new(&name, 0, format!("<byte {}>", e.offset()), e.to_string());
+        let to_err =
+            |e: TagError| ReadError::new(&name, 0, format!("<byte {}>", e.offset()), e.to_string());
         let f = std::fs::File::open(path)
             .map_err(|e| ReadError::new(&name, 0, "<file>", format!("cannot open: {e}")))?;
         let len = f
             .metadata()
-            .map_err(|e| to_err(TagError::Io { offset: 0, msg: e.to_string() }))?
+            .map_err(|e| {
+                to_err(TagError::Io {
+                    offset: 0,
+                    msg: e.to_string(),
+                })
+            })?
             .len();
         TagFile::decode(std::io::BufReader::new(f), len, None).map_err(to_err)
     }
@@ -178,23 +184,38 @@ impl TagFile {
     /// Decode `len` bytes from `r`; `layout` None = detect. The records are
     /// read in a streaming pass (the count is checked against
     /// [`MAX_TAG_RECORDS`] before anything is allocated).
-    pub fn decode<R: Read>(mut r: R, len: u64, layout: Option<TagLayout>) -> Result<TagFile, TagError> {
+    pub fn decode<R: Read>(
+        mut r: R,
+        len: u64,
+        layout: Option<TagLayout>,
+    ) -> Result<TagFile, TagError> {
         // The prefix used to tell the layouts apart: header, start time and
         // up to 64 records.
         let mut head = [0u8; DETECT_PREFIX];
         let n_head = (len.min(head.len() as u64)) as usize;
         r.read_exact(&mut head[..n_head])
-            .map_err(|e| TagError::Io { offset: 0, msg: e.to_string() })?;
+            .map_err(|e| TagError::Io {
+                offset: 0,
+                msg: e.to_string(),
+            })?;
         let head = &head[..n_head];
         if n_head < MAGIC.len() || &head[..MAGIC.len()] != MAGIC {
             return Err(if n_head < TAG_HEADER_LEN && MAGIC.starts_with(head) {
-                TagError::ShortHeader { offset: len, len, need: 76 }
+                TagError::ShortHeader {
+                    offset: len,
+                    len,
+                    need: 76,
+                }
             } else {
                 TagError::BadMagic
             });
         }
         if len < 76 {
-            return Err(TagError::ShortHeader { offset: len, len, need: 76 });
+            return Err(TagError::ShortHeader {
+                offset: len,
+                len,
+                need: 76,
+            });
         }
         let layout = match layout {
             Some(l) => l,
@@ -202,11 +223,21 @@ impl TagFile {
         };
         let off = layout.records_offset() as u64;
         if len < off {
-            return Err(TagError::ShortHeader { offset: len, len, need: off });
+            return Err(TagError::ShortHeader {
+                offset: len,
+                len,
+                need: off,
+            });
         }
         let (secs, frac) = match layout.start {
-            StartSeconds::U32 => (le_u32(head, 64) as f64, f64::from_le_bytes(head[68..76].try_into().unwrap())),
-            StartSeconds::I64 => (le_u64(head, 64) as i64 as f64, f64::from_le_bytes(head[72..80].try_into().unwrap())),
+            StartSeconds::U32 => (
+                le_u32(head, 64) as f64,
+                f64::from_le_bytes(head[68..76].try_into().unwrap()),
+            ),
+            StartSeconds::I64 => (
+                le_u64(head, 64) as i64 as f64,
+                f64::from_le_bytes(head[72..80].try_into().unwrap()),
+            ),
         };
         if !(0.0..1.0).contains(&frac) {
             return Err(TagError::Inconsistent {
@@ -219,10 +250,16 @@ impl TagFile {
         let body = len - off;
         let count = body / rl;
         if count > MAX_TAG_RECORDS {
-            return Err(TagError::TooLarge { offset: off, records: count });
+            return Err(TagError::TooLarge {
+                offset: off,
+                records: count,
+            });
         }
-        if body % rl != 0 {
-            return Err(TagError::TruncatedRecord { offset: off + count * rl, rest: body % rl });
+        if !body.is_multiple_of(rl) {
+            return Err(TagError::TruncatedRecord {
+                offset: off + count * rl,
+                rest: body % rl,
+            });
         }
         let version = String::from_utf8_lossy(&head[..60])
             .trim_end_matches('\0')
@@ -232,7 +269,8 @@ impl TagFile {
         // Stream the records: the prefix already read, then the rest.
         let mut records = Vec::with_capacity(count as usize);
         let end = off + count * rl;
-        let mut pending: Vec<u8> = head[(off as usize).min(n_head)..(end as usize).min(n_head)].to_vec();
+        let mut pending: Vec<u8> =
+            head[(off as usize).min(n_head)..(end as usize).min(n_head)].to_vec();
         let mut read_to = (n_head as u64).min(end).max(off);
         let mut buf = vec![0u8; 1 << 16];
         let mut at = off;
@@ -240,8 +278,10 @@ impl TagFile {
         while (records.len() as u64) < count {
             if pending.len() < rl as usize {
                 let want = (end - read_to).min(buf.len() as u64) as usize;
-                r.read_exact(&mut buf[..want])
-                    .map_err(|e| TagError::Io { offset: read_to, msg: e.to_string() })?;
+                r.read_exact(&mut buf[..want]).map_err(|e| TagError::Io {
+                    offset: read_to,
+                    msg: e.to_string(),
+                })?;
                 read_to += want as u64;
                 pending.extend_from_slice(&buf[..want]);
             }
@@ -268,7 +308,13 @@ impl TagFile {
             }
             pending.drain(..i);
         }
-        Ok(TagFile { version, tick_f, start_gps_s, records, layout })
+        Ok(TagFile {
+            version,
+            tick_f,
+            start_gps_s,
+            records,
+            layout,
+        })
     }
 
     /// GPS time [s since 1980-01-06] at which the byte at `file_pos` of the
@@ -278,7 +324,9 @@ impl TagFile {
     /// record (those bytes have no receive time).
     pub fn receive_time_at(&self, file_pos: u64) -> Option<f64> {
         let k = self.records.partition_point(|&(_, p)| p <= file_pos);
-        self.records.get(k).map(|&(tick, _)| self.start_gps_s + tick as f64 * 1e-3)
+        self.records
+            .get(k)
+            .map(|&(tick, _)| self.start_gps_s + tick as f64 * 1e-3)
     }
 
     /// File position after the last recorded chunk (0 without records).
@@ -327,7 +375,7 @@ fn fits(l: &TagLayout, head: &[u8], len: u64) -> Option<bool> {
         prev = rec;
         i += rl;
     }
-    Some((len - off as u64) % rl as u64 == 0)
+    Some((len - off as u64).is_multiple_of(rl as u64))
 }
 
 /// The first candidate layout that fits; a layout that fits all but the
@@ -372,4 +420,87 @@ pub fn encode(t: &TagFile) -> Vec<u8> {
         }
     }
     v
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn sample(layout: TagLayout) -> TagFile {
+        TagFile {
+            version: "TIMETAG RTKLIB demo5".to_string(),
+            tick_f: 1_132_617_148,
+            start_gps_s: 1_436_038_461.854,
+            records: (0..200u32)
+                .map(|k| (131 + 15 * k, 37 + 62 * k as u64))
+                .collect(),
+            layout,
+        }
+    }
+
+    #[test]
+    fn round_trip_in_every_layout_with_detection() {
+        for l in TagLayout::ALL {
+            let t = sample(l);
+            let b = encode(&t);
+            let d = TagFile::decode(&b[..], b.len() as u64, None).unwrap();
+            assert_eq!(d.layout, l);
+            assert_eq!(
+                (&d.version, d.tick_f, &d.records),
+                (&t.version, t.tick_f, &t.records)
+            );
+            assert!((d.start_gps_s - t.start_gps_s).abs() < 1e-6);
+        }
+    }
+
+    #[test]
+    fn receive_time_holds_the_chunk_time() {
+        let t = sample(TagLayout::PLAIN);
+        assert_eq!(t.receive_time_at(0), Some(t.start_gps_s + 0.131));
+        assert_eq!(t.receive_time_at(36), Some(t.start_gps_s + 0.131));
+        assert_eq!(t.receive_time_at(37), Some(t.start_gps_s + 0.146));
+        assert_eq!(t.receive_time_at(t.end_pos()), None);
+    }
+
+    #[test]
+    fn corrupt_files_are_errors_with_offsets() {
+        let b = encode(&sample(TagLayout::PLAIN));
+        let dec = |b: &[u8]| TagFile::decode(b, b.len() as u64, None);
+        assert!(matches!(dec(&b[..40]), Err(TagError::ShortHeader { .. })));
+        let mut bad = b.clone();
+        bad[0] = b'X';
+        assert_eq!(dec(&bad), Err(TagError::BadMagic));
+        let e = dec(&b[..b.len() - 3]).unwrap_err();
+        assert_eq!(
+            e,
+            TagError::TruncatedRecord {
+                offset: (b.len() - 8) as u64,
+                rest: 5
+            }
+        );
+        // A position going backwards in the middle.
+        let mut back = b.clone();
+        back[76 + 8 * 150 + 4..76 + 8 * 150 + 8].copy_from_slice(&1u32.to_le_bytes());
+        let e = dec(&back).unwrap_err();
+        assert_eq!(e.offset(), 76 + 8 * 150, "{e}");
+        // An absurd size is rejected before allocating.
+        let e = TagFile::decode(
+            &b[..],
+            76 + 8 * (MAX_TAG_RECORDS + 1),
+            Some(TagLayout::PLAIN),
+        )
+        .unwrap_err();
+        assert!(matches!(e, TagError::TooLarge { .. }), "{e}");
+        // Through `read`: the error names the file and the byte offset.
+        let p = std::env::temp_dir().join(format!("navfuse_tag_{}.tag", std::process::id()));
+        std::fs::write(&p, &b[..b.len() - 3]).unwrap();
+        let e = TagFile::read(&p).unwrap_err();
+        std::fs::remove_file(&p).ok();
+        assert!(
+            e.to_string()
+                .contains(&format!("field `<byte {}>`", b.len() - 8)),
+            "{e}"
+        );
+        assert!(e.file.ends_with(".tag"));
+    }
 }

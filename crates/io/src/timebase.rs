@@ -171,7 +171,10 @@ pub fn check_stamp(base: TimeBase, raw: f64, week_hint: Option<u32>, now_gps: f6
     let readings = || {
         let mut v = Vec::new();
         if raw < SECONDS_PER_WEEK {
-            v.push(format!("a time of week ({})", base_hint(TimeBase::GpsWeekTow)));
+            v.push(format!(
+                "a time of week ({})",
+                base_hint(TimeBase::GpsWeekTow)
+            ));
         }
         if is_recording_date(raw, now_gps) {
             v.push(format!("{} as gps_seconds", date(raw)));
@@ -207,7 +210,10 @@ pub fn check_stamp(base: TimeBase, raw: f64, week_hint: Option<u32>, now_gps: f6
                     if is_recording_date(t, now_gps) {
                         Plausibility::Ok
                     } else {
-                        Plausibility::Error(format!("week {w} puts the data at {}, in the future", date(t)))
+                        Plausibility::Error(format!(
+                            "week {w} puts the data at {}, in the future",
+                            date(t)
+                        ))
                     }
                 }
             }
@@ -247,7 +253,14 @@ mod tests {
 
     /// 2026-01-01 as "now": fixed so the tests do not depend on the clock.
     fn now() -> f64 {
-        let c = Calendar { year: 2026, month: 1, day: 1, hour: 0, minute: 0, second: 0.0 };
+        let c = Calendar {
+            year: 2026,
+            month: 1,
+            day: 1,
+            hour: 0,
+            minute: 0,
+            second: 0.0,
+        };
         gps_from_calendar(&c, TimeSystem::Gpst).unwrap()
     }
 
@@ -257,7 +270,10 @@ mod tests {
             assert_eq!(n.parse::<TimeBase>().unwrap(), b);
             assert_eq!(b.to_string(), n);
             assert_eq!(serde_json::to_string(&b).unwrap(), format!("\"{n}\""));
-            assert_eq!(serde_json::from_str::<TimeBase>(&format!("\"{n}\"")).unwrap(), b);
+            assert_eq!(
+                serde_json::from_str::<TimeBase>(&format!("\"{n}\"")).unwrap(),
+                b
+            );
         }
         let e = "gps_seconds1970".parse::<TimeBase>().unwrap_err();
         assert!(e.contains("gps_seconds_1970"), "{e}");
@@ -270,16 +286,36 @@ mod tests {
         // POSIX time of 2025-07-08 19:34:00.5 UTC: days 1970→2025-07-08 = 20277.
         let unix = 20_277.0 * 86_400.0 + 19.0 * 3600.0 + 34.0 * 60.0 + 0.5;
         assert_eq!(TimeBase::UnixUtc.to_gps_seconds(unix, None).unwrap(), t);
-        assert_eq!(TimeBase::GpsSeconds1970.to_gps_seconds(unix + 18.0, None).unwrap(), t);
+        assert_eq!(
+            TimeBase::GpsSeconds1970
+                .to_gps_seconds(unix + 18.0, None)
+                .unwrap(),
+            t
+        );
         assert_eq!(TimeBase::GpsSeconds.to_gps_seconds(t, None).unwrap(), t);
-        assert_eq!(TimeBase::GpsWeekTow.to_gps_seconds(243_258.5, Some(2374)).unwrap(), t);
+        assert_eq!(
+            TimeBase::GpsWeekTow
+                .to_gps_seconds(243_258.5, Some(2374))
+                .unwrap(),
+            t
+        );
         assert!(TimeBase::GpsWeekTow.to_gps_seconds(1.0, None).is_err());
         assert!(TimeBase::CounterTag.to_gps_seconds(1.0, None).is_err());
         assert!(TimeBase::GpsSeconds.to_gps_seconds(f64::NAN, None).is_err());
         // Before the 2017-01-01 leap second GPS−UTC was 17 s: 2016-12-31 12:00 UTC.
         let u16 = 17_166.0 * 86_400.0 + 43_200.0;
-        let c = Calendar { year: 2016, month: 12, day: 31, hour: 12, minute: 0, second: 17.0 };
-        assert_eq!(gps_from_unix_utc(u16), gps_from_calendar(&c, TimeSystem::Gpst).unwrap());
+        let c = Calendar {
+            year: 2016,
+            month: 12,
+            day: 31,
+            hour: 12,
+            minute: 0,
+            second: 17.0,
+        };
+        assert_eq!(
+            gps_from_unix_utc(u16),
+            gps_from_calendar(&c, TimeSystem::Gpst).unwrap()
+        );
     }
 
     #[test]
@@ -288,37 +324,70 @@ mod tests {
         assert_eq!(plausible_base(raw, now()), Some(TimeBase::UnixUtc));
         match check_stamp(TimeBase::GpsSeconds, raw, None, now()) {
             Plausibility::Error(m) => {
-                assert!(m.contains("2035-07-"), "the 1980 reading, in the future: {m}");
-                assert!(m.contains("2025-07-08 19:34:39 GPST as gps_seconds_1970"), "{m}");
+                assert!(
+                    m.contains("2035-07-"),
+                    "the 1980 reading, in the future: {m}"
+                );
+                assert!(
+                    m.contains("2025-07-08 19:34:39 GPST as gps_seconds_1970"),
+                    "{m}"
+                );
                 assert!(m.contains("2025-07-08 19:34:57 GPST as unix_utc"), "{m}");
             }
             p => panic!("{p:?}"),
         }
-        assert_eq!(check_stamp(TimeBase::GpsSeconds1970, raw, None, now()), Plausibility::Ok);
-        assert_eq!(check_stamp(TimeBase::UnixUtc, raw, None, now()), Plausibility::Ok);
+        assert_eq!(
+            check_stamp(TimeBase::GpsSeconds1970, raw, None, now()),
+            Plausibility::Ok
+        );
+        assert_eq!(
+            check_stamp(TimeBase::UnixUtc, raw, None, now()),
+            Plausibility::Ok
+        );
     }
 
     #[test]
     fn other_implausible_declarations() {
         let t = gps_seconds(2374, 243_258.5);
-        assert_eq!(check_stamp(TimeBase::GpsSeconds, t, None, now()), Plausibility::Ok);
+        assert_eq!(
+            check_stamp(TimeBase::GpsSeconds, t, None, now()),
+            Plausibility::Ok
+        );
         // GPS seconds declared as unix_utc: 2015, plausible both ways → no error but no unique base.
         assert_eq!(plausible_base(t, now()), None);
         // A time of week declared as an absolute base.
         let Plausibility::Error(m) = check_stamp(TimeBase::UnixUtc, 243_258.5, None, now()) else {
             panic!()
         };
-        assert!(m.contains("less than one week") && m.contains("time of week"), "{m}");
+        assert!(
+            m.contains("less than one week") && m.contains("time of week"),
+            "{m}"
+        );
         assert_eq!(plausible_base(243_258.5, now()), Some(TimeBase::GpsWeekTow));
         // Absolute seconds declared as a time of week.
         let Plausibility::Error(m) = check_stamp(TimeBase::GpsWeekTow, t, Some(2374), now()) else {
             panic!()
         };
-        assert!(m.contains("not a time of week") && m.contains("as gps_seconds"), "{m}");
-        assert!(matches!(check_stamp(TimeBase::GpsWeekTow, 5.0, None, now()), Plausibility::Warning(_)));
-        assert_eq!(check_stamp(TimeBase::GpsWeekTow, 5.0, Some(2374), now()), Plausibility::Ok);
-        assert!(matches!(check_stamp(TimeBase::GpsWeekTow, 5.0, Some(9999), now()), Plausibility::Error(_)));
-        assert!(matches!(check_stamp(TimeBase::GpsSeconds, -1.0, None, now()), Plausibility::Error(_)));
+        assert!(
+            m.contains("not a time of week") && m.contains("as gps_seconds"),
+            "{m}"
+        );
+        assert!(matches!(
+            check_stamp(TimeBase::GpsWeekTow, 5.0, None, now()),
+            Plausibility::Warning(_)
+        ));
+        assert_eq!(
+            check_stamp(TimeBase::GpsWeekTow, 5.0, Some(2374), now()),
+            Plausibility::Ok
+        );
+        assert!(matches!(
+            check_stamp(TimeBase::GpsWeekTow, 5.0, Some(9999), now()),
+            Plausibility::Error(_)
+        ));
+        assert!(matches!(
+            check_stamp(TimeBase::GpsSeconds, -1.0, None, now()),
+            Plausibility::Error(_)
+        ));
         // POSIX seconds before 1980.
         let Plausibility::Error(m) = check_stamp(TimeBase::UnixUtc, 2.0e8, None, now()) else {
             panic!()
