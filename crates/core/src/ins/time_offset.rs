@@ -583,7 +583,7 @@ pub fn estimate(imu: &[ImuSample], gnss: &[GnssFix], cfg: &TimeOffsetConfig) -> 
     let tau = p[0];
     let reason = if cfg.max_lag_s - tau.abs() < cfg.grid_step_s {
         TimeOffsetReason::AtScanEdge
-    } else if !(std <= cfg.max_std_s) {
+    } else if std.is_nan() || std > cfg.max_std_s {
         TimeOffsetReason::TooUncertain
     } else if tau.abs() > cfg.k_sigma * std {
         TimeOffsetReason::Significant
