@@ -2,5 +2,7 @@
 
 pub mod align;
 pub mod mech;
+#[cfg(feature = "alloc")]
+pub mod time_offset;
 
 pub use mech::{mechanize, NavState};
