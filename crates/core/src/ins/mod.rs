@@ -2,5 +2,6 @@
 
 pub mod align;
 pub mod mech;
+pub mod yaw_gsf;
 
 pub use mech::{mechanize, NavState};
