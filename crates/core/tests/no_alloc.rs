@@ -257,3 +257,37 @@ fn cp_attitude_update_does_not_allocate() {
         "fixed {fixed}, smoothed {smoothed}"
     );
 }
+
+#[test]
+fn yaw_gsf_push_does_not_allocate() {
+    use navfuse_core::ins::yaw_gsf::{GsfConfig, YawGsf};
+    let before = allocs();
+    let v: Vec<u8> = Vec::with_capacity(64);
+    assert!(allocs() > before, "counting allocator is not active");
+    drop(v);
+
+    let mut gsf = YawGsf::new(GsfConfig::default());
+    let start = allocs();
+    let mut estimates = 0usize;
+    for k in 1..=3000u32 {
+        let t = k as f64 * 0.01;
+        // A 2 m/s² forward push then a right turn, FRD, level.
+        let turning = t > 10.0;
+        let imu = ImuSample {
+            t,
+            dt: 0.01,
+            dtheta_b: Vec3::new(0.0, 0.0, if turning { 0.002 } else { 0.0 }),
+            dvel_b: Vec3::new(0.02, if turning { 0.01 } else { 0.0 }, -0.098),
+        };
+        gsf.push_imu(&imu).unwrap();
+        if k % 100 == 0 {
+            let v_n = Vec3::new(2.0 * t.min(10.0), 0.0, 0.0);
+            gsf.push_gnss_velocity(t, &v_n, &Vec3::repeat(0.1)).unwrap();
+            estimates += gsf.estimate().is_some() as usize;
+            let _ = gsf.c_bn();
+        }
+    }
+    let used = allocs() - start;
+    assert_eq!(used, 0, "{used} heap allocations in the yaw GSF loop");
+    assert_eq!(estimates, 30);
+}

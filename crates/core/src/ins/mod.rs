@@ -4,5 +4,6 @@ pub mod align;
 pub mod mech;
 #[cfg(feature = "alloc")]
 pub mod time_offset;
+pub mod yaw_gsf;
 
 pub use mech::{mechanize, NavState};
