@@ -16,8 +16,11 @@
 //! (the configured σ counts as one prior sample, then a running mean until `k = N`,
 //! then fading memory of effective length ≈ N). The R applied is
 //! `clamp(m_j, σ_min², σ_max²)`; the mean itself is left unclamped so that the
-//! clamp does not bias it. The R of an update is the estimate from the
-//! innovations *before* it (the current innovation does not weight itself).
+//! clamp does not bias it. The R of an update includes its own innovation
+//! (Mohamed & Schwarz's window ends at the current epoch; Sage–Husa likewise):
+//! a σ started far too small is corrected at the first innovation instead of
+//! locking the states onto it (with the previous-epoch estimate, a ZARU started
+//! at 0.1× learned 1.48× the true σ on the z gyro in the parked test).
 //!
 //! **Outliers**: an innovation is used only if it passes a χ² gate computed
 //! with R at its ceiling, `Σ_j ν_j² / ((H P⁻ Hᵀ)_jj + σ_max²) ≤ χ²_M(p)`: it is

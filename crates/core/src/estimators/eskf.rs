@@ -1291,12 +1291,6 @@ impl Eskf {
         }
     }
 
-    /// `diag(H P Hᵀ)` with the current (prior) covariance.
-    fn hph_diag<const M: usize>(&self, h: &SMatrix<f64, M, NX>) -> SVector<f64, M> {
-        let hp: SMatrix<f64, M, NX> = h * self.p;
-        SVector::<f64, M>::from_fn(|i, _| hp.row(i).dot(&h.row(i)))
-    }
-
     /// Vehicle constraints after the IMU sample at the current time.
     fn vehicle_updates(&mut self) {
         let t = self.t;
@@ -1319,16 +1313,9 @@ impl Eskf {
                 let mut h = SMatrix::<f64, 3, NX>::zeros();
                 h.fixed_view_mut::<3, 3>(0, I_VEL)
                     .copy_from(&Mat3::identity());
-                let (r, hph) = match &self.adapt.zupt {
-                    Some(e) => (Mat3::from_diagonal(&e.r_diag()), Some(self.hph_diag(&h))),
-                    None => (Mat3::identity() * (z.vel_std * z.vel_std), None),
-                };
                 let dz = self.nav.v_n;
-                let result = self.update(&h, &r, &dz, true, UpdateKind::Zupt);
-                if let (Some(e), Some(hph)) = (self.adapt.zupt.as_mut(), hph) {
-                    let _ = e.observe(&dz, &hph);
-                }
-                let zupt_ok = match result {
+                let r = constraint_r(&mut self.adapt.zupt, &self.p, &h, &dz, z.vel_std);
+                let zupt_ok = match self.update(&h, &r, &dz, true, UpdateKind::Zupt) {
                     Ok(_) => {
                         self.stats.zupt_used += 1;
                         true
@@ -1349,18 +1336,11 @@ impl Eskf {
                     let mut h = SMatrix::<f64, 3, NX>::zeros();
                     h.fixed_view_mut::<3, 3>(0, I_BG)
                         .copy_from(&Mat3::identity());
-                    let (r, hph) = match &self.adapt.zaru {
-                        Some(e) => (Mat3::from_diagonal(&e.r_diag()), Some(self.hph_diag(&h))),
-                        None => (Mat3::identity() * (zs * zs), None),
-                    };
                     // The window mean holds the bias of its samples: one ZARU per window.
                     let window_s = z.window as f64 * self.last_dt;
                     if t - self.last_zaru >= window_s {
-                        let ok = self.update(&h, &r, &dz, true, UpdateKind::Zaru).is_ok();
-                        if let (Some(e), Some(hph)) = (self.adapt.zaru.as_mut(), hph) {
-                            let _ = e.observe(&dz, &hph);
-                        }
-                        if ok {
+                        let r = constraint_r(&mut self.adapt.zaru, &self.p, &h, &dz, zs);
+                        if self.update(&h, &r, &dz, true, UpdateKind::Zaru).is_ok() {
                             self.last_zaru = t;
                             self.stats.zaru_used += 1;
                         }
@@ -1388,21 +1368,12 @@ impl Eskf {
                     h[(r, I_ATT + k)] = h_a[(r + 1, k)];
                 }
             }
-            let (r, hph) = match &self.adapt.nhc {
-                Some(e) => (
-                    SMatrix::<f64, 2, 2>::from_diagonal(&e.r_diag()),
-                    Some(self.hph_diag(&h)),
-                ),
-                None => (SMatrix::<f64, 2, 2>::identity() * (n.std * n.std), None),
-            };
             let dz = SVector::<f64, 2>::new(v_b.y, v_b.z);
+            let r = constraint_r(&mut self.adapt.nhc, &self.p, &h, &dz, n.std);
             match self.update(&h, &r, &dz, true, UpdateKind::Nhc) {
                 Ok(_) => self.stats.nhc_used += 1,
                 Err(UpdateReject::Gate) => self.stats.nhc_rejected_gate += 1,
                 Err(UpdateReject::Singular) => {}
-            }
-            if let (Some(e), Some(hph)) = (self.adapt.nhc.as_mut(), hph) {
-                let _ = e.observe(&dz, &hph);
             }
         }
     }
@@ -1534,6 +1505,29 @@ impl Eskf {
             let _ = old;
             self.stats.gnss_rejected_bad += 1;
         }
+    }
+}
+
+/// R of a constraint update with innovation `dz`: without adaptation
+/// `σ² I` (`fixed_std`); with it, the estimate after folding in `dz` with
+/// `diag(H P⁻ Hᵀ)` (the windowed innovation covariance includes the current
+/// epoch, as in Mohamed & Schwarz 1999 and Sage–Husa; an innovation beyond
+/// the ceiling gate is not folded in, see [`super::adaptive`]).
+fn constraint_r<const M: usize>(
+    est: &mut Option<NoiseEstimator<M>>,
+    p: &Cov,
+    h: &SMatrix<f64, M, NX>,
+    dz: &SVector<f64, M>,
+    fixed_std: f64,
+) -> SMatrix<f64, M, M> {
+    match est {
+        Some(e) => {
+            let hp: SMatrix<f64, M, NX> = h * p;
+            let hph = SVector::<f64, M>::from_fn(|i, _| hp.row(i).dot(&h.row(i)));
+            let _ = e.observe(dz, &hph);
+            SMatrix::<f64, M, M>::from_diagonal(&e.r_diag())
+        }
+        None => SMatrix::<f64, M, M>::identity() * (fixed_std * fixed_std),
     }
 }
 

@@ -121,15 +121,33 @@ fn drive(sigma_lat: f64, sigma_down: f64, seed: u64) -> Drive {
     let mut rng = Normal(seed);
     let lat_w = Wiggle::new(sigma_lat, 0.4, &mut rng);
     let down_w = Wiggle::new(sigma_down, 0.5, &mut rng);
+    simulate(
+        rng,
+        &|t| v_body(t, &lat_w, &down_w),
+        &yaw_rate,
+        T_END,
+        OUTAGE,
+    )
+}
+
+/// Truth, IMU increments with errors and fixes (none inside `outage`) for
+/// body velocity `v_b(t)` and yaw rate `yaw(t)` at level attitude.
+fn simulate(
+    mut rng: Normal,
+    v_b: &dyn Fn(f64) -> Vec3,
+    yaw: &dyn Fn(f64) -> f64,
+    t_end: f64,
+    outage: (f64, f64),
+) -> Drive {
     let q0 = q_bn_from_rpy(&Vec3::new(0.0, 0.0, 0.3));
     let mut s = NavState {
         lat: LAT,
         lon: LON,
         h: H,
-        v_n: q0.to_rotation_matrix().matrix() * v_body(0.0, &lat_w, &down_w),
+        v_n: q0.to_rotation_matrix().matrix() * v_b(0.0),
         q_bn: q0,
     };
-    let n = (T_END / DT).round() as usize;
+    let n = (t_end / DT).round() as usize;
     let mut d = Drive {
         imu: Vec::with_capacity(n),
         truth: Vec::with_capacity(n),
@@ -141,7 +159,7 @@ fn drive(sigma_lat: f64, sigma_down: f64, seed: u64) -> Drive {
         let t1 = k as f64 * DT;
         let c_bn = s.c_bn();
         let c_nb = c_bn.transpose();
-        let r = yaw_rate(t1 - 0.5 * DT);
+        let r = yaw(t1 - 0.5 * DT);
         let w_in = earth::omega_ie_n(s.lat) + earth::omega_en_n(s.lat, s.h, &s.v_n);
         let dth = (c_nb * w_in + Vec3::new(0.0, 0.0, r)) * DT;
         // Velocity demanded at the end of the step, in the attitude then;
@@ -151,7 +169,7 @@ fn drive(sigma_lat: f64, sigma_down: f64, seed: u64) -> Drive {
             * quat_from_rotvec(&Vec3::new(0.0, 0.0, r * DT))
                 .to_rotation_matrix()
                 .matrix();
-        let dv_n = c_bn1 * v_body(t1, &lat_w, &down_w) - s.v_n;
+        let dv_n = c_bn1 * v_b(t1) - s.v_n;
         let cor =
             (2.0 * earth::omega_ie_n(s.lat) + earth::omega_en_n(s.lat, s.h, &s.v_n)).cross(&s.v_n);
         let dv_fb = c_nb * (dv_n - (earth::gravity_n(s.lat, s.h) - cor) * DT);
@@ -165,7 +183,7 @@ fn drive(sigma_lat: f64, sigma_down: f64, seed: u64) -> Drive {
             dtheta_b: dth + BG * DT + rng.vec() * (noise.arw.x * DT.sqrt()),
             dvel_b: dv + BA * DT + rng.vec() * (noise.vrw.x * DT.sqrt()),
         });
-        if k % 100 == 0 && !(OUTAGE.0 < t1 && t1 < OUTAGE.1) {
+        if k % 100 == 0 && !(outage.0 < t1 && t1 < outage.1) {
             let (rm, rn) = earth::radii(s.lat);
             let l = s.c_bn() * LEVER
                 + Vec3::new(0.05 * rng.next(), 0.05 * rng.next(), 0.1 * rng.next());
@@ -222,11 +240,9 @@ struct Outcome {
     outage_err: f64,
 }
 
-fn run(d: &Drive, nhc_std: f64, adaptive: bool) -> Outcome {
-    let mut nav0 = d.truth[0];
-    // A 0.3° heading error at the start.
-    nav0.q_bn = quat_from_rotvec(&Vec3::new(0.0, 0.0, 0.3f64.to_radians())) * nav0.q_bn;
-    let std = InitStd {
+/// Initial σ of the runs; the start has a 0.3° heading error.
+fn init_std() -> InitStd {
+    InitStd {
         pos: Vec3::repeat(0.1),
         vel: Vec3::repeat(0.1),
         att: Vec3::new(0.5, 0.5, 1.0).map(f64::to_radians),
@@ -234,8 +250,39 @@ fn run(d: &Drive, nhc_std: f64, adaptive: bool) -> Outcome {
         ba: Vec3::repeat(0.1),
         sg: Vec3::repeat(1e-3),
         sa: Vec3::repeat(1e-3),
-    };
-    let mut f = Eskf::new(filter_config(nhc_std), nav0, ImuErrors::default(), &std);
+    }
+}
+
+fn start_state(d: &Drive) -> NavState {
+    let mut nav0 = d.truth[0];
+    nav0.q_bn = quat_from_rotvec(&Vec3::new(0.0, 0.0, 0.3f64.to_radians())) * nav0.q_bn;
+    nav0
+}
+
+/// Push the drive's events in time order into `f`, calling `each` after
+/// every IMU sample with the solution and the truth.
+fn replay(
+    f: &mut Eskf,
+    d: &Drive,
+    mut each: impl FnMut(&Eskf, &ImuSample, &NavSolution, &NavState),
+) {
+    let mut fixes = d.fixes.iter().peekable();
+    for (imu, truth) in d.imu.iter().zip(&d.truth) {
+        while let Some(g) = fixes.next_if(|g| g.t <= imu.t + 1e-9) {
+            f.push(&Event::Gnss(*g));
+        }
+        let sol = f.push(&Event::Imu(*imu)).unwrap();
+        each(f, imu, &sol, truth);
+    }
+}
+
+fn run(d: &Drive, nhc_std: f64, adaptive: bool) -> Outcome {
+    let mut f = Eskf::new(
+        filter_config(nhc_std),
+        start_state(d),
+        ImuErrors::default(),
+        &init_std(),
+    );
     if adaptive {
         f = f
             .with_adaptive_noise(AdaptiveConstraints {
@@ -244,17 +291,12 @@ fn run(d: &Drive, nhc_std: f64, adaptive: bool) -> Outcome {
             })
             .unwrap();
     }
-    let mut fixes = d.fixes.iter().peekable();
     let mut out = Outcome {
         sigma_at_outage: [f64::NAN; 2],
         sigma_end: [f64::NAN; 2],
         outage_err: 0.0,
     };
-    for (imu, truth) in d.imu.iter().zip(&d.truth) {
-        while let Some(g) = fixes.next_if(|g| g.t <= imu.t + 1e-9) {
-            f.push(&Event::Gnss(*g));
-        }
-        let sol = f.push(&Event::Imu(*imu)).unwrap();
+    replay(&mut f, d, |f, imu, sol, truth| {
         if (imu.t - OUTAGE.0).abs() < 0.5 * DT {
             out.sigma_at_outage = f.adapted_noise().nhc_std.unwrap_or([nhc_std; 2]);
         }
@@ -264,7 +306,7 @@ fn run(d: &Drive, nhc_std: f64, adaptive: bool) -> Outcome {
                 ((sol.lat - truth.lat) * rm).hypot((sol.lon - truth.lon) * rn * truth.lat.cos());
             out.outage_err = out.outage_err.max(e);
         }
-    }
+    });
     out.sigma_end = f.adapted_noise().nhc_std.unwrap_or([nhc_std; 2]);
     out
 }
@@ -392,4 +434,84 @@ fn adaptation_of_an_absent_constraint_is_refused() {
         ..Default::default()
     });
     assert_eq!(r.err(), Some(AdaptiveConfigError::NotConfigured("zaru")));
+}
+
+/// A parked car with engine-idle vibration of known velocity σ per axis: the
+/// adapted ZUPT σ must find it from 10× wrong starts, and the adapted ZARU σ
+/// the noise of a window-mean gyro rate, ARW/√T_window (the simulated gyro
+/// has no angular vibration, so the ARW is the whole ZARU noise).
+fn check_parked(sigma_v: f64, seed: u64) {
+    let mut rng = Normal(seed);
+    let w = [
+        Wiggle::new(sigma_v, 4.0, &mut rng),
+        Wiggle::new(sigma_v, 4.3, &mut rng),
+        Wiggle::new(sigma_v, 4.7, &mut rng),
+    ];
+    let d = simulate(
+        rng,
+        &|t| Vec3::new(w[0].at(t), w[1].at(t), w[2].at(t)),
+        &|_| 0.0,
+        120.0,
+        (f64::INFINITY, f64::INFINITY),
+    );
+    let window = 50;
+    let zaru_true = imu_noise().arw.x / (window as f64 * DT).sqrt();
+    for start in [0.1, 10.0] {
+        let mut cfg = filter_config(0.5);
+        // Detector limits above the simulated vibration (≈ 2π·10 Hz·σ_v of
+        // acceleration), so that the whole run is standstill.
+        cfg.zupt = Some(ZuptConfig {
+            window,
+            max_accel_std: 3.0,
+            max_gyro_std: 0.01,
+            max_accel_dev: 1.0,
+            max_speed: 1.0,
+            vel_std: sigma_v * start,
+            zaru_std: Some(zaru_true * start),
+            interval: 0.1,
+        });
+        let mut f = Eskf::new(cfg, start_state(&d), ImuErrors::default(), &init_std())
+            .with_adaptive_noise(AdaptiveConstraints {
+                zupt: Some(AdaptiveNoise {
+                    window: 100.0,
+                    min_std: 1e-5,
+                    max_std: 1.0,
+                    gate_probability: 0.9999,
+                }),
+                zaru: Some(AdaptiveNoise {
+                    window: 20.0,
+                    min_std: 1e-7,
+                    max_std: 0.1,
+                    gate_probability: 0.9999,
+                }),
+                ..Default::default()
+            })
+            .unwrap();
+        replay(&mut f, &d, |_, _, _, _| {});
+        let a = f.adapted_noise();
+        std::println!(
+            "parked σ_v {sigma_v}, ZARU σ {zaru_true:.3e}, starts ×{start}: ZUPT σ {:?}, ZARU σ {:?}, \
+             counts {:?} {:?}, standstill {}",
+            a.zupt_std, a.zaru_std, a.zupt_counts, a.zaru_counts, f.stats().zupt_used
+        );
+        assert!(f.stats().zupt_used > 1_000, "{:?}", f.stats());
+        for (learned, truth) in a
+            .zupt_std
+            .unwrap()
+            .iter()
+            .map(|s| (*s, sigma_v))
+            .chain(a.zaru_std.unwrap().iter().map(|s| (*s, zaru_true)))
+        {
+            assert!(
+                learned < 1.5 * truth && learned > truth / 1.5,
+                "start ×{start}: learned {learned} vs true {truth}"
+            );
+        }
+    }
+}
+
+#[test]
+fn zupt_and_zaru_noise_learned_when_parked() {
+    check_parked(0.002, 5);
+    check_parked(0.02, 9);
 }
