@@ -134,6 +134,19 @@ fn push_does_not_allocate() {
     assert!(outputs > 8000);
 }
 
+/// Initial σ of the ESKF in these tests.
+fn init_std() -> InitStd {
+    InitStd {
+        pos: Vec3::repeat(1.0),
+        vel: Vec3::repeat(0.1),
+        att: Vec3::repeat(0.01),
+        bg: Vec3::repeat(1e-4),
+        ba: Vec3::repeat(0.01),
+        sg: Vec3::repeat(1e-3),
+        sa: Vec3::repeat(1e-3),
+    }
+}
+
 /// A level drive north at 10 m/s, 100 Hz IMU and 1 Hz fixes with velocity,
 /// through the ESKF (GNSS position + velocity updates, NHC/ZUPT as in the
 /// seed 001 preset) and PF-LC.
@@ -149,15 +162,7 @@ fn eskf_and_pf_lc_push_do_not_allocate() {
         v_n: Vec3::new(v, 0.0, 0.0),
         ..Default::default()
     };
-    let std = InitStd {
-        pos: Vec3::repeat(1.0),
-        vel: Vec3::repeat(0.1),
-        att: Vec3::repeat(0.01),
-        bg: Vec3::repeat(1e-4),
-        ba: Vec3::repeat(0.01),
-        sg: Vec3::repeat(1e-3),
-        sa: Vec3::repeat(1e-3),
-    };
+    let std = init_std();
     let mut eskf = Eskf::new(EskfConfig::seed001(), nav, ImuErrors::default(), &std);
     let mut pflc = PfLc::new(PfLcConfig::default());
     let g = navfuse_core::earth::gravity(lat0, h);
@@ -207,15 +212,7 @@ fn adaptive_eskf_push_does_not_allocate() {
     let (lat0, lon0, h) = (0.7f64, -1.8f64, 100.0);
     let (rm, _) = navfuse_core::earth::radii(lat0);
     let g = navfuse_core::earth::gravity(lat0, h);
-    let std = InitStd {
-        pos: Vec3::repeat(1.0),
-        vel: Vec3::repeat(0.1),
-        att: Vec3::repeat(0.01),
-        bg: Vec3::repeat(1e-4),
-        ba: Vec3::repeat(0.01),
-        sg: Vec3::repeat(1e-3),
-        sa: Vec3::repeat(1e-3),
-    };
+    let std = init_std();
     let mut cfg = EskfConfig::seed001();
     cfg.gate_probability = Some(0.9999);
     cfg.nhc = Some(NhcConfig {

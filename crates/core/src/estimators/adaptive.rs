@@ -279,21 +279,7 @@ impl Default for GnssQualityScale {
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    /// xorshift64* + Box–Muller: deterministic standard normals.
-    struct Normal(u64);
-    impl Normal {
-        fn uniform(&mut self) -> f64 {
-            self.0 ^= self.0 >> 12;
-            self.0 ^= self.0 << 25;
-            self.0 ^= self.0 >> 27;
-            ((self.0.wrapping_mul(0x2545_F491_4F6C_DD1D) >> 11) as f64 + 0.5) / (1u64 << 53) as f64
-        }
-        fn next(&mut self) -> f64 {
-            let (u, v) = (self.uniform(), self.uniform());
-            (-2.0 * u.ln()).sqrt() * (2.0 * core::f64::consts::PI * v).cos()
-        }
-    }
+    use crate::estimators::pf_lc::rng::SplitMix64;
 
     fn cfg() -> AdaptiveNoise {
         AdaptiveNoise {
@@ -311,10 +297,10 @@ mod tests {
         let hph = SVector::<f64, 2>::new(0.04, 0.001);
         for start in [0.01, 3.0] {
             let mut e = NoiseEstimator::<2>::new(cfg(), start).unwrap();
-            let mut n = Normal(42);
+            let mut n = SplitMix64::new(42);
             for _ in 0..5_000 {
                 let nu = SVector::<f64, 2>::from_fn(|j, _| {
-                    n.next() * (hph[j] + sigma[j] * sigma[j]).sqrt()
+                    n.normal() * (hph[j] + sigma[j] * sigma[j]).sqrt()
                 });
                 let _ = e.observe(&nu, &hph);
             }

@@ -1581,7 +1581,7 @@ mod tests {
         }
     }
 
-    fn std0() -> InitStd {
+    pub(super) fn std0() -> InitStd {
         InitStd {
             pos: Vec3::repeat(0.1),
             vel: Vec3::repeat(0.1),
@@ -1593,7 +1593,7 @@ mod tests {
         }
     }
 
-    fn config() -> EskfConfig {
+    pub(super) fn config() -> EskfConfig {
         EskfConfig {
             noise: noise(),
             lever_arm_b: Vec3::new(0.2, -0.1, -0.5),

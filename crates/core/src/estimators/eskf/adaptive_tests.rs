@@ -8,6 +8,7 @@ use super::*;
 use crate::estimators::adaptive::{
     AdaptedNoise, AdaptiveConstraints, AdaptiveNoise, GnssQualityScale,
 };
+use crate::estimators::pf_lc::rng::SplitMix64;
 use crate::ins::mech::{mechanize, q_bn_from_rpy};
 use std::vec::Vec;
 
@@ -20,18 +21,17 @@ const LEVER: Vec3 = Vec3::new(0.3, -0.2, -1.2);
 const OUTAGE: (f64, f64) = (180.0, 210.0);
 const T_END: f64 = 240.0;
 
-/// xorshift64* + Box–Muller: deterministic standard normals.
-struct Normal(u64);
+/// Deterministic N(0, 1) stream with a 3-vector helper.
+struct Normal(SplitMix64);
 impl Normal {
+    fn new(seed: u64) -> Self {
+        Normal(SplitMix64::new(seed))
+    }
     fn uniform(&mut self) -> f64 {
-        self.0 ^= self.0 >> 12;
-        self.0 ^= self.0 << 25;
-        self.0 ^= self.0 >> 27;
-        ((self.0.wrapping_mul(0x2545_F491_4F6C_DD1D) >> 11) as f64 + 0.5) / (1u64 << 53) as f64
+        self.0.uniform()
     }
     fn next(&mut self) -> f64 {
-        let (u, v) = (self.uniform(), self.uniform());
-        (-2.0 * u.ln()).sqrt() * (2.0 * core::f64::consts::PI * v).cos()
+        self.0.normal()
     }
     fn vec(&mut self) -> Vec3 {
         Vec3::new(self.next(), self.next(), self.next())
@@ -118,7 +118,7 @@ fn v_body(t: f64, lat: &Wiggle, down: &Wiggle) -> Vec3 {
 /// A drive whose body lateral velocity has σ `sigma_lat` and vertical σ
 /// `sigma_down`; `seed` fixes every random number.
 fn drive(sigma_lat: f64, sigma_down: f64, seed: u64) -> Drive {
-    let mut rng = Normal(seed);
+    let mut rng = Normal::new(seed);
     let lat_w = Wiggle::new(sigma_lat, 0.4, &mut rng);
     let down_w = Wiggle::new(sigma_down, 0.5, &mut rng);
     simulate(
@@ -205,19 +205,12 @@ fn filter_config(nhc_std: f64) -> EskfConfig {
     EskfConfig {
         noise: imu_noise(),
         lever_arm_b: LEVER,
-        scale_factors: true,
-        gate_probability: Some(0.9999),
-        gate_deweight_factor: 100.0,
-        gnss_force_after: 5,
-        use_gnss_velocity: false,
-        position_until: None,
         nhc: Some(NhcConfig {
             std: nhc_std,
             interval: 0.1,
             min_speed: 0.5,
         }),
-        zupt: None,
-        smoother_every: 0,
+        ..super::tests::config()
     }
 }
 
@@ -243,13 +236,9 @@ struct Outcome {
 /// Initial σ of the runs; the start has a 0.3° heading error.
 fn init_std() -> InitStd {
     InitStd {
-        pos: Vec3::repeat(0.1),
-        vel: Vec3::repeat(0.1),
         att: Vec3::new(0.5, 0.5, 1.0).map(f64::to_radians),
-        bg: Vec3::repeat(50.0f64.to_radians() / 3600.0),
         ba: Vec3::repeat(0.1),
-        sg: Vec3::repeat(1e-3),
-        sa: Vec3::repeat(1e-3),
+        ..super::tests::std0()
     }
 }
 
@@ -372,16 +361,12 @@ fn nhc_noise_learned_for_a_loose_vehicle() {
 #[test]
 fn no_adaptation_and_identity_quality_scale_change_nothing() {
     let d = drive(0.2, 0.03, 3);
-    let std = InitStd {
-        pos: Vec3::repeat(0.1),
-        vel: Vec3::repeat(0.1),
-        att: Vec3::repeat(0.01),
-        bg: Vec3::repeat(1e-4),
-        ba: Vec3::repeat(0.1),
-        sg: Vec3::repeat(1e-3),
-        sa: Vec3::repeat(1e-3),
-    };
-    let plain = Eskf::new(filter_config(0.3), d.truth[0], ImuErrors::default(), &std);
+    let plain = Eskf::new(
+        filter_config(0.3),
+        d.truth[0],
+        ImuErrors::default(),
+        &init_std(),
+    );
     let hooked = plain
         .clone()
         .with_adaptive_noise(AdaptiveConstraints::default())
@@ -410,20 +395,7 @@ fn no_adaptation_and_identity_quality_scale_change_nothing() {
 fn adaptation_of_an_absent_constraint_is_refused() {
     let mut cfg = filter_config(0.3);
     cfg.nhc = None;
-    let f = Eskf::new(
-        cfg,
-        NavState::default(),
-        ImuErrors::default(),
-        &InitStd {
-            pos: Vec3::repeat(1.0),
-            vel: Vec3::repeat(1.0),
-            att: Vec3::repeat(0.1),
-            bg: Vec3::repeat(1e-4),
-            ba: Vec3::repeat(0.1),
-            sg: Vec3::zeros(),
-            sa: Vec3::zeros(),
-        },
-    );
+    let f = Eskf::new(cfg, NavState::default(), ImuErrors::default(), &init_std());
     let r = f.clone().with_adaptive_noise(AdaptiveConstraints {
         nhc: Some(AdaptiveNoise::nhc_ground_vehicle()),
         ..Default::default()
@@ -441,7 +413,7 @@ fn adaptation_of_an_absent_constraint_is_refused() {
 /// the noise of a window-mean gyro rate, ARW/√T_window (the simulated gyro
 /// has no angular vibration, so the ARW is the whole ZARU noise).
 fn check_parked(sigma_v: f64, seed: u64) {
-    let mut rng = Normal(seed);
+    let mut rng = Normal::new(seed);
     let w = [
         Wiggle::new(sigma_v, 4.0, &mut rng),
         Wiggle::new(sigma_v, 4.3, &mut rng),
