@@ -5,7 +5,8 @@
 
 use nalgebra::{SMatrix, SVector};
 use navfuse_core::estimators::accel_dr::{AccelDr, AccelDrConfig, GpsHold};
-use navfuse_core::estimators::eskf::{Eskf, EskfConfig, ImuErrors, InitStd};
+use navfuse_core::estimators::adaptive::{AdaptiveConstraints, AdaptiveNoise, GnssQualityScale};
+use navfuse_core::estimators::eskf::{Eskf, EskfConfig, ImuErrors, InitStd, NhcConfig, ZuptConfig};
 use navfuse_core::estimators::pf_lc::{PfLc, PfLcConfig};
 use navfuse_core::ins::mech::NavState;
 use navfuse_core::kalman::{chi2_quantile, predict, predict_sparse, update_joseph};
@@ -133,6 +134,19 @@ fn push_does_not_allocate() {
     assert!(outputs > 8000);
 }
 
+/// Initial σ of the ESKF in these tests.
+fn init_std() -> InitStd {
+    InitStd {
+        pos: Vec3::repeat(1.0),
+        vel: Vec3::repeat(0.1),
+        att: Vec3::repeat(0.01),
+        bg: Vec3::repeat(1e-4),
+        ba: Vec3::repeat(0.01),
+        sg: Vec3::repeat(1e-3),
+        sa: Vec3::repeat(1e-3),
+    }
+}
+
 /// A level drive north at 10 m/s, 100 Hz IMU and 1 Hz fixes with velocity,
 /// through the ESKF (GNSS position + velocity updates, NHC/ZUPT as in the
 /// seed 001 preset) and PF-LC.
@@ -148,15 +162,7 @@ fn eskf_and_pf_lc_push_do_not_allocate() {
         v_n: Vec3::new(v, 0.0, 0.0),
         ..Default::default()
     };
-    let std = InitStd {
-        pos: Vec3::repeat(1.0),
-        vel: Vec3::repeat(0.1),
-        att: Vec3::repeat(0.01),
-        bg: Vec3::repeat(1e-4),
-        ba: Vec3::repeat(0.01),
-        sg: Vec3::repeat(1e-3),
-        sa: Vec3::repeat(1e-3),
-    };
+    let std = init_std();
     let mut eskf = Eskf::new(EskfConfig::seed001(), nav, ImuErrors::default(), &std);
     let mut pflc = PfLc::new(PfLcConfig::default());
     let g = navfuse_core::earth::gravity(lat0, h);
@@ -195,6 +201,89 @@ fn eskf_and_pf_lc_push_do_not_allocate() {
     }
     assert_eq!(allocs(), before, "push allocated");
     assert!(outputs > 10_000, "{outputs} solutions");
+    assert!(eskf.solution().lat.is_finite());
+}
+
+/// The ESKF with adaptive NHC, ZUPT and ZARU noise and the GNSS quality
+/// scale: 20 s parked (standstill, ZUPT/ZARU), then 1 m/s² north to 10 m/s
+/// (NHC), fixes at 1 Hz.
+#[test]
+fn adaptive_eskf_push_does_not_allocate() {
+    let (lat0, lon0, h) = (0.7f64, -1.8f64, 100.0);
+    let (rm, _) = navfuse_core::earth::radii(lat0);
+    let g = navfuse_core::earth::gravity(lat0, h);
+    let std = init_std();
+    let mut cfg = EskfConfig::seed001();
+    cfg.gate_probability = Some(0.9999);
+    cfg.nhc = Some(NhcConfig {
+        std: 0.5,
+        interval: 0.1,
+        min_speed: 0.5,
+    });
+    cfg.zupt = Some(ZuptConfig {
+        window: 50,
+        max_accel_std: 0.1,
+        max_gyro_std: 0.03,
+        max_accel_dev: 0.2,
+        max_speed: 1.0,
+        vel_std: 0.02,
+        zaru_std: Some(1e-3),
+        interval: 0.1,
+    });
+    let nav = NavState {
+        lat: lat0,
+        lon: lon0,
+        h,
+        ..Default::default()
+    };
+    let mut eskf = Eskf::new(cfg, nav, ImuErrors::default(), &std)
+        .with_adaptive_noise(AdaptiveConstraints {
+            nhc: Some(AdaptiveNoise::nhc_ground_vehicle()),
+            zupt: Some(AdaptiveNoise::zupt()),
+            zaru: Some(AdaptiveNoise::zaru()),
+        })
+        .unwrap()
+        .with_gnss_quality_scale(GnssQualityScale([1.0, 1.0, 3.0, 1.0, 2.0, 5.0, 1.0]));
+    let accel = |t: f64| if (20.0..30.0).contains(&t) { 1.0 } else { 0.0 };
+    let (mut north, mut v) = (0.0, 0.0);
+    let mut events = Vec::with_capacity(6100);
+    for k in 1..=6000u32 {
+        let t = k as f64 * 0.01;
+        let a = accel(t);
+        north += (v + 0.5 * a * 0.01) * 0.01;
+        v += a * 0.01;
+        events.push(Event::Imu(ImuSample {
+            t,
+            dt: 0.01,
+            dtheta_b: Vec3::zeros(),
+            dvel_b: Vec3::new(a * 0.01, 0.0, -g * 0.01),
+        }));
+        if k % 100 == 0 {
+            events.push(Event::Gnss(GnssFix {
+                t,
+                lat: lat0 + north / (rm + h),
+                lon: lon0,
+                h,
+                std_ned: Vec3::repeat(0.05),
+                quality: 1 + (k / 100 % 2) as u8,
+                ..Default::default()
+            }));
+        }
+    }
+    let (warm, rest) = events.split_at(100);
+    for e in warm {
+        eskf.push(e);
+    }
+    let before = allocs();
+    for e in rest {
+        eskf.push(e);
+    }
+    assert_eq!(allocs(), before, "push allocated");
+    let a = eskf.adapted_noise();
+    assert!(
+        a.nhc_counts.0 > 100 && a.zupt_counts.0 > 50 && a.zaru_counts.0 > 3,
+        "{a:?}"
+    );
     assert!(eskf.solution().lat.is_finite());
 }
 

@@ -30,7 +30,13 @@
 //!
 //! A GNSS fix between two IMU samples is applied at its own time: the IMU
 //! interval is split at the fix (increments scaled linearly), as KF-GINS does.
+//!
+//! Optional, off by default (outputs then unchanged): innovation-based
+//! adaptive noise of the NHC/ZUPT/ZARU constraints ([`Eskf::with_adaptive_noise`],
+//! [`super::adaptive`]) and a GNSS σ multiplier by solution quality
+//! ([`Eskf::with_gnss_quality_scale`]).
 
+use super::adaptive::{AdaptedNoise, AdaptiveConstraints, GnssQualityScale, NoiseEstimator};
 use crate::earth;
 use crate::ins::mech::{mechanize_with, quat_from_rotvec, EarthAt, NavState};
 use crate::kalman;
@@ -648,6 +654,43 @@ pub struct Eskf {
     /// Last compensated angular rate [rad/s] and specific force [m/s²], body.
     w_ib_b: Vec3,
     f_b: Vec3,
+    adapt: Adaptive,
+}
+
+/// The adaptive parts of the filter (all `None` by default).
+#[derive(Clone, Copy, Debug, Default)]
+struct Adaptive {
+    nhc: Option<NoiseEstimator<2>>,
+    zupt: Option<NoiseEstimator<3>>,
+    zaru: Option<NoiseEstimator<3>>,
+    gnss_quality: Option<GnssQualityScale>,
+}
+
+/// Why [`Eskf::with_adaptive_noise`] refused a configuration.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum AdaptiveConfigError {
+    /// Adaptation asked for a constraint the filter does not apply (`nhc`,
+    /// `zupt`, `zaru`).
+    NotConfigured(&'static str),
+    /// Bounds, window or gate of that constraint's `AdaptiveNoise` (or its
+    /// starting σ) are invalid: need window ≥ 1, 0 < min_std ≤ max_std,
+    /// gate probability in (0, 1), starting σ > 0.
+    Invalid(&'static str),
+}
+
+impl core::fmt::Display for AdaptiveConfigError {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        match self {
+            AdaptiveConfigError::NotConfigured(c) => {
+                write!(f, "adaptive {c} noise asked for, but {c} is not configured")
+            }
+            AdaptiveConfigError::Invalid(c) => write!(
+                f,
+                "adaptive {c} noise: need window >= 1, 0 < min_std <= max_std, \
+                 gate probability in (0, 1) and a positive starting sigma"
+            ),
+        }
+    }
 }
 
 /// Which GNSS fix timing case applies to an IMU interval (KF-GINS `isToUpdate`).
@@ -740,7 +783,58 @@ impl Eskf {
             kernel: Kernel::detect(),
             scratch_t: Cov::zeros(),
             scratch_m: Cov::zeros(),
+            adapt: Adaptive::default(),
             cfg,
+        }
+    }
+
+    /// Adapt the noise of the constraint updates named in `a` from their
+    /// innovations (bounded IAE, see [`super::adaptive`]), each started from
+    /// the configured σ (`NhcConfig::std`, `ZuptConfig::vel_std`,
+    /// `ZuptConfig::zaru_std`). NHC adapts body y and z separately, ZUPT the
+    /// NED axes, ZARU the body axes. Without this call the fixed σ is used
+    /// and every output is unchanged.
+    pub fn with_adaptive_noise(
+        mut self,
+        a: AdaptiveConstraints,
+    ) -> Result<Self, AdaptiveConfigError> {
+        use AdaptiveConfigError::{Invalid, NotConfigured};
+        self.adapt.nhc = match (a.nhc, self.cfg.nhc) {
+            (None, _) => None,
+            (Some(_), None) => return Err(NotConfigured("nhc")),
+            (Some(c), Some(n)) => Some(NoiseEstimator::new(c, n.std).ok_or(Invalid("nhc"))?),
+        };
+        self.adapt.zupt = match (a.zupt, self.cfg.zupt) {
+            (None, _) => None,
+            (Some(_), None) => return Err(NotConfigured("zupt")),
+            (Some(c), Some(z)) => Some(NoiseEstimator::new(c, z.vel_std).ok_or(Invalid("zupt"))?),
+        };
+        self.adapt.zaru = match (a.zaru, self.cfg.zupt.and_then(|z| z.zaru_std)) {
+            (None, _) => None,
+            (Some(_), None) => return Err(NotConfigured("zaru")),
+            (Some(c), Some(s)) => Some(NoiseEstimator::new(c, s).ok_or(Invalid("zaru"))?),
+        };
+        Ok(self)
+    }
+
+    /// Multiply each GNSS fix's position σ (`std_ned`, not the velocity σ) by
+    /// `s.factor(fix.quality)`. [`GnssQualityScale::IDENTITY`] changes nothing.
+    pub fn with_gnss_quality_scale(mut self, s: GnssQualityScale) -> Self {
+        self.adapt.gnss_quality = Some(s);
+        self
+    }
+
+    /// The adapted constraint σ now, with the innovations used and rejected
+    /// (`None` fields: that constraint is not adaptive).
+    pub fn adapted_noise(&self) -> AdaptedNoise {
+        let a = &self.adapt;
+        AdaptedNoise {
+            nhc_std: a.nhc.map(|e| e.std()),
+            zupt_std: a.zupt.map(|e| e.std()),
+            zaru_std: a.zaru.map(|e| e.std()),
+            nhc_counts: a.nhc.map_or((0, 0), |e| e.counts()),
+            zupt_counts: a.zupt.map_or((0, 0), |e| e.counts()),
+            zaru_counts: a.zaru.map_or((0, 0), |e| e.counts()),
         }
     }
 
@@ -1136,7 +1230,10 @@ impl Eskf {
             -(h_a - fix.h),
         );
         let position_allowed = self.cfg.position_until.is_none_or(|t| fix.t <= t);
-        let std = fix.std_ned;
+        let std = match self.adapt.gnss_quality {
+            Some(q) => fix.std_ned * q.factor(fix.quality),
+            None => fix.std_ned,
+        };
         if position_allowed {
             let mut h = SMatrix::<f64, 3, NX>::zeros();
             h.fixed_view_mut::<3, 3>(0, I_POS)
@@ -1216,8 +1313,8 @@ impl Eskf {
                 let mut h = SMatrix::<f64, 3, NX>::zeros();
                 h.fixed_view_mut::<3, 3>(0, I_VEL)
                     .copy_from(&Mat3::identity());
-                let r = Mat3::identity() * (z.vel_std * z.vel_std);
                 let dz = self.nav.v_n;
+                let r = constraint_r(&mut self.adapt.zupt, &self.p, &h, &dz, z.vel_std);
                 let zupt_ok = match self.update(&h, &r, &dz, true, UpdateKind::Zupt) {
                     Ok(_) => {
                         self.stats.zupt_used += 1;
@@ -1239,14 +1336,14 @@ impl Eskf {
                     let mut h = SMatrix::<f64, 3, NX>::zeros();
                     h.fixed_view_mut::<3, 3>(0, I_BG)
                         .copy_from(&Mat3::identity());
-                    let r = Mat3::identity() * (zs * zs);
                     // The window mean holds the bias of its samples: one ZARU per window.
                     let window_s = z.window as f64 * self.last_dt;
-                    if t - self.last_zaru >= window_s
-                        && self.update(&h, &r, &dz, true, UpdateKind::Zaru).is_ok()
-                    {
-                        self.last_zaru = t;
-                        self.stats.zaru_used += 1;
+                    if t - self.last_zaru >= window_s {
+                        let r = constraint_r(&mut self.adapt.zaru, &self.p, &h, &dz, zs);
+                        if self.update(&h, &r, &dz, true, UpdateKind::Zaru).is_ok() {
+                            self.last_zaru = t;
+                            self.stats.zaru_used += 1;
+                        }
                     }
                 }
                 return;
@@ -1271,8 +1368,8 @@ impl Eskf {
                     h[(r, I_ATT + k)] = h_a[(r + 1, k)];
                 }
             }
-            let r = SMatrix::<f64, 2, 2>::identity() * (n.std * n.std);
             let dz = SVector::<f64, 2>::new(v_b.y, v_b.z);
+            let r = constraint_r(&mut self.adapt.nhc, &self.p, &h, &dz, n.std);
             match self.update(&h, &r, &dz, true, UpdateKind::Nhc) {
                 Ok(_) => self.stats.nhc_used += 1,
                 Err(UpdateReject::Gate) => self.stats.nhc_rejected_gate += 1,
@@ -1411,6 +1508,29 @@ impl Eskf {
     }
 }
 
+/// R of a constraint update with innovation `dz`: without adaptation
+/// `σ² I` (`fixed_std`); with it, the estimate after folding in `dz` with
+/// `diag(H P⁻ Hᵀ)` (the windowed innovation covariance includes the current
+/// epoch, as in Mohamed & Schwarz 1999 and Sage–Husa; an innovation beyond
+/// the ceiling gate is not folded in, see [`super::adaptive`]).
+fn constraint_r<const M: usize>(
+    est: &mut Option<NoiseEstimator<M>>,
+    p: &Cov,
+    h: &SMatrix<f64, M, NX>,
+    dz: &SVector<f64, M>,
+    fixed_std: f64,
+) -> SMatrix<f64, M, M> {
+    match est {
+        Some(e) => {
+            let hp: SMatrix<f64, M, NX> = h * p;
+            let hph = SVector::<f64, M>::from_fn(|i, _| hp.row(i).dot(&h.row(i)));
+            let _ = e.observe(dz, &hph);
+            SMatrix::<f64, M, M>::from_diagonal(&e.r_diag())
+        }
+        None => SMatrix::<f64, M, M>::identity() * (fixed_std * fixed_std),
+    }
+}
+
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 enum UpdateReject {
     Gate,
@@ -1439,6 +1559,9 @@ impl Estimator for Eskf {
 }
 
 #[cfg(test)]
+mod adaptive_tests;
+
+#[cfg(test)]
 mod tests {
     use super::*;
     use crate::ins::mech::q_bn_from_rpy;
@@ -1458,7 +1581,7 @@ mod tests {
         }
     }
 
-    fn std0() -> InitStd {
+    pub(super) fn std0() -> InitStd {
         InitStd {
             pos: Vec3::repeat(0.1),
             vel: Vec3::repeat(0.1),
@@ -1470,7 +1593,7 @@ mod tests {
         }
     }
 
-    fn config() -> EskfConfig {
+    pub(super) fn config() -> EskfConfig {
         EskfConfig {
             noise: noise(),
             lever_arm_b: Vec3::new(0.2, -0.1, -0.5),
