@@ -69,9 +69,6 @@ pub(crate) const ROBOT: GroundLimits = GroundLimits {
     stop_s: (1.0, 10.0),
 };
 
-/// With a moving start, no stop within this time [s] (the brief: "no zero-velocity window").
-pub(crate) const MOVING_START_NO_STOP_S: f64 = 60.0;
-
 pub(crate) fn car<R: Rng>(
     pl: &mut Plan,
     r: &mut R,
@@ -104,14 +101,7 @@ fn wheeled<R: Rng>(
     let mut pitch: f64 = 0.0;
     let x = Vec3::x();
     let z = Vec3::zeros();
-    if static_start {
-        pl.rates(z, z, uni(r, 10.0, 20.0));
-    }
-    let no_stop_until = if static_start {
-        0.0
-    } else {
-        MOVING_START_NO_STOP_S
-    };
+    let no_stop_until = pl.start(r, static_start, false);
     // Speed changes at 30–100 % of the limit.
     let accel = |r: &mut R| uni(r, 0.3, 1.0) * l.a_max;
     while !pl.done() {
@@ -128,7 +118,7 @@ fn wheeled<R: Rng>(
         }
         let u: f64 = r.gen();
         if u < 0.3 {
-            pl.rates(z, z, uni(r, l.cruise_s.0, l.cruise_s.1));
+            pl.rates(z, z, uni(r, l.cruise_s.0, l.cruise_s.1), false);
         } else if u < 0.5 {
             let vt = uni(r, l.v.0, l.v.1);
             pl.delta(z, x * (vt - v), (vt - v).abs() / accel(r), false);
@@ -152,7 +142,7 @@ fn wheeled<R: Rng>(
         } else if pl.t >= no_stop_until {
             pl.delta(z, -x * v, v / accel(r), false);
             v = 0.0;
-            pl.rates(z, z, uni(r, l.stop_s.0, l.stop_s.1));
+            pl.rates(z, z, uni(r, l.stop_s.0, l.stop_s.1), false);
         }
     }
     ([0.0, 0.0, yaw0], [v0, 0.0, 0.0], PlanInfo::default())

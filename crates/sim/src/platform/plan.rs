@@ -9,6 +9,10 @@ use crate::trajectory::Segment;
 use navfuse_core::Vec3;
 use rand::Rng;
 
+/// With a moving start, no stop / pause / hover within this time [s] (the
+/// brief: a moving start has no zero-velocity window to align in).
+pub(crate) const MOVING_START_NO_STOP_S: f64 = 60.0;
+
 pub(crate) struct Plan {
     pub segs: Vec<Segment>,
     /// Planned time so far [s] (`steps·h`).
@@ -57,32 +61,42 @@ impl Plan {
         self.t = self.steps as f64 * self.h;
     }
 
-    /// Body-frame phase: Euler rates [rad/s], v̇_b [m/s²] for ~`d` s; returns the real duration.
-    pub fn rates(&mut self, rpy_rate: Vec3, acc_b: Vec3, d: f64) -> f64 {
+    /// Phase of ~`d` s with Euler rates [rad/s] and an acceleration [m/s²]:
+    /// v̇_b (body) or, with `ned`, a_n. Returns the real duration.
+    pub fn rates(&mut self, rpy_rate: Vec3, acc: Vec3, d: f64, ned: bool) -> f64 {
         let d = self.grid(d);
         if d > 0.0 {
-            self.segs.push(Segment::Rates {
-                rpy_rate_deg_s: arr(rpy_rate.map(f64::to_degrees)),
-                accel_b: arr(acc_b),
-                duration_s: d,
+            let (rpy_rate_deg_s, accel, duration_s) =
+                (arr(rpy_rate.map(f64::to_degrees)), arr(acc), d);
+            self.segs.push(if ned {
+                Segment::RatesNed {
+                    rpy_rate_deg_s,
+                    accel_n: accel,
+                    duration_s,
+                }
+            } else {
+                Segment::Rates {
+                    rpy_rate_deg_s,
+                    accel_b: accel,
+                    duration_s,
+                }
             });
             self.advance(d);
         }
         d
     }
 
-    /// NED-frame phase: Euler rates [rad/s], a_n [m/s²] for ~`d` s; returns the real duration.
-    pub fn rates_ned(&mut self, rpy_rate: Vec3, acc_n: Vec3, d: f64) -> f64 {
-        let d = self.grid(d);
-        if d > 0.0 {
-            self.segs.push(Segment::RatesNed {
-                rpy_rate_deg_s: arr(rpy_rate.map(f64::to_degrees)),
-                accel_n: arr(acc_n),
-                duration_s: d,
-            });
-            self.advance(d);
+    /// The start: with `static_start`, a 10–20 s hold at rest (the brief's
+    /// "≥ 10 s"). Returns the time before which no stop may be planned
+    /// ([`MOVING_START_NO_STOP_S`] for a moving start).
+    pub fn start<R: Rng>(&mut self, r: &mut R, static_start: bool, ned: bool) -> f64 {
+        if static_start {
+            let z = Vec3::zeros();
+            self.rates(z, z, uni(r, 10.0, 20.0), ned);
+            0.0
+        } else {
+            MOVING_START_NO_STOP_S
         }
-        d
     }
 
     /// Reach the attitude change `d_rpy` [rad] and velocity change `d_v` in ~`d`
@@ -90,12 +104,7 @@ impl Plan {
     /// complete if it equals the grid-rounded `d`, i.e. was not cut at the end).
     pub fn delta(&mut self, d_rpy: Vec3, d_v: Vec3, d: f64, ned: bool) -> f64 {
         let full = self.up(d) as f64 * self.h;
-        let (w, a) = (d_rpy / full, d_v / full);
-        if ned {
-            self.rates_ned(w, a, full)
-        } else {
-            self.rates(w, a, full)
-        }
+        self.rates(d_rpy / full, d_v / full, full, ned)
     }
 
     /// Push a prepared segment that the compiler rounds to `steps` internal

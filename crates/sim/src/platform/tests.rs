@@ -37,6 +37,16 @@ struct Stats {
     yaw_minus_course: Vec<f64>,
 }
 
+impl Stats {
+    /// Largest |v_b,y| or |v_b,z| (0 for a non-holonomic vehicle) [m/s].
+    fn side_velocity(&self) -> f64 {
+        self.v_b
+            .iter()
+            .map(|v| v.y.abs().max(v.z.abs()))
+            .fold(0.0, f64::max)
+    }
+}
+
 fn stats(tr: &Trajectory) -> Stats {
     let e = &tr.truth;
     let dt = tr.imu_dt;
@@ -166,11 +176,7 @@ fn car_stays_inside_its_limits() {
                 .fold(0.0, f64::max);
             assert!(grade <= 0.08f64.atan() + 1e-9, "{grade}");
             // Non-holonomic: no lateral or vertical body velocity.
-            let nh = s
-                .v_b
-                .iter()
-                .map(|v| v.y.abs().max(v.z.abs()))
-                .fold(0.0, f64::max);
+            let nh = s.side_velocity();
             assert!(nh < 1e-9, "{nh}");
             // Moving: cruising between 8 and 30 m/s most of the time.
             let moving = s.speed.iter().filter(|&&v| v > 1e-6).count();
@@ -201,11 +207,7 @@ fn robot_stays_inside_its_limits_and_turns_in_place() {
         assert!(max(&s.speed) <= 1.5 + 1e-9);
         assert!(max(&s.a_long) <= 1.0 + 1e-3);
         assert!(max(&s.yaw_rate) <= 60.0 * DEG + 1e-6);
-        let nh = s
-            .v_b
-            .iter()
-            .map(|v| v.y.abs().max(v.z.abs()))
-            .fold(0.0, f64::max);
+        let nh = s.side_velocity();
         assert!(nh < 1e-9, "{nh}");
         let n = (0..s.t.len())
             .filter(|&i| s.speed[i] < 1e-9 && s.yaw_rate[i].abs() > 20.0 * DEG)

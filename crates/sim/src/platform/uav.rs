@@ -16,7 +16,6 @@
 //! attitude matches the thrust model at phase ends and is a smooth blend in
 //! between. The kinematics (and therefore truth and IMU) are exact anyway.
 
-use super::ground::MOVING_START_NO_STOP_S;
 use super::plan::{sign, uni, Plan};
 use super::PlanInfo;
 use crate::rot;
@@ -135,9 +134,9 @@ pub(crate) fn multirotor<R: Rng>(
         pitch: 0.0,
         agl: 0.0,
     };
+    // A static start waits on the ground, then takes off.
+    let no_hover_until = pl.start(r, static_start, true);
     if static_start {
-        // On the ground, then take off.
-        u.phase(pl, (0.0, 0.0), 0.0, Vec3::zeros(), uni(r, 10.0, 20.0));
         let h = uni(r, 20.0, 60.0);
         u.change_height(pl, h, r);
     } else {
@@ -149,11 +148,6 @@ pub(crate) fn multirotor<R: Rng>(
     }
     let rpy0 = Vec3::new(u.roll, u.pitch, u.yaw);
     let v_b0 = rot::dcm_from_euler(&rpy0).transpose() * u.v;
-    let no_hover_until = if static_start {
-        0.0
-    } else {
-        MOVING_START_NO_STOP_S
-    };
     while !pl.done() {
         let x: f64 = r.gen();
         let a_h = uni(r, 0.3, 1.0) * A_H_MAX;

@@ -10,7 +10,6 @@
 //! offset in ±30° (phone held askew, body-worn off-centre): the body velocity
 //! is NOT along body x.
 
-use super::ground::MOVING_START_NO_STOP_S;
 use super::plan::{sign, uni, Plan};
 use super::PlanInfo;
 use crate::trajectory::{walk_strides, Segment};
@@ -66,14 +65,7 @@ pub(crate) fn pedestrian<R: Rng>(
     let mut v = if static_start { 0.0 } else { speed(r) };
     let v_b0 = dir_b * v;
     let z = Vec3::zeros();
-    if static_start {
-        pl.rates(z, z, uni(r, 10.0, 20.0));
-    }
-    let no_stop_until = if static_start {
-        0.0
-    } else {
-        MOVING_START_NO_STOP_S
-    };
+    let no_stop_until = pl.start(r, static_start, false);
     while !pl.done() {
         // Whole strides may not fill the end exactly: the last few seconds
         // continue at constant velocity (without the step motion).
@@ -106,7 +98,7 @@ pub(crate) fn pedestrian<R: Rng>(
                 let ok = w.walk(pl, 1, Some(0.0), 0.0);
                 if ok {
                     v = 0.0;
-                    pl.rates(z, z, uni(r, 2.0, 10.0));
+                    pl.rates(z, z, uni(r, 2.0, 10.0), false);
                 }
                 ok
             } else {
@@ -114,7 +106,7 @@ pub(crate) fn pedestrian<R: Rng>(
             }
         };
         if !fits {
-            pl.rates(z, z, pl.left());
+            pl.rates(z, z, pl.left(), false);
         }
     }
     (

@@ -25,7 +25,7 @@
 //! order of magnitude as reported e.g. by Zijlstra & Hof, Gait & Posture
 //! 2003 — recalled, not re-derived here).
 
-use super::{Compiler, Phase, DEG};
+use super::{Compiler, Phase, Segment, DEG};
 use crate::SimError;
 use navfuse_core::Vec3;
 
@@ -75,57 +75,59 @@ impl Gait {
     }
 }
 
-/// The fields of [`super::Segment::Walk`].
-pub(super) struct WalkArgs {
-    pub duration_s: f64,
-    pub speed_mps: Option<f64>,
-    pub turn_deg: f64,
-    pub cadence_hz: f64,
-    pub step_accel_mps2: [f64; 3],
-    pub sway_deg: [f64; 3],
-    pub yaw_offset_deg: Option<f64>,
-}
-
 /// Whole strides in `duration_s` at `cadence_hz` (at least one).
 pub fn strides(duration_s: f64, cadence_hz: f64) -> u64 {
     ((duration_s * cadence_hz / 2.0).round() as u64).max(1)
 }
 
 impl Compiler {
-    pub(super) fn walk(&mut self, a: &WalkArgs, what: &str) -> Result<(), SimError> {
-        let finite = [a.duration_s, a.turn_deg, a.cadence_hz]
+    /// Compile a [`Segment::Walk`] (any other segment is an error).
+    pub(super) fn walk(&mut self, seg: &Segment, what: &str) -> Result<(), SimError> {
+        let Segment::Walk {
+            duration_s,
+            speed_mps,
+            turn_deg,
+            cadence_hz,
+            step_accel_mps2,
+            sway_deg,
+            yaw_offset_deg,
+        } = *seg
+        else {
+            return Err(SimError::Scenario(format!("{what}: not a walk segment")));
+        };
+        let finite = [duration_s, turn_deg, cadence_hz]
             .iter()
-            .chain(&a.step_accel_mps2)
-            .chain(&a.sway_deg)
-            .chain(a.speed_mps.iter())
-            .chain(a.yaw_offset_deg.iter())
+            .chain(&step_accel_mps2)
+            .chain(&sway_deg)
+            .chain(speed_mps.iter())
+            .chain(yaw_offset_deg.iter())
             .all(|x| x.is_finite());
-        if !finite || a.cadence_hz <= 0.0 || a.duration_s < 0.0 {
+        if !finite || cadence_hz <= 0.0 || duration_s < 0.0 {
             return Err(SimError::Scenario(format!(
                 "{what}: numbers must be finite, cadence_hz > 0, duration_s ≥ 0"
             )));
         }
-        if a.speed_mps.is_some_and(|s| s < 0.0) {
+        if speed_mps.is_some_and(|s| s < 0.0) {
             return Err(SimError::Scenario(format!("{what}: speed_mps must be ≥ 0")));
         }
-        let n = strides(a.duration_s, a.cadence_hz);
-        let steps = self.steps(2.0 * n as f64 / a.cadence_hz, what)?.max(1);
+        let n = strides(duration_s, cadence_hz);
+        let steps = self.steps(2.0 * n as f64 / cadence_hz, what)?.max(1);
         let t = steps as f64 * self.h;
         // Exactly n strides in the rounded duration.
         let omega = 2.0 * core::f64::consts::PI * 2.0 * n as f64 / t;
         let vh = Vec3::new(self.v_b.x, self.v_b.y, 0.0);
-        let d = match a.yaw_offset_deg {
+        let d = match yaw_offset_deg {
             // Course = yaw − offset: the direction is at −offset in the body frame.
             Some(o) => Vec3::new((o * DEG).cos(), -(o * DEG).sin(), 0.0),
             None if vh.norm() > 1e-9 => vh / vh.norm(),
             None => Vec3::x(),
         };
         let p = Vec3::new(-d.y, d.x, 0.0);
-        let speed = a.speed_mps.unwrap_or(vh.norm());
+        let speed = speed_mps.unwrap_or(vh.norm());
         let acc = (d * speed - self.v_b) / t;
         let s_mean = 0.5 * (self.v_b.dot(&d) + speed);
-        let [af, al, av] = a.step_accel_mps2;
-        let [sr, sp, sy] = a.sway_deg;
+        let [af, al, av] = step_accel_mps2;
+        let [sr, sp, sy] = sway_deg;
         let gait = Gait {
             omega,
             v_amp: [
@@ -136,7 +138,7 @@ impl Compiler {
         };
         self.push(Phase {
             gait: Some(gait),
-            ..Phase::body(steps, Vec3::new(0.0, 0.0, a.turn_deg * DEG / t), acc)
+            ..Phase::body(steps, Vec3::new(0.0, 0.0, turn_deg * DEG / t), acc)
         });
         Ok(())
     }
