@@ -431,3 +431,29 @@ fn new_segments_keep_truth_and_increments_consistent() {
         "no convergence: {e400} m {a400} rad"
     );
 }
+
+#[test]
+fn walk_and_hover_example_file_runs() {
+    // scenarios/walk_and_hover.toml: the walk keeps yaw − course = 20° and
+    // the NED phase keeps flying east while the yaw turns 90°.
+    let text = include_str!("../../../../scenarios/walk_and_hover.toml");
+    let sc = Scenario::from_toml(text, "walk_and_hover.toml").unwrap();
+    let run = simulate(&sc, 1, None, None).unwrap();
+    let s = stats(&run.traj);
+    let at = |t: f64| s.t.iter().position(|&x| x >= t).unwrap();
+    let i = at(20.0);
+    let yc = median(s.yaw_minus_course[i..i + 500].iter().cloned());
+    assert!((yc - 20.0 * DEG).abs() < 4.0 * DEG, "{}", yc / DEG);
+    let e = &run.traj.truth;
+    // Timeline: 50.79 s of hold/walk, east acceleration to 52.29 s, yaw
+    // +90° to 55.29 s, cruise to 65.29 s.
+    let (a, b, c) = (at(51.0) + 1, at(56.0) + 1, at(60.0) + 1);
+    assert!((wrap_pi(e[b].rpy.z - e[a].rpy.z) - 90.0 * DEG).abs() < 1e-9);
+    for k in [b, c] {
+        assert!(
+            (e[k].v_n - Vec3::new(0.0, 1.5, 0.0)).norm() < 1e-9,
+            "{:?}",
+            e[k].v_n
+        );
+    }
+}

@@ -124,6 +124,7 @@ pub enum Segment {
     /// acceleration `a_n` [m/s²] for `duration_s` — velocity independent of the
     /// attitude (a multirotor flying sideways while yawing).
     RatesNed {
+        #[serde(default)]
         rpy_rate_deg_s: [f64; 3],
         #[serde(default)]
         accel_n: [f64; 3],
