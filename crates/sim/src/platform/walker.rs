@@ -5,7 +5,7 @@
 //! adults, ≈ 1.2–1.4 m/s on average, e.g. Bohannon 1997 — as recalled);
 //! cadence 1.8–2.0 steps/s; step accelerations forward 1–2, lateral
 //! 0.3–0.8, vertical 1–3 m/s² (amplitude); sway 1–3° per axis; tight turns
-//! of 45–135° (or 180°) in 1–3 strides (≈ 1–3 s, up to ~135°/s); pauses of
+//! of 45–135° in 1–3 strides (≈ 1–3 s, up to ~135°/s) or 180° in 2–3; pauses of
 //! 2–10 s. The device yaw differs from the walking course by a constant
 //! offset in ±30° (phone held askew, body-worn off-centre): the body velocity
 //! is NOT along body x.
@@ -88,12 +88,13 @@ pub(crate) fn pedestrian<R: Rng>(
                 }
                 ok
             } else if u < 0.85 {
-                let ang = if r.gen_bool(0.15) {
-                    180.0 * DEG
+                // 45–135° in 1–3 strides (≤ ~135°/s), or about-turns in 2–3.
+                let (ang, n) = if r.gen_bool(0.15) {
+                    (180.0 * DEG, r.gen_range(2..=3))
                 } else {
-                    uni(r, 45.0, 135.0) * DEG
+                    (uni(r, 45.0, 135.0) * DEG, r.gen_range(1..=3))
                 };
-                w.walk(pl, r.gen_range(1..=3), None, sign(r) * ang)
+                w.walk(pl, n, None, sign(r) * ang)
             } else if pl.t >= no_stop_until {
                 let ok = w.walk(pl, 1, Some(0.0), 0.0);
                 if ok {
