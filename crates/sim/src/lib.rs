@@ -8,10 +8,12 @@
 
 pub mod allan;
 pub mod carrier_phase;
+pub mod filter_noise;
 pub mod gnss_model;
 pub mod imu_model;
 pub mod motion_csv;
 pub mod output;
+pub mod platform;
 pub mod rot;
 pub mod scenario;
 pub mod trajectory;

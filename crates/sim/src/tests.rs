@@ -11,19 +11,19 @@ use navfuse_core::Mat3;
 /// navigation-frame rotation over the interval, Coriolis and gravity at the
 /// extrapolated mid-epoch, trapezoidal position. For tests only — the
 /// production mechanization lives in `navfuse_core::ins`.
-struct RefIns {
+pub(crate) struct RefIns {
     lat: f64,
     lon: f64,
     h: f64,
     v_n: Vec3,
     v_prev: Vec3,
-    c_bn: Mat3,
+    pub(crate) c_bn: Mat3,
     dth_prev: Vec3,
     dv_prev: Vec3,
 }
 
 impl RefIns {
-    fn new(t: &trajectory::TruthEpoch) -> Self {
+    pub(crate) fn new(t: &trajectory::TruthEpoch) -> Self {
         RefIns {
             lat: t.lat,
             lon: t.lon,
@@ -36,7 +36,7 @@ impl RefIns {
         }
     }
 
-    fn step(&mut self, s: &ImuSample) {
+    pub(crate) fn step(&mut self, s: &ImuSample) {
         let dt = s.dt;
         let (dth, dv) = (s.dtheta_b, s.dvel_b);
         // Mid-epoch extrapolation of velocity and position.
@@ -76,7 +76,7 @@ impl RefIns {
         self.dv_prev = dv;
     }
 
-    fn pos_err_m(&self, t: &trajectory::TruthEpoch) -> Vec3 {
+    pub(crate) fn pos_err_m(&self, t: &trajectory::TruthEpoch) -> Vec3 {
         let (rm, rn) = earth::radii(t.lat);
         Vec3::new(
             (self.lat - t.lat) * (rm + t.h),

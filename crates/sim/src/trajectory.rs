@@ -23,169 +23,50 @@
 
 use crate::rot;
 use crate::SimError;
+
 use navfuse_core::earth;
 use navfuse_core::{ImuSample, Vec3};
-use serde::{Deserialize, Serialize};
+
+mod segment;
+mod walk;
+use segment::seg_name;
+pub use segment::{Segment, Start};
+pub use walk::{strides as walk_strides, Gait};
 
 const DEG: f64 = core::f64::consts::PI / 180.0;
 
-/// Start of a trajectory.
-#[derive(Clone, Debug, Deserialize, Serialize, PartialEq)]
-#[serde(deny_unknown_fields)]
-pub struct Start {
-    /// Latitude [deg].
-    pub lat_deg: f64,
-    /// Longitude [deg].
-    pub lon_deg: f64,
-    /// Ellipsoidal height [m].
-    #[serde(default)]
-    pub h_m: f64,
-    /// Roll, pitch, yaw [deg] (ZYX, body FRD w.r.t. NED).
-    #[serde(default)]
-    pub rpy_deg: [f64; 3],
-    /// Initial velocity in the body frame [m/s] (a car: `[speed, 0, 0]`).
-    #[serde(default)]
-    pub v_b: [f64; 3],
-    /// GPS week of the start (times are `week·604800 + tow`).
-    #[serde(default = "default_week")]
-    pub gps_week: u32,
-    /// GPS time of week at the start [s].
-    #[serde(default = "default_tow")]
-    pub tow_s: f64,
-}
-
-fn default_week() -> u32 {
-    2300
-}
-fn default_tow() -> f64 {
-    345_600.0
-}
-
-fn default_accel() -> f64 {
-    1.5
-}
-fn default_transition() -> f64 {
-    3.0
-}
-fn default_uturn_rate() -> f64 {
-    18.0
-}
-
-/// One motion segment of a scenario (`type = "…"` in TOML).
-///
-/// Angles in degrees and speeds in m/s (or km/h where the name says so) at
-/// this edge; positive turn = clockwise seen from above (yaw increases, NED).
-#[derive(Clone, Debug, Deserialize, Serialize, PartialEq)]
-#[serde(tag = "type", rename_all = "snake_case", deny_unknown_fields)]
-pub enum Segment {
-    /// Keep the current attitude and body velocity for `duration_s`.
-    Hold { duration_s: f64 },
-    /// Change forward speed to `speed_mps` / `speed_kmh` at `accel` m/s².
-    Accelerate {
-        speed_mps: Option<f64>,
-        speed_kmh: Option<f64>,
-        #[serde(default = "default_accel")]
-        accel: f64,
-    },
-    /// Decelerate to rest at `decel` m/s².
-    Stop {
-        #[serde(default = "default_accel")]
-        decel: f64,
-    },
-    /// Keep the current speed for a time or a distance.
-    Cruise {
-        duration_s: Option<f64>,
-        distance_m: Option<f64>,
-    },
-    /// Turn at `rate_deg_s` for `angle_deg` or `duration_s` (sign of rate = direction).
-    Turn {
-        rate_deg_s: f64,
-        angle_deg: Option<f64>,
-        duration_s: Option<f64>,
-    },
-    /// 180° turn at `rate_deg_s` (negative: to the left).
-    Uturn {
-        #[serde(default = "default_uturn_rate")]
-        rate_deg_s: f64,
-    },
-    /// Pitch to a road grade (percent; negative descends) over `transition_s`, driving on.
-    Grade {
-        grade_pct: f64,
-        #[serde(default = "default_transition")]
-        transition_s: f64,
-    },
-    /// Sinusoidal attitude oscillation about the current attitude:
-    /// `rpy(τ) = rpy₀ + amplitude·sin(ω τ)`.
-    Oscillate {
-        amplitude_deg: [f64; 3],
-        omega_rad_s: f64,
-        duration_s: f64,
-    },
-    /// Raw phase: Euler-angle rates [deg/s] and body acceleration [m/s²] for `duration_s`
-    /// (gnss-ins-sim command type 1).
-    Rates {
-        rpy_rate_deg_s: [f64; 3],
-        #[serde(default)]
-        accel_b: [f64; 3],
-        duration_s: f64,
-    },
-    /// Reach a target attitude [deg] / body velocity [m/s] (absolute or relative),
-    /// limited by `max_rate_deg_s` and `max_accel`, then hold for the rest of
-    /// `duration_s` (gnss-ins-sim command types 2–5).
-    Target {
-        rpy_deg: [f64; 3],
-        v_b: [f64; 3],
-        #[serde(default)]
-        rpy_relative: bool,
-        #[serde(default)]
-        v_relative: bool,
-        duration_s: f64,
-        #[serde(default = "default_max_rate")]
-        max_rate_deg_s: f64,
-        #[serde(default = "default_max_accel")]
-        max_accel: f64,
-    },
-    /// A closed rectangular loop (seed 002 campus drive): from rest, accelerate,
-    /// `laps` times around a `length_m × width_m` rectangle with right-hand
-    /// 90° corners at `corner_rate_deg_s`, then stop on the first side.
-    Loop {
-        speed_kmh: f64,
-        length_m: f64,
-        width_m: f64,
-        #[serde(default = "one")]
-        laps: u32,
-        #[serde(default = "default_corner")]
-        corner_rate_deg_s: f64,
-    },
-}
-
-fn default_max_rate() -> f64 {
-    30.0
-}
-fn default_max_accel() -> f64 {
-    2.0
-}
-fn one() -> u32 {
-    1
-}
-fn default_corner() -> f64 {
-    15.0
-}
-
-/// A compiled phase: constant Euler rates and body acceleration plus an
-/// optional sinusoid, lasting `steps` internal steps.
+/// A compiled phase: constant Euler rates and acceleration plus optional
+/// sinusoids, lasting `steps` internal steps.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Phase {
     pub steps: u64,
     /// Euler-angle rates [rad/s].
     pub rpy_rate: Vec3,
-    /// Body-frame acceleration v̇_b [m/s²].
-    pub acc_b: Vec3,
+    /// Acceleration [m/s²]: body-frame v̇_b, or NED a_n when `ned` is set.
+    pub acc: Vec3,
+    /// `acc` is a_n (velocity held in NED, independent of attitude) instead of v̇_b.
+    pub ned: bool,
     /// Sinusoid amplitude on (roll, pitch, yaw) [rad] and angular frequency [rad/s].
     pub osc: Option<(Vec3, f64)>,
+    /// Step-periodic walking motion (body-frame phases only).
+    pub gait: Option<Gait>,
 }
 
 impl Phase {
+    /// A body-frame phase with constant rates and v̇_b, no sinusoids.
+    pub fn body(steps: u64, rpy_rate: Vec3, acc_b: Vec3) -> Self {
+        Phase {
+            steps,
+            rpy_rate,
+            acc: acc_b,
+            ned: false,
+            osc: None,
+            gait: None,
+        }
+    }
+
+    /// Kinematics `tau` seconds into the phase that starts at `rpy0`, `vb0`
+    /// (every sinusoid is zero at τ = 0, so the start state is continuous).
     fn eval(&self, rpy0: &Vec3, vb0: &Vec3, tau: f64) -> Kin {
         let mut rpy = rpy0 + self.rpy_rate * tau;
         let mut rpy_dot = self.rpy_rate;
@@ -194,21 +75,48 @@ impl Phase {
             rpy += amp * s;
             rpy_dot += amp * (w * c);
         }
-        Kin {
-            rpy,
-            rpy_dot,
-            v_b: vb0 + self.acc_b * tau,
-            acc_b: self.acc_b,
+        let (mut dv, mut dv_dot) = (Vec3::zeros(), Vec3::zeros());
+        if let Some(g) = &self.gait {
+            g.add(tau, &mut rpy, &mut rpy_dot, &mut dv, &mut dv_dot);
+        }
+        let c_bn = rot::dcm_from_euler(&rpy);
+        let w_nb_b = rot::omega_nb_b_from_euler_rates(&rpy, &rpy_dot);
+        if self.ned {
+            // v_n = v_n0 + a_n τ; the body velocity follows from the attitude.
+            let v_n = rot::dcm_from_euler(rpy0) * vb0 + self.acc * tau;
+            Kin {
+                rpy,
+                c_bn,
+                w_nb_b,
+                v_b: c_bn.transpose() * v_n,
+                v_n,
+                a_n: self.acc,
+            }
+        } else {
+            // Groves eq. 5.53 rearranged: a_n = C_bn (v̇_b + ω_nb^b × v_b).
+            let v_b = vb0 + self.acc * tau + dv;
+            let v_b_dot = self.acc + dv_dot;
+            Kin {
+                rpy,
+                c_bn,
+                w_nb_b,
+                v_b,
+                v_n: c_bn * v_b,
+                a_n: c_bn * (v_b_dot + w_nb_b.cross(&v_b)),
+            }
         }
     }
 }
 
+/// Kinematics at one instant: attitude, body rate, velocity and acceleration.
 #[derive(Clone, Copy, Debug)]
 struct Kin {
     rpy: Vec3,
-    rpy_dot: Vec3,
+    c_bn: navfuse_core::Mat3,
+    w_nb_b: Vec3,
     v_b: Vec3,
-    acc_b: Vec3,
+    v_n: Vec3,
+    a_n: Vec3,
 }
 
 /// Compiler state: attitude and body velocity at the end of the phases so far.
@@ -234,12 +142,7 @@ impl Compiler {
             return;
         }
         let t = steps as f64 * self.h;
-        self.push(Phase {
-            steps,
-            rpy_rate: d_rpy / t,
-            acc_b: d_v / t,
-            osc: None,
-        });
+        self.push(Phase::body(steps, d_rpy / t, d_v / t));
     }
     fn push(&mut self, p: Phase) {
         if p.steps == 0 {
@@ -338,12 +241,11 @@ impl Compiler {
                 (Some(a), None) => self.turn(rate_deg_s * DEG, a * DEG, what)?,
                 (None, Some(t)) => {
                     let s = self.steps(t, what)?;
-                    self.push(Phase {
-                        steps: s,
-                        rpy_rate: Vec3::new(0.0, 0.0, rate_deg_s * DEG),
-                        acc_b: Vec3::zeros(),
-                        osc: None,
-                    });
+                    self.push(Phase::body(
+                        s,
+                        Vec3::new(0.0, 0.0, rate_deg_s * DEG),
+                        Vec3::zeros(),
+                    ));
                 }
                 _ => {
                     return Err(SimError::Scenario(format!(
@@ -368,10 +270,8 @@ impl Compiler {
             } => {
                 let s = self.steps(duration_s, what)?;
                 self.push(Phase {
-                    steps: s,
-                    rpy_rate: Vec3::zeros(),
-                    acc_b: Vec3::zeros(),
                     osc: Some((Vec3::from(amplitude_deg) * DEG, omega_rad_s)),
+                    ..Phase::body(s, Vec3::zeros(), Vec3::zeros())
                 });
             }
             Segment::Rates {
@@ -380,13 +280,24 @@ impl Compiler {
                 duration_s,
             } => {
                 let s = self.steps(duration_s, what)?;
+                self.push(Phase::body(
+                    s,
+                    Vec3::from(rpy_rate_deg_s) * DEG,
+                    Vec3::from(accel_b),
+                ));
+            }
+            Segment::RatesNed {
+                rpy_rate_deg_s,
+                accel_n,
+                duration_s,
+            } => {
+                let s = self.steps(duration_s, what)?;
                 self.push(Phase {
-                    steps: s,
-                    rpy_rate: Vec3::from(rpy_rate_deg_s) * DEG,
-                    acc_b: Vec3::from(accel_b),
-                    osc: None,
+                    ned: true,
+                    ..Phase::body(s, Vec3::from(rpy_rate_deg_s) * DEG, Vec3::from(accel_n))
                 });
             }
+            Segment::Walk { .. } => self.walk(seg, what)?,
             Segment::Target {
                 rpy_deg,
                 v_b,
@@ -467,22 +378,6 @@ impl Compiler {
     }
 }
 
-fn seg_name(s: &Segment) -> &'static str {
-    match s {
-        Segment::Hold { .. } => "hold",
-        Segment::Accelerate { .. } => "accelerate",
-        Segment::Stop { .. } => "stop",
-        Segment::Cruise { .. } => "cruise",
-        Segment::Turn { .. } => "turn",
-        Segment::Uturn { .. } => "uturn",
-        Segment::Grade { .. } => "grade",
-        Segment::Oscillate { .. } => "oscillate",
-        Segment::Rates { .. } => "rates",
-        Segment::Target { .. } => "target",
-        Segment::Loop { .. } => "loop",
-    }
-}
-
 /// Compile segments into phases on an internal grid of step `h` [s].
 pub fn compile(start: &Start, segments: &[Segment], h: f64) -> Result<Vec<Phase>, SimError> {
     let mut c = Compiler {
@@ -550,10 +445,7 @@ fn add(p: &Geo, d: &Vec3, s: f64) -> Geo {
 
 /// Kinematics → (v_n, ω_ib^b, f^b) at a position.
 fn sensors(k: &Kin, p: &Geo) -> (Vec3, Vec3, Vec3) {
-    let c_bn = rot::dcm_from_euler(&k.rpy);
-    let w_nb_b = rot::omega_nb_b_from_euler_rates(&k.rpy, &k.rpy_dot);
-    let v_n = c_bn * k.v_b;
-    let a_n = c_bn * (k.acc_b + w_nb_b.cross(&k.v_b));
+    let (c_bn, w_nb_b, v_n, a_n) = (k.c_bn, k.w_nb_b, k.v_n, k.a_n);
     let w_ie = earth::omega_ie_n(p.lat);
     let w_en = earth::omega_en_n(p.lat, p.h, &v_n);
     let g_n = earth::gravity_n(p.lat, p.h);
@@ -625,9 +517,7 @@ pub fn generate(
             let km = ph.eval(&rpy0, &vb0, ta + 0.5 * h);
             let kb = ph.eval(&rpy0, &vb0, ta + h);
             // RK4 on position with the closed-form velocity.
-            let va = rot::dcm_from_euler(&ka.rpy) * ka.v_b;
-            let vm = rot::dcm_from_euler(&km.rpy) * km.v_b;
-            let vb = rot::dcm_from_euler(&kb.rpy) * kb.v_b;
+            let (va, vm, vb) = (ka.v_n, km.v_n, kb.v_n);
             let d1 = pos_rate(&p, &va);
             let d2 = pos_rate(&add(&p, &d1, 0.5 * h), &vm);
             let d3 = pos_rate(&add(&p, &d2, 0.5 * h), &vm);
