@@ -19,7 +19,6 @@ mod kf_gins;
 mod live;
 mod report;
 mod run;
-mod run_input;
 mod sim;
 mod smooth_gps;
 
