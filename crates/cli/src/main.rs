@@ -90,12 +90,3 @@ fn main() -> ExitCode {
         }
     }
 }
-
-/// A per-process scratch folder for a test, created: `navfuse-{name}-{pid}`
-/// in the system temp dir.
-#[cfg(test)]
-fn test_dir(name: &str) -> std::path::PathBuf {
-    let d = std::env::temp_dir().join(format!("navfuse-{name}-{}", std::process::id()));
-    std::fs::create_dir_all(&d).unwrap();
-    d
-}
