@@ -284,13 +284,7 @@ fn filter(
         smoothed.reverse();
         let mut buf = Vec::with_capacity(smoothed.len() * 180);
         for e in &smoothed {
-            let mut sol = NavSolution::unknown_at(e.t);
-            sol.lat = e.nav.lat;
-            sol.lon = e.nav.lon;
-            sol.h = e.nav.h;
-            sol.v_n = e.nav.v_n;
-            sol.rpy = e.nav.rpy();
-            write_nav_line(&mut buf, &sol);
+            write_nav_line(&mut buf, &check::smoothed_solution(e));
         }
         write("KF_GINS_Navresult_smoothed.nav", &buf)?;
     }
