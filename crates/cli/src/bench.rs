@@ -9,7 +9,6 @@
 //! `/proc/thread-self/schedstat`, so other processes on a busy machine do
 //! not count against the filter).
 
-use crate::run::RunInput;
 use clap::Args as ClapArgs;
 use navfuse_core::earth;
 use navfuse_core::estimators::eskf::Eskf;
@@ -17,6 +16,7 @@ use navfuse_core::ins::mech::NavState;
 use navfuse_core::types::{Estimator, Event, GnssFix, ImuSample};
 use navfuse_core::Vec3;
 use navfuse_io::kfgins_yaml::KfGinsConfig;
+use navfuse_pipeline::kfgins_input::RunInput;
 use std::path::PathBuf;
 use std::time::Instant;
 
@@ -111,7 +111,8 @@ pub fn run(args: Args) -> Result<(), String> {
         match path {
             Some(p) => {
                 let c = KfGinsConfig::load(&p)?;
-                let i = crate::run::read_kfgins(&c)?;
+                let i =
+                    navfuse_pipeline::kfgins_input::read_kfgins(&c).map_err(|e| e.to_string())?;
                 (c, i, p.display().to_string())
             }
             None => {

@@ -551,7 +551,7 @@ pub fn eskf_rows(
     use navfuse_core::estimators::eskf::Eskf;
     let yaml = data_root.join("drive_0708/kfgins/kf-gins_full.yaml");
     let cfg = navfuse_io::kfgins_yaml::KfGinsConfig::load(&yaml)?;
-    let input = crate::run::read_kfgins(&cfg)?;
+    let input = navfuse_pipeline::kfgins_input::read_kfgins(&cfg).map_err(|e| e.to_string())?;
     // The KF-GINS files carry the time of week only.
     let week_s = (truth.first().ok_or("no truth")?.0 / 604_800.0).floor() * 604_800.0;
     let i0 = input.imu.partition_point(|s| s.t < cfg.starttime);
@@ -583,7 +583,10 @@ pub fn eskf_rows(
         .iter()
         .map(|&every| {
             let (a, sa) = run_one(cfg.eskf_config(), every);
-            let (b, sb) = run_one(crate::kf_gins::enhanced(cfg.eskf_config()), every);
+            let (b, sb) = run_one(
+                navfuse_pipeline::kf_gins::enhanced(cfg.eskf_config()),
+                every,
+            );
             if every == REPORT_EVERY {
                 if let Some(k) = keep.as_deref_mut() {
                     k.series.push(("ESKF (gyro)".into(), sa));

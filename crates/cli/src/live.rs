@@ -167,7 +167,7 @@ fn kfgins_eskf(
     let cfg = navfuse_io::kfgins_yaml::KfGinsConfig::load(path)?;
     let mut ecfg = cfg.eskf_config();
     if enhanced {
-        ecfg = crate::kf_gins::enhanced(ecfg);
+        ecfg = navfuse_pipeline::kf_gins::enhanced(ecfg);
     }
     let eskf = Eskf::new(ecfg, cfg.init_nav(), cfg.init_errors(), &cfg.init_std());
     let end = if cfg.endtime < 0.0 {

@@ -19,7 +19,6 @@ mod kf_gins;
 mod live;
 mod report;
 mod run;
-mod run_input;
 mod sim;
 mod smooth_gps;
 
@@ -90,13 +89,4 @@ fn main() -> ExitCode {
             ExitCode::FAILURE
         }
     }
-}
-
-/// A per-process scratch folder for a test, created: `navfuse-{name}-{pid}`
-/// in the system temp dir.
-#[cfg(test)]
-fn test_dir(name: &str) -> std::path::PathBuf {
-    let d = std::env::temp_dir().join(format!("navfuse-{name}-{}", std::process::id()));
-    std::fs::create_dir_all(&d).unwrap();
-    d
 }

@@ -411,27 +411,18 @@ mod tests {
     #[test]
     #[ignore = "real data: run with `cargo test --release -- --ignored`"]
     fn drive_0708_eskf_and_kfgins_side_by_side() {
-        use clap::Parser;
         use navfuse_io::data::require;
-        #[derive(Parser)]
-        struct KfGinsCmd {
-            #[command(flatten)]
-            a: crate::kf_gins::Args,
-        }
         let yaml = require("drive_0708/kfgins/kf-gins_outage.yaml");
         let d = require("drive_0708/kfgins");
         let dir = std::env::temp_dir().join(format!("navfuse-drive-report-{}", std::process::id()));
         let _ = std::fs::remove_dir_all(&dir);
         let eskf = dir.join("eskf");
         std::fs::create_dir_all(&eskf).unwrap();
-        let cmd = KfGinsCmd::try_parse_from([
-            "kf-gins".as_ref(),
-            yaml.as_os_str(),
-            "--output".as_ref(),
-            eskf.as_os_str(),
-        ])
-        .unwrap();
-        crate::kf_gins::run(cmd.a).unwrap();
+        let opts = navfuse_pipeline::kf_gins::KfGinsOptions {
+            output: Some(eskf.clone()),
+            ..Default::default()
+        };
+        navfuse_pipeline::kf_gins::run_kf_gins(&yaml, &opts).unwrap();
 
         let mut inp = load_run_dir(
             &dir,

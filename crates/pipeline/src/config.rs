@@ -1,0 +1,197 @@
+//! `navfuse run`'s TOML configuration ([`RunConfig`]); its schema is the
+//! file format users write, so field names and defaults never change here.
+
+use crate::csv_map::CsvCfg;
+use crate::error::{PipelineError, Result};
+use crate::time_offset::TimeOffsetCfg;
+use navfuse_io::kfgins_yaml::KfGinsNoise;
+use serde::{Deserialize, Serialize};
+use std::path::{Path, PathBuf};
+
+/// `navfuse run` configuration (TOML). Units: degrees, metres, seconds.
+///
+/// ```toml
+/// [input]
+/// imu = "imu.txt"            # KF-GINS IMU text (increments, body FRD), or a CSV
+/// imu_format = "kf-gins"     # optional: "kf-gins" | "csv" (default from the extension)
+/// imu_rate = 100.0
+/// gnss = "gnss.txt"          # KF-GINS GNSS text, RTKLIB .pos, NMEA (.nmea) or UBX (.ubx)
+/// gnss_format = "kf-gins"    # optional: "kf-gins" | "pos" | "nmea" | "ubx"
+/// start = 243262.0           # optional, seconds (the IMU file's time base)
+/// imu_time_offset = 0.0      # optional: seconds added to IMU stamps, or "auto"
+///
+/// [input.csv]                # for imu_format = "csv": a preset or a column map
+/// preset = "drive_0708"      # "drive_0708" | "vn310", or instead:
+/// # time = "t" (or week = 0, tow = 1), gyro = ["gx","gy","gz"], accel = [3, 4, 5],
+/// # gyro_unit = "deg"|"rad", accel_unit = "g"|"m/s2", form = "rate"|"increment",
+/// # delimiter = ",", header = true, mount_rpy_deg = [180, 0, 180]
+/// # mag = ["mx", "my", "mz"], ahrs_yaw = "yaw_deg"   (initial heading sources)
+///
+/// [init]                     # all optional: automatic alignment otherwise
+/// position = [40.09, -105.14, 1601.4]   # IMU lat, lon [deg], h [m]
+/// attitude = [-1.17, -0.04, -2.89]      # roll, pitch, yaw [deg]
+/// heading = "auto"           # "auto" | "ahrs" | "magnetometer" | "course"
+/// magnetic_declination_deg = 8.1        # for the magnetometer heading
+///
+/// [filter]
+/// estimator = "eskf"         # "eskf" | "pf-lc" | "gps-acc" (the others use their defaults)
+/// preset = "enhanced"        # "kf-gins" | "enhanced" | "seed001" (eskf)
+/// noise_yaml = "kf.yaml"     # optional: take the IMU noise from a KF-GINS YAML
+/// # or [filter.imu_noise]: arw = [8, 8, 8], vrw, gbstd, abstd, gsstd, asstd, corrtime
+/// # (KF-GINS keys and units); neither: the seed 001 preset's noise
+/// lever_arm = [0.0, -0.05, 0.0]
+/// smooth = true
+///
+/// [outage]                   # optional: cut GNSS for `length` s every `period` s from `start` s
+/// start = 120.0
+/// length = 30.0
+/// period = 90.0
+///
+/// # top level, optional: extra solution formats besides solution.nav
+/// formats = ["csv", "geojson", "kml", "gpx", "nmea"]
+/// ```
+#[derive(Clone, Debug, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct RunConfig {
+    /// `[input]`: the recordings.
+    pub input: InputCfg,
+    /// `[init]`: optional initial state and heading source.
+    #[serde(default)]
+    pub init: InitCfg,
+    /// `[filter]`: estimator, model and smoothing.
+    #[serde(default)]
+    pub filter: FilterCfg,
+    /// `[outage]`: simulated GNSS outages.
+    pub outage: Option<OutageCfg>,
+    /// Output folder (relative to the configuration file).
+    pub output: Option<String>,
+    /// Extra solution formats (extensions) written besides `solution.nav`.
+    #[serde(default)]
+    pub formats: Vec<String>,
+    /// The file this configuration was read from ([`RunConfig::from_toml_file`]),
+    /// named in error messages; not part of the TOML schema.
+    #[serde(skip)]
+    pub source: Option<PathBuf>,
+}
+
+impl RunConfig {
+    /// Read and parse a TOML run configuration. Errors: `FILE: cannot read: …`
+    /// ([`PipelineError::Io`]) or `FILE: <TOML error naming the key>`
+    /// ([`PipelineError::Config`]).
+    pub fn from_toml_file(path: &Path) -> Result<RunConfig> {
+        let text =
+            std::fs::read_to_string(path).map_err(PipelineError::io(path, "cannot read: "))?;
+        let mut cfg: RunConfig = toml::from_str(&text).map_err(|e| PipelineError::Config {
+            file: path.display().to_string(),
+            msg: e.to_string(),
+        })?;
+        cfg.source = Some(path.to_path_buf());
+        Ok(cfg)
+    }
+
+    /// The name used for this configuration in messages: its file, else `run config`.
+    pub fn name(&self) -> String {
+        self.source
+            .as_ref()
+            .map_or_else(|| "run config".into(), |p| p.display().to_string())
+    }
+
+    /// A [`PipelineError::Config`] naming this configuration.
+    pub(crate) fn err(&self, msg: impl Into<String>) -> PipelineError {
+        PipelineError::Config {
+            file: self.name(),
+            msg: msg.into(),
+        }
+    }
+}
+
+/// `p` as given when absolute, else relative to `base_dir` (the folder of
+/// the configuration file).
+pub fn resolve_path(base_dir: &Path, p: &str) -> PathBuf {
+    let p = Path::new(p);
+    if p.is_absolute() {
+        p.to_path_buf()
+    } else {
+        base_dir.join(p)
+    }
+}
+
+#[derive(Clone, Debug, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct InputCfg {
+    pub imu: String,
+    /// "kf-gins" or "csv" (default: from the extension, see [`crate::input`]).
+    pub imu_format: Option<String>,
+    #[serde(default = "default_rate")]
+    pub imu_rate: f64,
+    /// `[input.csv]`: the generic CSV IMU reader's preset or column map.
+    pub csv: Option<CsvCfg>,
+    pub gnss: String,
+    /// "kf-gins", "pos", "nmea" or "ubx" (default: from the extension).
+    pub gnss_format: Option<String>,
+    pub start: Option<f64>,
+    /// Seconds added to the IMU stamps (true time = stamp + offset), or "auto".
+    pub imu_time_offset: Option<TimeOffsetCfg>,
+}
+
+fn default_rate() -> f64 {
+    100.0
+}
+
+#[derive(Clone, Debug, Default, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct InitCfg {
+    pub position: Option<[f64; 3]>,
+    pub attitude: Option<[f64; 3]>,
+    /// Initial heading source: "auto" (default: the given attitude, else the
+    /// AHRS yaw column, else the magnetometer columns of `[input.csv]`, else
+    /// the GNSS course once moving), "ahrs", "magnetometer" or "course".
+    pub heading: Option<String>,
+    /// Magnetic declination [deg, east positive] for the magnetometer heading.
+    pub magnetic_declination_deg: Option<f64>,
+}
+
+#[derive(Clone, Debug, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct FilterCfg {
+    /// "eskf" (default), "pf-lc" or "gps-acc".
+    #[serde(default)]
+    pub estimator: Option<String>,
+    #[serde(default = "default_preset")]
+    pub preset: String,
+    pub noise_yaml: Option<String>,
+    /// `[filter.imu_noise]`: the IMU noise in KF-GINS's keys and units
+    /// (arw deg/√h, vrw m/s/√h, gbstd deg/h, abstd mGal, gsstd/asstd ppm,
+    /// corrtime h). Without it or `noise_yaml`: the seed 001 preset's.
+    pub imu_noise: Option<KfGinsNoise>,
+    #[serde(default)]
+    pub lever_arm: [f64; 3],
+    #[serde(default)]
+    pub smooth: bool,
+}
+
+impl Default for FilterCfg {
+    fn default() -> Self {
+        FilterCfg {
+            estimator: None,
+            preset: default_preset(),
+            noise_yaml: None,
+            imu_noise: None,
+            lever_arm: [0.0; 3],
+            smooth: false,
+        }
+    }
+}
+
+fn default_preset() -> String {
+    "enhanced".into()
+}
+
+#[derive(Clone, Debug, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct OutageCfg {
+    /// Seconds after the first IMU sample used.
+    pub start: f64,
+    pub length: f64,
+    pub period: f64,
+}

@@ -1,0 +1,48 @@
+//! navfuse's run pipeline as a library: what `navfuse run` and
+//! `navfuse kf-gins` do, callable from the CLI, Python and other Rust
+//! programs alike.
+//!
+//! - [`RunConfig`] (the `navfuse run` TOML) → [`run()`]: load the inputs
+//!   ([`input::load`]), run the estimator, write solutions and `summary.json`.
+//! - [`run_eskf`]: the same ESKF run in memory on given IMU/GNSS streams,
+//!   writing nothing (for simulation experiments); [`run()`] is built on it.
+//! - [`kf_gins::run_kf_gins`]: a KF-GINS YAML configuration, KF-GINS's files.
+//!
+//! Frames: body FRD, navigation NED; GPS time in seconds (or time of week
+//! for KF-GINS files); SI units inside, degrees only in files and configs.
+
+pub mod align;
+pub mod check;
+pub mod config;
+pub mod csv_map;
+pub mod error;
+pub mod eskf_run;
+pub mod input;
+pub mod kf_gins;
+mod kf_gins_out;
+pub mod kfgins_input;
+mod other;
+pub mod outputs;
+pub mod run;
+mod summary;
+pub mod time_offset;
+
+#[cfg(test)]
+mod kf_gins_tests;
+#[cfg(test)]
+mod run_tests;
+
+pub use config::{resolve_path, FilterCfg, InitCfg, InputCfg, OutageCfg, RunConfig};
+pub use error::PipelineError;
+pub use eskf_run::{run_eskf, EskfRun};
+pub use input::AuxSeries;
+pub use run::{run, RunOptions, RunOutcome};
+
+/// A per-process scratch folder for a test, created:
+/// `navfuse-{name}-{pid}` in the system temp dir.
+#[cfg(test)]
+pub(crate) fn test_dir(name: &str) -> std::path::PathBuf {
+    let d = std::env::temp_dir().join(format!("navfuse-{name}-{}", std::process::id()));
+    std::fs::create_dir_all(&d).unwrap();
+    d
+}

@@ -1,0 +1,149 @@
+//! `navfuse run` as a library call: load the inputs named by a
+//! [`RunConfig`], run the ESKF ([`crate::eskf_run::run_eskf`]) or another
+//! estimator, write `solution.nav` (+ extra formats, innovations, smoothed)
+//! and `summary.json`.
+
+use crate::config::{resolve_path, RunConfig};
+use crate::error::{PipelineError, Result};
+use crate::eskf_run::{run_eskf_span, select_span};
+use crate::input::{self, InputSpec};
+use crate::other::{run_other, OtherRun};
+use crate::outputs::{out_formats, write_innovations, write_solutions};
+use crate::summary::Summary;
+use navfuse_core::estimators::eskf::EskfStats;
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+/// Caller's overrides of a run (the CLI's flags).
+#[derive(Clone, Debug, Default)]
+pub struct RunOptions {
+    /// Output folder (default: `output` of the config, relative to its
+    /// folder, else `./navfuse-out`).
+    pub output: Option<PathBuf>,
+    /// Estimator overriding `[filter] estimator`: `eskf`, `pf-lc`, `gps-acc`.
+    pub estimator: Option<String>,
+}
+
+/// What [`run`] wrote.
+#[derive(Clone, Debug)]
+pub struct RunOutcome {
+    /// The output folder.
+    pub out_dir: PathBuf,
+    /// Every file written except `summary.json`, as listed in it.
+    pub outputs: Vec<String>,
+    /// The `summary.json` written.
+    pub summary_path: PathBuf,
+    /// Its content.
+    pub summary: serde_json::Value,
+    /// Number of (forward) solutions.
+    pub solutions: usize,
+    /// How the ESKF was aligned (`None` for the other estimators).
+    pub alignment: Option<String>,
+    /// The ESKF's update counters (`None` for the other estimators).
+    pub stats: Option<EskfStats>,
+    /// The one-line account `navfuse run` prints to stderr.
+    pub message: String,
+}
+
+/// Do what `navfuse run` does: read the inputs of `cfg` (paths relative to
+/// `base_dir`, the configuration's folder), run the estimator, write the
+/// solutions and `summary.json` into the output folder.
+pub fn run(cfg: &RunConfig, base_dir: &Path, opts: &RunOptions) -> Result<RunOutcome> {
+    let rel = |p: &str| resolve_path(base_dir, p);
+    let t_read = Instant::now();
+    let (imu_path, gnss_path) = (rel(&cfg.input.imu), rel(&cfg.input.gnss));
+    let loaded = input::load(&InputSpec {
+        imu: &imu_path,
+        imu_format: cfg.input.imu_format.as_deref(),
+        imu_rate: cfg.input.imu_rate,
+        csv: cfg.input.csv.as_ref(),
+        gnss: &gnss_path,
+        gnss_format: cfg.input.gnss_format.as_deref(),
+        imu_time_offset: cfg.input.imu_time_offset.as_ref(),
+    })
+    .map_err(|e| cfg.err(e.to_string()))?;
+    let inputs = serde_json::json!({
+        "imu": loaded.imu_report,
+        "gnss": loaded.gnss_report,
+        "time_base": loaded.time_base,
+        "imu_time_offset_applied_s": loaded.imu_time_offset.as_ref().map(|o| o.0),
+        "imu_time_offset_source": loaded.imu_time_offset.as_ref().map(|o| o.1.clone()),
+    });
+    let seconds_read = t_read.elapsed().as_secs_f64();
+    let span = select_span(cfg, &loaded.imu, &loaded.gnss)?;
+    let out_dir = opts
+        .output
+        .clone()
+        .or(cfg.output.as_deref().map(rel))
+        .unwrap_or_else(|| PathBuf::from("navfuse-out"));
+    let formats = out_formats(&cfg.formats).map_err(|e| cfg.err(format!("formats: {e}")))?;
+    let estimator = opts
+        .estimator
+        .clone()
+        .or(cfg.filter.estimator.clone())
+        .unwrap_or_else(|| "eskf".into());
+    if estimator != "eskf" {
+        return run_other(
+            &estimator,
+            &OtherRun {
+                cfg,
+                imu: span.imu,
+                gnss: &span.gnss,
+                n_gnss: span.gnss_all.len(),
+                cut: span.cut(),
+                seconds_read,
+                out_dir: &out_dir,
+                formats: &formats,
+                inputs: &inputs,
+                imu_before_start: span.imu_before_start,
+            },
+        );
+    }
+    let r = run_eskf_span(cfg, base_dir, &span, loaded.aux.as_ref())?;
+    std::fs::create_dir_all(&out_dir).map_err(PipelineError::io(&out_dir, ""))?;
+    let mut outputs = Vec::new();
+    outputs.extend(write_solutions(
+        &out_dir,
+        "solution",
+        &r.solutions,
+        &formats,
+    )?);
+    outputs.push(write_innovations(
+        &out_dir.join("solution.innovations.csv"),
+        &r.updates,
+    )?);
+    if cfg.filter.smooth {
+        outputs.extend(write_solutions(
+            &out_dir,
+            "solution_smoothed",
+            &r.smoothed,
+            &formats,
+        )?);
+    }
+    let time_offset = r.time_offset_text(loaded.imu_time_offset.as_ref());
+    let summary = Summary::new(cfg, &r, inputs, time_offset, seconds_read, outputs.clone());
+    let p = out_dir.join("summary.json");
+    let json =
+        serde_json::to_string_pretty(&summary).map_err(|e| PipelineError::Output(e.to_string()))?;
+    std::fs::write(&p, json).map_err(PipelineError::io(&p, ""))?;
+    let st = &r.stats;
+    let message = format!(
+        "navfuse run: {} solutions, GNSS used {} / gated {}; {}; summary {}",
+        r.solutions.len(),
+        st.gnss_pos_used,
+        st.gnss_pos_rejected_gate,
+        summary.alignment,
+        p.display()
+    );
+    Ok(RunOutcome {
+        out_dir,
+        outputs,
+        summary: serde_json::to_value(&summary)
+            .map_err(|e| PipelineError::Output(e.to_string()))?,
+        summary_path: p,
+        solutions: r.solutions.len(),
+        alignment: Some(r.alignment),
+        stats: Some(r.stats),
+        message,
+    })
+}
