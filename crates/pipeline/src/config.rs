@@ -3,6 +3,7 @@
 
 use crate::csv_map::CsvCfg;
 use crate::error::{PipelineError, Result};
+use crate::profile::Platform;
 use crate::time_offset::TimeOffsetCfg;
 use navfuse_io::kfgins_yaml::KfGinsNoise;
 use serde::{Deserialize, Serialize};
@@ -129,9 +130,16 @@ pub struct InputCfg {
     pub gnss: String,
     /// "kf-gins", "pos", "nmea" or "ubx" (default: from the extension).
     pub gnss_format: Option<String>,
+    /// First IMU stamp used [s], in the IMU file's own time base (GPS
+    /// seconds, or time of week for KF-GINS text); must lie inside the IMU span.
     pub start: Option<f64>,
-    /// Seconds added to the IMU stamps (true time = stamp + offset), or "auto".
+    /// Seconds added to the IMU stamps (true time = stamp + offset), `"auto"`
+    /// (estimated with its σ, applied only when significant; the default) or
+    /// `"none"`.
     pub imu_time_offset: Option<TimeOffsetCfg>,
+    /// RTKLIB time-tag file (`.tag`) of the IMU log, for a CSV whose time
+    /// column is a device counter (`[input.csv] counter`).
+    pub imu_tag: Option<String>,
 }
 
 fn default_rate() -> f64 {
@@ -149,6 +157,18 @@ pub struct InitCfg {
     pub heading: Option<String>,
     /// Magnetic declination [deg, east positive] for the magnetometer heading.
     pub magnetic_declination_deg: Option<f64>,
+    /// Initial yaw only [deg] (roll and pitch still from levelling or the
+    /// in-motion alignment).
+    pub heading_deg: Option<f64>,
+    /// Initial NED velocity of the IMU [m/s] (default: 0 at rest, else the
+    /// GNSS velocity at the start).
+    pub velocity: Option<[f64; 3]>,
+    /// 1-σ of the initial position [m] (default: the start fix's σ).
+    pub position_std_m: Option<f64>,
+    /// 1-σ of the initial velocity [m/s] (default: from the GNSS velocity σ).
+    pub velocity_std_m_s: Option<f64>,
+    /// 1-σ of the initial roll, pitch, yaw [deg] (default: from the alignment).
+    pub attitude_std_deg: Option<[f64; 3]>,
 }
 
 #[derive(Clone, Debug, Deserialize, Serialize)]
@@ -168,6 +188,18 @@ pub struct FilterCfg {
     pub lever_arm: [f64; 3],
     #[serde(default)]
     pub smooth: bool,
+    /// Platform profile (`car`, `robot`, `pedestrian`, `uav`, `marine`,
+    /// `static`): sets NHC/ZUPT/ZARU and the alignment policy
+    /// ([`crate::profile`]). Default: `car` with `preset = "enhanced"`, none
+    /// (no constraints) with `kf-gins`/`seed001`.
+    pub platform: Option<Platform>,
+    /// IMU noise from a sensor preset by model (datasheet numbers and source
+    /// in [`crate::sensors`]), e.g. `"adis16465"`.
+    pub imu_preset: Option<String>,
+    /// `[filter.nhc]`: overrides of the profile's non-holonomic constraint.
+    pub nhc: Option<NhcCfg>,
+    /// `[filter.zupt]`: overrides of the profile's standstill updates.
+    pub zupt: Option<ZuptCfg>,
 }
 
 impl Default for FilterCfg {
@@ -179,8 +211,52 @@ impl Default for FilterCfg {
             imu_noise: None,
             lever_arm: [0.0; 3],
             smooth: false,
+            platform: None,
+            imu_preset: None,
+            nhc: None,
+            zupt: None,
         }
     }
+}
+
+/// `[filter.nhc]`: non-holonomic constraint overrides (body lateral and
+/// vertical velocity = 0 ± `std`). Unset keys keep the profile's values.
+#[derive(Clone, Debug, Default, Deserialize, Serialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct NhcCfg {
+    /// `false` switches the constraint off.
+    pub enabled: Option<bool>,
+    /// 1-σ [m/s] (the start value when adaptive).
+    pub std: Option<f64>,
+    /// Apply only above this speed [m/s].
+    pub min_speed: Option<f64>,
+    /// Minimum time between updates [s].
+    pub interval: Option<f64>,
+    /// Learn σ from the innovations within [`min_std`, `max_std`].
+    pub adaptive: Option<bool>,
+    pub min_std: Option<f64>,
+    pub max_std: Option<f64>,
+}
+
+/// `[filter.zupt]`: standstill detection and zero-velocity/-rate update
+/// overrides. Unset keys keep the profile's values.
+#[derive(Clone, Debug, Default, Deserialize, Serialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct ZuptCfg {
+    /// `false` switches ZUPT and ZARU off.
+    pub enabled: Option<bool>,
+    /// Zero-velocity 1-σ [m/s].
+    pub vel_std: Option<f64>,
+    /// Zero-rate 1-σ [deg/s]; 0 switches ZARU off.
+    pub zaru_std_dps: Option<f64>,
+    /// Detector: std of |f| over the window below this [m/s²] …
+    pub max_accel_std: Option<f64>,
+    /// … gyro std below this [deg/s] …
+    pub max_gyro_std_dps: Option<f64>,
+    /// … and the filter speed below this [m/s].
+    pub max_speed: Option<f64>,
+    /// Learn the ZUPT/ZARU σ from the innovations.
+    pub adaptive: Option<bool>,
 }
 
 fn default_preset() -> String {

@@ -23,7 +23,9 @@ mod kf_gins_out;
 pub mod kfgins_input;
 mod other;
 pub mod outputs;
+pub mod profile;
 pub mod run;
+pub mod sensors;
 mod summary;
 pub mod time_offset;
 

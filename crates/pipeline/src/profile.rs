@@ -1,0 +1,206 @@
+//! Platform profiles: one named choice (`[filter] platform`, `kf-gins
+//! --platform`) that sets every vehicle-dependent default of a run from the
+//! physics of the platform, never from one recording.
+//!
+//! | profile | NHC | standstill (ZUPT/ZARU) | course = heading | why |
+//! |---|---|---|---|---|
+//! | `car` | 0.5 m/s | engine-idle thresholds, ZUPT + ZARU | yes | wheels on a road: no side slip or jump beyond the terms below |
+//! | `robot` | 0.2 m/s | motor-only thresholds, ZUPT + ZARU | yes | slow wheeled, skid-steer slip in turns |
+//! | `pedestrian` | none | hand-held standing, ZUPT only | no | the device points anywhere relative to the walking direction |
+//! | `uav` | none | none | no | flies sideways; hover is not rest |
+//! | `marine` | none | none | no | leeway and current: the hull slips; a moored boat bobs |
+//! | `static` | none | always, ZUPT + ZARU | no | the antenna and IMU do not move |
+//!
+//! NHC σ (1-σ of the lateral and vertical body velocity) is the root sum of
+//! squares of the terms a ground vehicle violates the constraint by, at the
+//! platform's typical speed `v` and yaw rate `ω`:
+//! - an unknown IMU yaw mounting misalignment `δψ` (body x not along the
+//!   wheels): `v·δψ`; a car at 20 m/s with 1° → 0.35 m/s;
+//! - the IMU's unknown offset `l` from the rear (non-steered) axle: `l·ω`;
+//!   1.5 m at 0.3 rad/s → 0.45 m/s;
+//! - tyre side slip at lateral acceleration (slip angle ≈ 1° per 2–3 m/s² for
+//!   passenger-car tyres, Gillespie, *Fundamentals of Vehicle Dynamics*, ch. 6):
+//!   ≈ 0.35 m/s at 20 m/s in a 3 m/s² curve.
+//!
+//! These are not known per vehicle, so the value is the start of an
+//! innovation-based adaptation bounded by [`NHC_ADAPT_MIN`], [`NHC_ADAPT_MAX`]
+//! when adaptation is on.
+
+use navfuse_core::estimators::eskf::{NhcConfig, ZuptConfig};
+use serde::{Deserialize, Serialize};
+
+/// A platform (vehicle type) whose physics set the constraint defaults.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Platform {
+    Car,
+    Robot,
+    Pedestrian,
+    Uav,
+    Marine,
+    Static,
+}
+
+/// Every profile name, for messages and `--help`.
+pub const PLATFORMS: &[&str] = &["car", "robot", "pedestrian", "uav", "marine", "static"];
+
+impl core::str::FromStr for Platform {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Self, String> {
+        Ok(match s {
+            "car" => Platform::Car,
+            "robot" => Platform::Robot,
+            "pedestrian" => Platform::Pedestrian,
+            "uav" => Platform::Uav,
+            "marine" => Platform::Marine,
+            "static" => Platform::Static,
+            _ => {
+                return Err(format!(
+                    "platform {s:?}: expected one of {}",
+                    PLATFORMS.join(", ")
+                ))
+            }
+        })
+    }
+}
+
+impl core::fmt::Display for Platform {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        let i = *self as usize;
+        f.write_str(PLATFORMS[i])
+    }
+}
+
+/// Lower bound of the adapted NHC σ [m/s]: below the velocity noise an
+/// industrial MEMS integrates between two 10 Hz constraint updates the
+/// constraint would be over-trusted.
+pub const NHC_ADAPT_MIN: f64 = 0.05;
+/// Upper bound of the adapted NHC σ [m/s]: beyond ~2 m/s lateral velocity a
+/// wheeled vehicle is skidding, and the constraint carries no information.
+pub const NHC_ADAPT_MAX: f64 = 2.0;
+
+/// The vehicle-dependent part of a run's configuration.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Profile {
+    pub platform: Platform,
+    /// Non-holonomic constraint, if the platform obeys one.
+    pub nhc: Option<NhcConfig>,
+    /// Standstill detection and zero-velocity/-rate updates.
+    pub zupt: Option<ZuptConfig>,
+    /// The GNSS course over ground is the body heading when moving (NHC holds).
+    pub course_is_heading: bool,
+    /// Largest plausible horizontal acceleration [m/s²]: GNSS velocity
+    /// changes beyond it are outliers (alignment, time offset).
+    pub max_accel: f64,
+}
+
+impl Platform {
+    /// The profile of this platform (see the module table).
+    pub fn profile(self) -> Profile {
+        // Standstill detector of a car (`kf-gins --enhanced`): 0.5 s window;
+        // std |f| < 0.1 m/s² and gyro std < 2 °/s cover an idling engine's
+        // vibration (idle at 600–900 rpm shakes the body at 10–30 Hz with
+        // 0.05–0.2 m/s² rms, ISO 2631 seat-vibration surveys); the window-mean
+        // f within 0.2 m/s² of gravity catches smooth acceleration; the filter
+        // speed < 1 m/s. ZUPT σ 0.02 m/s (a parked car rocks by centimetres per
+        // second), ZARU σ 0.1 °/s.
+        let car_zupt = ZuptConfig {
+            window: 50,
+            max_accel_std: 0.1,
+            max_gyro_std: 2.0f64.to_radians(),
+            max_accel_dev: 0.2,
+            max_speed: 1.0,
+            vel_std: 0.02,
+            zaru_std: Some(0.1f64.to_radians()),
+            interval: 0.1,
+        };
+        match self {
+            Platform::Car => Profile {
+                platform: self,
+                // RSS of the three terms of the module doc ≈ 0.66 m/s at
+                // 20 m/s; 0.5 m/s at the urban speeds where most time is spent.
+                nhc: Some(NhcConfig {
+                    std: 0.5,
+                    interval: 0.1,
+                    min_speed: 0.5,
+                }),
+                zupt: Some(car_zupt),
+                course_is_heading: true,
+                // Tyre friction limit ≈ 1 g.
+                max_accel: 9.81,
+            },
+            Platform::Robot => Profile {
+                platform: self,
+                // v ≤ 1.5 m/s: misalignment 2° → 0.05 m/s; IMU 0.3 m off the
+                // turning centre at 1 rad/s → 0.3 m/s; skid-steer slip in turns
+                // of the same order. RSS ≈ 0.3; 0.2 m/s is the straight-line
+                // value, the adaptation widens it in turns.
+                nhc: Some(NhcConfig {
+                    std: 0.2,
+                    interval: 0.1,
+                    min_speed: 0.1,
+                }),
+                // No combustion engine: the vibration at rest is sensor noise
+                // plus fans/motors, an order below a car's.
+                zupt: Some(ZuptConfig {
+                    max_accel_std: 0.05,
+                    max_gyro_std: 0.5f64.to_radians(),
+                    max_speed: 0.3,
+                    vel_std: 0.01,
+                    ..car_zupt
+                }),
+                course_is_heading: true,
+                max_accel: 4.0,
+            },
+            Platform::Pedestrian => Profile {
+                platform: self,
+                nhc: None,
+                // Standing with a hand-held device: hand tremor 0.05–0.1 m/s²
+                // and a few °/s of wrist motion; walking shakes it with
+                // 1–3 m/s² at the step frequency, far above. The hand sways
+                // the device by cm/s: ZUPT σ 0.05 m/s, no ZARU (the hand turns).
+                zupt: Some(ZuptConfig {
+                    max_accel_std: 0.3,
+                    max_gyro_std: 10.0f64.to_radians(),
+                    max_accel_dev: 0.5,
+                    max_speed: 0.5,
+                    vel_std: 0.05,
+                    zaru_std: None,
+                    ..car_zupt
+                }),
+                course_is_heading: false,
+                max_accel: 9.81,
+            },
+            Platform::Uav => Profile {
+                platform: self,
+                nhc: None,
+                zupt: None,
+                course_is_heading: false,
+                max_accel: 20.0,
+            },
+            Platform::Marine => Profile {
+                platform: self,
+                nhc: None,
+                zupt: None,
+                course_is_heading: false,
+                max_accel: 5.0,
+            },
+            Platform::Static => Profile {
+                platform: self,
+                nhc: None,
+                // Always at rest: the detector is switched wide open.
+                zupt: Some(ZuptConfig {
+                    max_accel_std: f64::INFINITY,
+                    max_gyro_std: f64::INFINITY,
+                    max_accel_dev: f64::INFINITY,
+                    max_speed: f64::INFINITY,
+                    vel_std: 0.005,
+                    zaru_std: Some(0.01f64.to_radians()),
+                    ..car_zupt
+                }),
+                course_is_heading: false,
+                max_accel: 0.5,
+            },
+        }
+    }
+}
