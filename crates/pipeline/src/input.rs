@@ -286,8 +286,9 @@ fn load_inner(spec: &InputSpec) -> Result<Loaded, String> {
     let (mut gnss, gnss_report) = read_gnss(spec.gnss, gnss_fmt)?;
     gnss.sort_by(|a, b| a.t.total_cmp(&b.t));
     let time_base = align_time_bases(&imu, &mut gnss);
+    // Default `auto`: estimated with its σ, applied only when significant.
     let mode = match spec.imu_time_offset {
-        None => Ok(TimeOffset::None),
+        None => Ok(TimeOffset::Auto),
         Some(TimeOffsetCfg::Seconds(s)) => TimeOffset::parse(&s.to_string()),
         Some(TimeOffsetCfg::Named(n)) => TimeOffset::parse(n),
     }

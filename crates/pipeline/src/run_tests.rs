@@ -270,8 +270,11 @@ fn csv_imu_with_nmea_or_ubx_gnss_runs_like_kfgins_text() {
         dn.hypot(de),
         sb["used_rejected"]["gnss_position"]
     );
+    // 2 cm: the alignment seeds the initial covariance from each file's own
+    // fix σ (GST in the NMEA, the σ columns of the text), so the two runs
+    // differ by more than the NMEA rounding alone.
     assert!(
-        dn.hypot(de) < 0.01,
+        dn.hypot(de) < 0.02,
         "end points differ by {dn:.4} N {de:.4} E m; {}",
         dir.display()
     );
@@ -369,7 +372,7 @@ fn static_start_takes_the_heading_from_the_magnetometer_or_ahrs() {
     );
     for (extra, expect) in [
         (noise.to_string(), "filter.imu_noise.arw"),
-        (both, "not both"),
+        (both, "one IMU noise source"),
     ] {
         std::fs::write(
             dir.join("run.toml"),

@@ -3,6 +3,7 @@
 //! Convention: true time = IMU stamp + τ.
 
 use crate::error::{PipelineError, Result};
+use navfuse_core::ins::time_offset::{TimeOffsetConfig, TimeOffsetEstimate};
 use navfuse_core::types::{GnssFix, ImuSample};
 use serde::{Deserialize, Serialize};
 
@@ -18,7 +19,7 @@ pub enum TimeOffsetCfg {
 pub enum TimeOffset {
     /// No offset applied.
     None,
-    /// Estimated by [`estimate_time_offset`] (±0.5 s).
+    /// Estimated with its σ ([`auto_estimate`]), applied when significant.
     Auto,
     /// Given [s].
     Seconds(f64),
@@ -43,26 +44,50 @@ impl TimeOffset {
         }
     }
 
-    /// The offset [s] and how it was found; an error when `Auto` finds no
-    /// estimate (too little turning at speed).
+    /// The offset [s] to apply and how it was found. `Auto` estimates τ with
+    /// its σ ([`auto_estimate`]) and applies it only when it is significantly
+    /// non-zero (|τ| > 3.29 σ, a 0.1 % two-sided false alarm, and σ ≤ 20 ms);
+    /// otherwise nothing is applied (`Ok(None)`): a default must never make a
+    /// data set worse, and an unsignificant τ can only add error.
     pub fn resolve(self, imu: &[ImuSample], gnss: &[GnssFix]) -> Result<Option<(f64, String)>> {
         match self {
             TimeOffset::None => Ok(None),
             TimeOffset::Seconds(s) => Ok(Some((s, "given".into()))),
-            TimeOffset::Auto => estimate_time_offset(imu, gnss, 0.5)
-                .map(|(tau, r)| {
-                    Some((
-                        tau,
-                        format!("estimated by course-rate / yaw-rate cross-correlation (r = {r:.4})"),
-                    ))
+            TimeOffset::Auto => {
+                let e = auto_estimate(imu, gnss);
+                Ok(match (e.apply, e.tau_s) {
+                    (true, Some(tau)) => Some((tau, format!("estimated, {}", describe(&e)))),
+                    _ => None,
                 })
-                .ok_or_else(|| {
-                    PipelineError::Input(
-                        "time offset auto: no estimate (needs ≥ 30 turning GNSS course pairs at ≥ 3 m/s)"
-                            .into(),
-                    )
-                }),
+            }
         }
+    }
+}
+
+/// The IMU–GNSS time offset τ with its σ and significance test
+/// ([`navfuse_core::ins::time_offset::estimate`]: GNSS course against the
+/// integrated z-gyro, gyro bias/scale and antenna lever fitted, gross errors
+/// rejected; course σ from the GNSS velocity σ and speed, so no fixed speed
+/// threshold). Convention: true time = IMU stamp + τ.
+pub fn auto_estimate(imu: &[ImuSample], gnss: &[GnssFix]) -> TimeOffsetEstimate {
+    navfuse_core::ins::time_offset::estimate(imu, gnss, &TimeOffsetConfig::default())
+}
+
+/// One line: `τ = +0.100 ± 0.004 s (412 course epochs): significant …`.
+pub fn describe(e: &TimeOffsetEstimate) -> String {
+    match e.tau_s {
+        Some(tau) => format!(
+            "τ = {tau:+.4} ± {:.4} s ({} GNSS course epochs, {} rejected): {}",
+            e.std_s,
+            e.pairs_used,
+            e.outliers,
+            e.reason.describe()
+        ),
+        None => format!(
+            "no estimate ({} GNSS course epochs): {}",
+            e.pairs_used,
+            e.reason.describe()
+        ),
     }
 }
 
@@ -185,18 +210,16 @@ pub fn estimate_time_offset(
     scan(&kept)
 }
 
-/// The summary's `time_offset` text: the residual offset `estimate`
-/// ([`estimate_time_offset`] on the run's inputs: τ [s], correlation r)
-/// after the offset the input loading applied (`applied`: τ [s] and how).
-pub fn time_offset_note(estimate: Option<(f64, f64)>, applied: Option<&(f64, String)>) -> String {
+/// The summary's `time_offset` text: the offset the input loading applied
+/// (`applied`: τ [s] and how) and the estimate on the run's inputs after it
+/// (`residual`, reported, never applied twice).
+pub fn time_offset_note(residual: &TimeOffsetEstimate, applied: Option<&(f64, String)>) -> String {
     let applied = match applied {
-        Some((tau, how)) => format!("{tau:+.3} s, {how}"),
+        Some((tau, how)) => format!("{tau:+.4} s, {how}"),
         None => "none".into(),
     };
-    match estimate {
-        Some((tau, r)) => format!(
-            "after the input's imu_time_offset ({applied}): a further {tau:+.3} s to add to the IMU stamps (course-rate / yaw-rate cross-correlation r = {r:.4}); reported, not applied"
-        ),
-        None => "not estimable (too little turning at speed)".into(),
-    }
+    format!(
+        "applied to the IMU stamps: {applied}; estimate on the inputs after it: {}",
+        describe(residual)
+    )
 }
