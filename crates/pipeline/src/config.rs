@@ -232,7 +232,8 @@ pub struct NhcCfg {
     pub min_speed: Option<f64>,
     /// Minimum time between updates [s].
     pub interval: Option<f64>,
-    /// Learn σ from the innovations within [`min_std`, `max_std`].
+    /// Learn σ from the innovations within [`min_std`, `max_std`] (default
+    /// false: real NHC violations are time-correlated, see `eskf_run`).
     pub adaptive: Option<bool>,
     pub min_std: Option<f64>,
     pub max_std: Option<f64>,

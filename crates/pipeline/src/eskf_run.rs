@@ -8,10 +8,9 @@ use crate::check::smoothed_solution;
 use crate::config::{resolve_path, RunConfig};
 use crate::error::{PipelineError, Result};
 use crate::input::AuxSeries;
-use crate::time_offset::{auto_estimate, time_offset_note};
-use navfuse_core::ins::time_offset::TimeOffsetEstimate;
 use crate::profile::{Platform, Profile};
-use crate::sensors::{imu_noise_preset, SensorNoise, DEFAULT_IMU_PRESET};
+use crate::sensors::{imu_noise_preset, measured_white_noise, SensorNoise, DEFAULT_IMU_PRESET};
+use crate::time_offset::{auto_estimate, time_offset_note, AutoOffset};
 use navfuse_core::estimators::adaptive::{AdaptedNoise, AdaptiveConstraints};
 use navfuse_core::estimators::eskf::{
     rts_smooth, Eskf, EskfConfig, EskfStats, NhcConfig, UpdateLog,
@@ -98,7 +97,7 @@ pub struct FilterSetup {
 /// `"seed001"` (the paper's noise and model, replacing everything). A named
 /// `platform` applies its profile ([`crate::profile`]) on any preset;
 /// `[filter.nhc]` / `[filter.zupt]` override single values; constraint noise is
-/// learnt from the innovations unless `adaptive = false`. Lever arm: body FRD [m].
+/// learnt from the innovations with `adaptive = true` (off by default). Lever arm: body FRD [m].
 pub fn filter_setup(cfg: &RunConfig, base_dir: &Path) -> Result<FilterSetup> {
     let f = &cfg.filter;
     let given = [
@@ -107,9 +106,9 @@ pub fn filter_setup(cfg: &RunConfig, base_dir: &Path) -> Result<FilterSetup> {
         f.imu_preset.is_some(),
     ];
     if given.iter().filter(|g| **g).count() > 1 {
-        return Err(cfg.err(
-            "[filter] give one IMU noise source: noise_yaml, imu_noise or imu_preset",
-        ));
+        return Err(
+            cfg.err("[filter] give one IMU noise source: noise_yaml, imu_noise or imu_preset")
+        );
     }
     let mut sensor = None;
     let (mut ecfg, mut noise_source) = if let Some(y) = &f.noise_yaml {
@@ -167,20 +166,27 @@ pub fn filter_setup(cfg: &RunConfig, base_dir: &Path) -> Result<FilterSetup> {
         override_constraints(cfg, pr)?;
         ecfg = pr.apply(ecfg);
     }
+    // Adaptive constraint noise is opt-in (`adaptive = true`): NHC
+    // violations of a real vehicle are dominated by constant or slowly
+    // varying terms (mounting misalignment, lever from the axle), which an
+    // innovation-based estimate does not see — it learns the white part and
+    // makes the filter overconfident between GNSS fixes (on drive_0708 the
+    // forward outage drift doubled with it). See `crate::profile`.
     let adaptive = match &profile {
         Some(pr) => {
-            let mut a = pr.adaptive();
+            let full = pr.adaptive();
             let nhc = f.nhc.as_ref();
-            if nhc.and_then(|n| n.adaptive) == Some(false) {
-                a.nhc = None;
+            let mut a = AdaptiveConstraints::default();
+            if nhc.and_then(|n| n.adaptive) == Some(true) {
+                a.nhc = full.nhc.map(|mut an| {
+                    an.min_std = nhc.and_then(|n| n.min_std).unwrap_or(an.min_std);
+                    an.max_std = nhc.and_then(|n| n.max_std).unwrap_or(an.max_std);
+                    an
+                });
             }
-            if let (Some(n), Some(an)) = (nhc, a.nhc.as_mut()) {
-                an.min_std = n.min_std.unwrap_or(an.min_std);
-                an.max_std = n.max_std.unwrap_or(an.max_std);
-            }
-            if f.zupt.as_ref().and_then(|z| z.adaptive) == Some(false) {
-                a.zupt = None;
-                a.zaru = None;
+            if f.zupt.as_ref().and_then(|z| z.adaptive) == Some(true) {
+                a.zupt = full.zupt;
+                a.zaru = full.zaru;
             }
             a
         }
@@ -231,14 +237,18 @@ fn override_constraints(cfg: &RunConfig, pr: &mut Profile) -> Result<()> {
         if z.enabled == Some(false) {
             pr.zupt = None;
         } else {
-            let mut c = pr.zupt.unwrap_or(Platform::Car.profile().zupt.unwrap_or_else(
-                || unreachable!("the car profile has a standstill detector"),
-            ));
+            let mut c = pr.zupt.unwrap_or(
+                Platform::Car
+                    .profile()
+                    .zupt
+                    .unwrap_or_else(|| unreachable!("the car profile has a standstill detector")),
+            );
             c.vel_std = pos(z.vel_std, "zupt.vel_std")?.unwrap_or(c.vel_std);
             if let Some(d) = pos(z.zaru_std_dps, "zupt.zaru_std_dps")? {
                 c.zaru_std = (d > 0.0).then(|| d.to_radians());
             }
-            c.max_accel_std = pos(z.max_accel_std, "zupt.max_accel_std")?.unwrap_or(c.max_accel_std);
+            c.max_accel_std =
+                pos(z.max_accel_std, "zupt.max_accel_std")?.unwrap_or(c.max_accel_std);
             if let Some(d) = pos(z.max_gyro_std_dps, "zupt.max_gyro_std_dps")? {
                 c.max_gyro_std = d.to_radians();
             }
@@ -288,7 +298,7 @@ pub struct EskfRun {
     /// Residual IMU–GNSS time offset estimated on the inputs (after any
     /// offset the loading applied), with its σ ([`auto_estimate`]); reported,
     /// not applied.
-    pub time_offset_estimate: TimeOffsetEstimate,
+    pub time_offset_estimate: AutoOffset,
     /// IMU samples given, and of them before `[input] start`.
     pub imu_samples_read: usize,
     pub imu_samples_before_start: usize,
@@ -331,7 +341,26 @@ pub(crate) fn run_eskf_span(
     span: &Span,
     aux: Option<&AuxSeries>,
 ) -> Result<EskfRun> {
-    let setup = filter_setup(cfg, base_dir)?;
+    let mut setup = filter_setup(cfg, base_dir)?;
+    // Noise from a sensor preset (datasheet, quiet bench) is raised to the
+    // white noise the recording shows (vibration), never lowered.
+    if setup.sensor.is_some() {
+        if let Some((g, a)) = measured_white_noise(span.imu) {
+            let n = &mut setup.eskf.noise;
+            if g > n.arw.max() || a > n.vrw.max() {
+                setup.noise_source += &format!(
+                    "; white noise raised to the level the recording shows (vibration): \
+                     ARW {:.3}°/√h, VRW {:.4} m/s/√h measured, datasheet {:.3}°/√h, {:.4} m/s/√h",
+                    g.to_degrees() * 60.0,
+                    a * 60.0,
+                    n.arw.max().to_degrees() * 60.0,
+                    n.vrw.max() * 60.0
+                );
+                n.arw = n.arw.map(|x| x.max(g));
+                n.vrw = n.vrw.map(|x| x.max(a));
+            }
+        }
+    }
     let ecfg = setup.eskf;
     let (imu, gnss) = (span.imu, &span.gnss[..]);
     let model = AlignModel {

@@ -99,9 +99,7 @@ pub fn run_kf_gins(yaml: &Path, args: &KfGinsOptions) -> Result<KfGinsRun> {
         eprintln!("read inputs: {:.3} s", t_read.elapsed().as_secs_f64());
     }
     let mut ecfg = cfg.eskf_config();
-    let platform = args
-        .platform
-        .or(args.enhanced.then_some(Platform::Car));
+    let platform = args.platform.or(args.enhanced.then_some(Platform::Car));
     if let Some(p) = platform {
         ecfg = p.profile().apply(ecfg);
     }
@@ -139,6 +137,7 @@ pub fn run_kf_gins(yaml: &Path, args: &KfGinsOptions) -> Result<KfGinsRun> {
         cfg.endtime
     };
     let mut eskf = Eskf::new(ecfg, cfg.init_nav(), cfg.init_errors(), &cfg.init_std());
+
     let t_filter = Instant::now();
     let r = filter(&mut eskf, &input, cfg.starttime, end, &out_dir, args.smooth)?;
     if args.verbose {

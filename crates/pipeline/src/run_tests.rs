@@ -503,7 +503,10 @@ fn raw_csv_drive_matches_the_prepared_kfgins_file() {
     let (rms_csv, s) = rms("csv");
     eprintln!("horizontal RMS vs the .pos: raw CSV {rms_csv:.4} m, imu.txt {rms_txt:.4} m");
     let tau = s["inputs"]["imu_time_offset_applied_s"].as_f64().unwrap();
-    assert!((tau + 0.2).abs() < 0.03, "estimated IMU offset {tau}");
+    // The stamps lag by ≈ 0.2 s (README); `auto` applies the least extreme
+    // of its model variants (the antenna-lever fit says −0.15 s, without it
+    // −0.21 s), so anything clearly negative and within that spread.
+    assert!((-0.25..-0.1).contains(&tau), "estimated IMU offset {tau}");
     let imu = &s["inputs"]["imu"];
     assert_eq!(imu["used"], 53_720);
     let rejected: u64 = imu["rejected"]
