@@ -167,7 +167,10 @@ fn course_at(
             break;
         }
         let (rm, rn) = earth::radii(a.lat);
-        let (dn, de) = ((b.lat - a.lat) * (rm + a.h), (b.lon - a.lon) * (rn + a.h) * a.lat.cos());
+        let (dn, de) = (
+            (b.lat - a.lat) * (rm + a.h),
+            (b.lon - a.lon) * (rn + a.h) * a.lat.cos(),
+        );
         let len = dn.hypot(de);
         let sp = (a.std_ned.xy().norm_squared() + b.std_ned.xy().norm_squared()).sqrt();
         let std = sp / len.max(1e-9);
@@ -232,7 +235,13 @@ pub fn align(
     };
     let std_user = |d: f64| d.to_radians();
     let att_std_given = cfg.init.attitude_std_deg.map(|a| a.map(std_user));
-    let (bg0, bg_std) = bias_prior(cal.as_ref(), model, yaw_known.as_ref().map(|y| y.0), first.lat, dt_imu);
+    let (bg0, bg_std) = bias_prior(
+        cal.as_ref(),
+        model,
+        yaw_known.as_ref().map(|y| y.0),
+        first.lat,
+        dt_imu,
+    );
 
     // 2a. Static start with a known heading: start at the first sample.
     if let (Some(c), Some((yaw, yaw_std, how))) = (&cal, &yaw_known) {
@@ -240,8 +249,8 @@ pub fn align(
             Some(a) => (a[0].to_radians(), a[1].to_radians()),
             None => (c.roll, c.pitch),
         };
-        let tilt_std = (model.sensor.map_or(0.2, |s| s.init_ba_std) / 9.81)
-            .max(0.2f64.to_radians());
+        let tilt_std =
+            (model.sensor.map_or(0.2, |s| s.init_ba_std) / 9.81).max(0.2f64.to_radians());
         let att = att_std_given.map_or(Vec3::new(tilt_std, tilt_std, *yaw_std), Vec3::from);
         let mut nav = NavState {
             q_bn: q_bn_from_rpy(&Vec3::new(roll, pitch, *yaw)),
@@ -252,7 +261,14 @@ pub fn align(
             .position
             .map(|p| (p[0].to_radians(), p[1].to_radians(), p[2]))
             .unwrap_or((first.lat, first.lon, first.h));
-        place(&mut nav, lat, lon, h, &model.lever_arm_b, cfg.init.position.is_none());
+        place(
+            &mut nav,
+            lat,
+            lon,
+            h,
+            &model.lever_arm_b,
+            cfg.init.position.is_none(),
+        );
         nav.v_n = cfg.init.velocity.map_or(Vec3::zeros(), Vec3::from);
         let init_std = init_std(cfg, model, first.std_ned, Vec3::repeat(0.05), att, bg_std);
         return Ok(Alignment {
@@ -290,8 +306,8 @@ pub fn align(
     let mut gsf = YawGsf::new(gcfg);
     // Without a platform profile the vehicle is assumed to move forward (the
     // KF-GINS model's users, cars): the course is the heading there too.
-    let use_course = model.profile.is_none_or(|p| p.course_is_heading)
-        && matches!(source, "auto" | "course");
+    let use_course =
+        model.profile.is_none_or(|p| p.course_is_heading) && matches!(source, "auto" | "course");
     let use_gsf = matches!(source, "auto" | "gsf");
     // Heading change between two times from the z gyro (a straightness test
     // for course chords; tilt ignored: cos 10° = 0.985).
@@ -586,7 +602,9 @@ fn init_std(
         pos: i
             .position_std_m
             .map_or(pos_std.map(|x| x.max(0.02)), Vec3::repeat),
-        vel: i.velocity_std_m_s.map_or(sv.map(|x| x.max(0.01)), Vec3::repeat),
+        vel: i
+            .velocity_std_m_s
+            .map_or(sv.map(|x| x.max(0.01)), Vec3::repeat),
         att,
         bg: bg_std,
         ba: Vec3::repeat(s.map_or(0.2, |s| s.init_ba_std)),

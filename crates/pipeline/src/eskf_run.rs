@@ -8,14 +8,14 @@ use crate::check::smoothed_solution;
 use crate::config::{resolve_path, RunConfig};
 use crate::error::{PipelineError, Result};
 use crate::input::AuxSeries;
-use crate::time_offset::{auto_estimate, time_offset_note};
-use navfuse_core::ins::time_offset::TimeOffsetEstimate;
 use crate::profile::{Platform, Profile};
 use crate::sensors::{imu_noise_preset, SensorNoise, DEFAULT_IMU_PRESET};
+use crate::time_offset::{auto_estimate, time_offset_note};
 use navfuse_core::estimators::adaptive::{AdaptedNoise, AdaptiveConstraints};
 use navfuse_core::estimators::eskf::{
     rts_smooth, Eskf, EskfConfig, EskfStats, NhcConfig, UpdateLog,
 };
+use navfuse_core::ins::time_offset::TimeOffsetEstimate;
 use navfuse_core::types::{Estimator, Event, GnssFix, ImuSample, NavSolution};
 use navfuse_core::Vec3;
 use navfuse_io::kfgins_yaml::KfGinsConfig;
@@ -49,6 +49,7 @@ pub(crate) fn select_span<'a>(
     imu: &'a [ImuSample],
     gnss_all: &'a [GnssFix],
 ) -> Result<Span<'a>> {
+    crate::run_checks::check_run_keys(cfg, imu, gnss_all)?;
     let start = cfg.input.start.unwrap_or(f64::NEG_INFINITY);
     let i0 = imu.partition_point(|s| s.t < start);
     let imu = &imu[i0..];
@@ -107,9 +108,9 @@ pub fn filter_setup(cfg: &RunConfig, base_dir: &Path) -> Result<FilterSetup> {
         f.imu_preset.is_some(),
     ];
     if given.iter().filter(|g| **g).count() > 1 {
-        return Err(cfg.err(
-            "[filter] give one IMU noise source: noise_yaml, imu_noise or imu_preset",
-        ));
+        return Err(
+            cfg.err("[filter] give one IMU noise source: noise_yaml, imu_noise or imu_preset")
+        );
     }
     let mut sensor = None;
     let (mut ecfg, mut noise_source) = if let Some(y) = &f.noise_yaml {
@@ -231,14 +232,18 @@ fn override_constraints(cfg: &RunConfig, pr: &mut Profile) -> Result<()> {
         if z.enabled == Some(false) {
             pr.zupt = None;
         } else {
-            let mut c = pr.zupt.unwrap_or(Platform::Car.profile().zupt.unwrap_or_else(
-                || unreachable!("the car profile has a standstill detector"),
-            ));
+            let mut c = pr.zupt.unwrap_or(
+                Platform::Car
+                    .profile()
+                    .zupt
+                    .unwrap_or_else(|| unreachable!("the car profile has a standstill detector")),
+            );
             c.vel_std = pos(z.vel_std, "zupt.vel_std")?.unwrap_or(c.vel_std);
             if let Some(d) = pos(z.zaru_std_dps, "zupt.zaru_std_dps")? {
                 c.zaru_std = (d > 0.0).then(|| d.to_radians());
             }
-            c.max_accel_std = pos(z.max_accel_std, "zupt.max_accel_std")?.unwrap_or(c.max_accel_std);
+            c.max_accel_std =
+                pos(z.max_accel_std, "zupt.max_accel_std")?.unwrap_or(c.max_accel_std);
             if let Some(d) = pos(z.max_gyro_std_dps, "zupt.max_gyro_std_dps")? {
                 c.max_gyro_std = d.to_radians();
             }

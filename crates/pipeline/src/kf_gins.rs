@@ -99,9 +99,7 @@ pub fn run_kf_gins(yaml: &Path, args: &KfGinsOptions) -> Result<KfGinsRun> {
         eprintln!("read inputs: {:.3} s", t_read.elapsed().as_secs_f64());
     }
     let mut ecfg = cfg.eskf_config();
-    let platform = args
-        .platform
-        .or(args.enhanced.then_some(Platform::Car));
+    let platform = args.platform.or(args.enhanced.then_some(Platform::Car));
     if let Some(p) = platform {
         ecfg = p.profile().apply(ecfg);
     }
