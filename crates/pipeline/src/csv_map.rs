@@ -434,4 +434,67 @@ mod tests {
             .to_string()
             .contains("rpm"));
     }
+
+    /// Old preset names still work but say they are deprecated; a preset's
+    /// mounting applied unasked is a warning, stated it is not.
+    #[test]
+    fn preset_aliases_and_unasked_mounting_warn() {
+        let plan = |c: CsvCfg| csv_plan(&c, 100.0, None).unwrap();
+        let old = plan(CsvCfg {
+            preset: Some("drive_0708".into()),
+            ..Default::default()
+        });
+        let new = plan(CsvCfg {
+            preset: Some("rtklib-imu-gpst".into()),
+            ..Default::default()
+        });
+        assert_eq!(old.cfg, new.cfg);
+        assert_eq!(old.preset, Some("rtklib-imu-gpst"));
+        assert_eq!(old.warnings.len(), 2, "{:?}", old.warnings);
+        assert!(
+            old.warnings[0].contains("deprecated") && old.warnings[0].contains("rtklib-imu-gpst")
+        );
+        assert_eq!(new.warnings.len(), 1, "{:?}", new.warnings);
+        assert!(
+            new.warnings[0].contains("misalign_rpy_deg = [0.0, -6.79, 5.35]")
+                && new.warnings[0].contains("mount_rpy_deg = [180.0, 0.0, 180.0]"),
+            "{}",
+            new.warnings[0]
+        );
+        let stated = plan(CsvCfg {
+            preset: Some("rtklib-imu-gpst".into()),
+            mount_rpy_deg: Some([180.0, 0.0, 180.0]),
+            misalign_rpy_deg: Some([0.0; 3]),
+            ..Default::default()
+        });
+        assert!(stated.warnings.is_empty(), "{:?}", stated.warnings);
+        assert_eq!(stated.cfg.misalign_rpy_deg, Some([0.0; 3]));
+        let vn = plan(CsvCfg {
+            preset: Some("vn310".into()),
+            ..Default::default()
+        });
+        assert_eq!(
+            vn.warnings.len(),
+            1,
+            "only the deprecation: {:?}",
+            vn.warnings
+        );
+        // The counter layout fits its clock; a time base contradicting a layout is an error.
+        let counter = plan(CsvCfg {
+            preset: Some("rtklib-imu-counter".into()),
+            ..Default::default()
+        });
+        assert_eq!(counter.counter.as_ref().unwrap().col, Col::Index(6));
+        let e = csv_plan(
+            &CsvCfg {
+                preset: Some("rtklib-imu-gpst".into()),
+                ..Default::default()
+            },
+            100.0,
+            Some(TimeBase::UnixUtc),
+        )
+        .unwrap_err()
+        .to_string();
+        assert!(e.contains("contradicts"), "{e}");
+    }
 }

@@ -6,6 +6,14 @@
 //! preset or a column map). GNSS: KF-GINS text (`kf-gins`), RTKLIB `.pos`
 //! (`pos`), NMEA 0183 (`nmea`) or u-blox UBX NAV-PVT (`ubx`).
 //!
+//! Time bases are stated, never guessed silently: `[input] imu_time_base`
+//! (or `[input.csv] time_base`; a counter column with `[input] imu_tag` is
+//! `counter_tag`, its clock fitted on the tag file, [`crate::imu_clock`])
+//! and `gnss_time_base` (checked against the format). An undeclared CSV
+//! time column whose first stamp is no plausible GPS-seconds date is an
+//! error naming the likely base ([`crate::run_checks`]); IMU and GNSS spans
+//! that do not overlap are an error naming both.
+//!
 //! Time: the run works on the IMU's time base. KF-GINS files carry the GPS
 //! time of week only; the other formats carry full GPS seconds. When the two
 //! streams differ, the GNSS times are moved to the IMU's base (the week is

@@ -33,6 +33,8 @@ mod summary;
 pub mod time_offset;
 
 #[cfg(test)]
+mod input_tests;
+#[cfg(test)]
 mod kf_gins_tests;
 #[cfg(test)]
 mod run_tests;
