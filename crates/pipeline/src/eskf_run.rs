@@ -48,6 +48,7 @@ pub(crate) fn select_span<'a>(
     imu: &'a [ImuSample],
     gnss_all: &'a [GnssFix],
 ) -> Result<Span<'a>> {
+    crate::run_checks::check_run_keys(cfg, imu, gnss_all)?;
     let start = cfg.input.start.unwrap_or(f64::NEG_INFINITY);
     let i0 = imu.partition_point(|s| s.t < start);
     let imu = &imu[i0..];

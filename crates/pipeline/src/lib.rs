@@ -17,6 +17,7 @@ pub mod config;
 pub mod csv_map;
 pub mod error;
 pub mod eskf_run;
+pub mod imu_clock;
 pub mod input;
 pub mod kf_gins;
 mod kf_gins_out;
@@ -24,11 +25,15 @@ pub mod kfgins_input;
 mod other;
 pub mod outputs;
 pub mod profile;
+pub mod resolved;
 pub mod run;
+pub mod run_checks;
 pub mod sensors;
 mod summary;
 pub mod time_offset;
 
+#[cfg(test)]
+mod input_tests;
 #[cfg(test)]
 mod kf_gins_tests;
 #[cfg(test)]

@@ -18,6 +18,9 @@ pub(crate) struct Summary<'a> {
     pub warnings: Vec<String>,
     /// Per input file: records read, used, skipped, rejected by reason.
     pub inputs: serde_json::Value,
+    /// The effective reader configuration (format, time base, columns,
+    /// units, mounting, counter clock; [`crate::resolved`]).
+    pub resolved_input: &'a serde_json::Value,
     pub imu_samples_read: usize,
     pub imu_samples_before_start: usize,
     pub gnss_fixes_read: usize,
@@ -54,6 +57,7 @@ impl<'a> Summary<'a> {
             }),
             warnings: run.warnings.clone(),
             inputs,
+            resolved_input: &serde_json::Value::Null,
             imu_samples_read: run.imu_samples_read,
             imu_samples_before_start: run.imu_samples_before_start,
             gnss_fixes_read: run.gnss_fixes_read,
