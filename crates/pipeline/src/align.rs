@@ -18,6 +18,7 @@
 //!      [`GSF_HANDOVER_STD`]. The GSF also carries roll and pitch through
 //!      the motion (centripetal-compensated tilt), so nothing is levelled
 //!      while moving.
+//!
 //!    The filter starts at the first GNSS epoch where the heading is known,
 //!    at that fix's velocity, with σ from the sources. Before that there is no
 //!    INS solution. If the heading never becomes observable (no turn, no

@@ -89,31 +89,6 @@ pub fn imu_noise_preset(name: &str) -> Result<SensorNoise> {
     })
 }
 
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn every_gyro_preset_converts_and_unknown_names_list_the_presets() {
-        for p in IMU_PRESETS {
-            match imu_noise_preset(p) {
-                Ok(s) => {
-                    assert!(s.noise.arw.x >= 0.0 && s.noise.vrw.x >= 0.0, "{p}");
-                    assert!(s.init_bg_std >= s.noise.bg_std.x, "{p}");
-                }
-                // Accelerometer-only presets are refused with a reason.
-                Err(e) => assert!(e.to_string().contains("no gyro"), "{p}: {e}"),
-            }
-        }
-        let e = imu_noise_preset("nope").unwrap_err().to_string();
-        assert!(e.contains("adis16465") && e.contains("nope"), "{e}");
-        // The default is the noisiest MEMS gyro of the table.
-        let d = imu_noise_preset(DEFAULT_IMU_PRESET).unwrap();
-        let i = imu_noise_preset("adis16465").unwrap();
-        assert!(d.noise.arw.x > i.noise.arw.x && d.init_bg_std > i.init_bg_std);
-    }
-}
-
 /// The white-noise densities the recording itself shows, per sensor:
 /// `(gyro [rad/√s], accel [m/s/√s])`, from second differences of the rate
 /// samples (`x_{k+1} − 2x_k + x_{k−1}` has variance `6 N²/dt` for white rate
@@ -160,4 +135,67 @@ pub fn measured_white_noise(imu: &[ImuSample]) -> Option<(f64, f64)> {
     };
     let (g, a) = (med(&mut vg), med(&mut va));
     (g.is_finite() && a.is_finite()).then_some((g, a))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn every_gyro_preset_converts_and_unknown_names_list_the_presets() {
+        for p in IMU_PRESETS {
+            match imu_noise_preset(p) {
+                Ok(s) => {
+                    assert!(s.noise.arw.x >= 0.0 && s.noise.vrw.x >= 0.0, "{p}");
+                    assert!(s.init_bg_std >= s.noise.bg_std.x, "{p}");
+                }
+                // Accelerometer-only presets are refused with a reason.
+                Err(e) => assert!(e.to_string().contains("no gyro"), "{p}: {e}"),
+            }
+        }
+        let e = imu_noise_preset("nope").unwrap_err().to_string();
+        assert!(e.contains("adis16465") && e.contains("nope"), "{e}");
+        // The default is the noisiest MEMS gyro of the table.
+        let d = imu_noise_preset(DEFAULT_IMU_PRESET).unwrap();
+        let i = imu_noise_preset("adis16465").unwrap();
+        assert!(d.noise.arw.x > i.noise.arw.x && d.init_bg_std > i.init_bg_std);
+    }
+
+    #[test]
+    fn measured_white_noise_recovers_a_white_density_and_ignores_smooth_motion() {
+        // White gyro/accel noise of known density on a smooth 2 Hz sway:
+        // the second-difference estimate finds the density within 10 %.
+        let (ng, na, dt) = (1e-3, 5e-3, 0.01);
+        let mut x: u64 = 88172645463325252;
+        let mut gauss = || {
+            let mut u = || {
+                x ^= x << 13;
+                x ^= x >> 7;
+                x ^= x << 17;
+                (x >> 11) as f64 / (1u64 << 53) as f64
+            };
+            let (a, b) = (u().max(1e-300), u());
+            (-2.0 * a.ln()).sqrt() * (core::f64::consts::TAU * b).cos()
+        };
+        let imu: Vec<ImuSample> = (0..6000)
+            .map(|k| {
+                let t = k as f64 * dt;
+                let sway = (core::f64::consts::TAU * 2.0 * t).sin();
+                let w = Vec3::new(0.3 * sway, 0.0, 0.1) * dt
+                    + Vec3::from_fn(|_, _| gauss()) * ng * dt.sqrt();
+                let f = Vec3::new(2.0 * sway, 0.0, -9.81) * dt
+                    + Vec3::from_fn(|_, _| gauss()) * na * dt.sqrt();
+                ImuSample {
+                    t,
+                    dt,
+                    dtheta_b: w,
+                    dvel_b: f,
+                }
+            })
+            .collect();
+        let (g, a) = measured_white_noise(&imu).unwrap();
+        assert!((g / ng - 1.0).abs() < 0.1, "gyro {g} vs {ng}");
+        assert!((a / na - 1.0).abs() < 0.1, "accel {a} vs {na}");
+        assert!(measured_white_noise(&imu[..500]).is_none());
+    }
 }
