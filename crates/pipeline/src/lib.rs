@@ -15,18 +15,21 @@ pub mod align;
 pub mod check;
 pub mod config;
 pub mod csv_map;
+pub mod csv_sniff;
 pub mod error;
 pub mod eskf_run;
 pub mod input;
 pub mod kf_gins;
 mod kf_gins_out;
 pub mod kfgins_input;
+pub mod noise_cfg;
 mod other;
 pub mod outputs;
 pub mod profile;
 pub mod run;
 pub mod sensors;
 mod summary;
+pub mod template;
 pub mod time_offset;
 
 #[cfg(test)]
