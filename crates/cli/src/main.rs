@@ -15,6 +15,7 @@ mod eval;
 mod exp_seed002;
 mod exp_seed004;
 mod experiment;
+mod init;
 mod kf_gins;
 mod live;
 mod report;
@@ -38,6 +39,8 @@ enum Command {
     Convert(convert::Args),
     /// Run an estimator on IMU/GNSS recordings with a TOML config.
     Run(run::Args),
+    /// Write a commented `navfuse run` TOML template for a platform.
+    Init(init::Args),
     /// Run a KF-GINS YAML configuration (drop-in replacement for KF-GINS).
     KfGins(kf_gins::Args),
     /// Evaluate a solution against a reference trajectory.
@@ -69,6 +72,7 @@ fn main() -> ExitCode {
     let result = match cli.command {
         Command::Convert(a) => convert::run(a),
         Command::Run(a) => run::run(a),
+        Command::Init(a) => init::run(a),
         Command::KfGins(a) => kf_gins::run(a),
         Command::Eval(a) => eval::run(a),
         Command::Bench(a) => bench::run(a),

@@ -9,7 +9,8 @@ use std::path::{Path, PathBuf};
 /// Run the ESKF on IMU/GNSS recordings with a TOML config.
 #[derive(ClapArgs, Debug)]
 pub struct Args {
-    /// TOML run configuration (paths inside are relative to it). See `RunConfig`.
+    /// TOML run configuration (paths inside are relative to it). See docs/config.md;
+    /// `navfuse init` writes a commented template.
     pub config: PathBuf,
     /// Output folder (default: `output` from the config, else `./navfuse-out`).
     #[arg(long)]

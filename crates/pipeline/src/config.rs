@@ -5,12 +5,14 @@ use crate::csv_map::CsvCfg;
 use crate::error::{PipelineError, Result};
 use crate::profile::Platform;
 use crate::time_offset::TimeOffsetCfg;
-use navfuse_io::kfgins_yaml::KfGinsNoise;
+use crate::noise_cfg::ImuNoiseCfg;
 use navfuse_io::timebase::TimeBase;
 use serde::{Deserialize, Serialize};
 use std::path::{Path, PathBuf};
 
 /// `navfuse run` configuration (TOML). Units: degrees, metres, seconds.
+/// Every key with its unit, default and per-platform values: `docs/config.md`;
+/// `navfuse init --platform P` writes a commented template.
 ///
 /// ```toml
 /// [input]
@@ -44,7 +46,9 @@ use std::path::{Path, PathBuf};
 /// preset = "enhanced"        # "kf-gins" | "enhanced" | "seed001" (eskf)
 /// noise_yaml = "kf.yaml"     # optional: take the IMU noise from a KF-GINS YAML
 /// # or [filter.imu_noise]: arw = [8, 8, 8], vrw, gbstd, abstd, gsstd, asstd, corrtime
-/// # (KF-GINS keys and units); neither: the seed 001 preset's noise
+/// # (KF-GINS keys and units), or datasheet keys: gyro_noise_dps_rthz,
+/// # accel_noise_ug_rthz, gyro_bias_instability_dph, accel_bias_instability_ug,
+/// # bias_corr_time_s (crate::noise_cfg); neither: the seed 001 preset's noise
 /// lever_arm = [0.0, -0.05, 0.0]
 /// smooth = true
 ///
@@ -199,8 +203,9 @@ pub struct FilterCfg {
     pub noise_yaml: Option<String>,
     /// `[filter.imu_noise]`: the IMU noise in KF-GINS's keys and units
     /// (arw deg/√h, vrw m/s/√h, gbstd deg/h, abstd mGal, gsstd/asstd ppm,
-    /// corrtime h). Without it or `noise_yaml`: the seed 001 preset's.
-    pub imu_noise: Option<KfGinsNoise>,
+    /// corrtime h) or in datasheet keys ([`crate::noise_cfg`]). Without it
+    /// or `noise_yaml`: the seed 001 preset's.
+    pub imu_noise: Option<ImuNoiseCfg>,
     #[serde(default)]
     pub lever_arm: [f64; 3],
     #[serde(default)]

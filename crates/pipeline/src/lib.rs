@@ -15,6 +15,7 @@ pub mod align;
 pub mod check;
 pub mod config;
 pub mod csv_map;
+pub mod csv_sniff;
 pub mod error;
 pub mod eskf_run;
 pub mod imu_clock;
@@ -22,6 +23,7 @@ pub mod input;
 pub mod kf_gins;
 mod kf_gins_out;
 pub mod kfgins_input;
+pub mod noise_cfg;
 mod other;
 pub mod outputs;
 pub mod profile;
@@ -30,6 +32,7 @@ pub mod run;
 pub mod run_checks;
 pub mod sensors;
 mod summary;
+pub mod template;
 pub mod time_offset;
 
 #[cfg(test)]
