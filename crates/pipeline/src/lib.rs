@@ -17,6 +17,7 @@ pub mod config;
 pub mod csv_map;
 pub mod error;
 pub mod eskf_run;
+pub mod experiments;
 pub mod input;
 pub mod kf_gins;
 mod kf_gins_out;
