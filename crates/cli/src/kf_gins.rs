@@ -20,9 +20,14 @@ use std::time::Instant;
 pub struct Args {
     /// KF-GINS YAML configuration (paths inside are relative to it).
     pub config: PathBuf,
-    /// navfuse's land-vehicle configuration: NHC, ZUPT/ZARU, χ² gating.
+    /// navfuse's land-vehicle configuration: NHC, ZUPT/ZARU, χ² gating
+    /// (the same as `--platform car`).
     #[arg(long)]
     pub enhanced: bool,
+    /// Platform profile: car, robot, pedestrian, uav, marine, static (its
+    /// constraints and gating; see docs/config.md).
+    #[arg(long)]
+    pub platform: Option<navfuse_pipeline::profile::Platform>,
     /// Also run the RTS smoother and write `KF_GINS_Navresult_smoothed.nav`.
     #[arg(long)]
     pub smooth: bool,
@@ -42,8 +47,9 @@ pub struct Args {
     #[arg(long, short)]
     pub verbose: bool,
     /// IMU–GNSS time offset added to the IMU stamps: seconds, `auto`
-    /// (course-rate / yaw-rate cross-correlation) or `none`. Default: `auto`
-    /// with `--enhanced`, else `none` (KF-GINS applies none).
+    /// (estimated with its σ from the GNSS course and the z gyro, applied
+    /// only when significant) or `none`. Default: `auto` with `--enhanced` or
+    /// `--platform`, else `none` (KF-GINS applies none).
     #[arg(long)]
     pub time_offset: Option<String>,
     /// Print accuracy against this reference (KF-GINS .nav layout of the
@@ -120,6 +126,7 @@ pub fn run(args: Args) -> Result<(), String> {
 pub fn run_config(args: &Args) -> Result<KfGinsRun, PipelineError> {
     let opts = KfGinsOptions {
         enhanced: args.enhanced,
+        platform: args.platform,
         smooth: args.smooth,
         gate: args.gate,
         position_until: args.position_until,

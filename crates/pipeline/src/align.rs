@@ -1,22 +1,78 @@
-//! Initial state of the ESKF run (`navfuse run`'s alignment policy): static
-//! calibration over the detected static window (`SEEDS.md §1` eq. 1–2) for
-//! roll, pitch and the gyro bias; the heading given, from an AHRS yaw or
-//! magnetometer column averaged over that window, or from the GNSS course
-//! once moving (a MEMS gyro cannot find north). Frames: body FRD, nav NED.
+//! Initial state of the ESKF run (`navfuse run`'s alignment policy), at any
+//! speed and any start. Frames: body FRD, nav NED; angles in rad.
+//!
+//! 1. **Static window** — the longest initial stretch where the IMU is quiet
+//!    ([`align::initial_static_len`]) *and* the GNSS agrees the antenna is at
+//!    rest (a car cruising on a smooth straight road is quiet too). At least
+//!    [`MIN_STATIC_S`] of it: levelling and static calibration (`SEEDS.md §1`
+//!    eq. 1–2) give roll, pitch and the gyro bias. Never levelled from a
+//!    moving window.
+//! 2. **Heading** — given (`[init] attitude` / `heading_deg`), an AHRS yaw or
+//!    magnetometer averaged over the static window, else found in motion:
+//!    - the GNSS course, for platforms whose course is their heading
+//!      (non-holonomic: car, robot), once the course σ ≈ σ_v/speed is below
+//!      [`COURSE_MAX_STD`] — a speed threshold from the velocity σ, not a
+//!      fixed speed;
+//!    - a Gaussian-sum filter over yaw hypotheses ([`YawGsf`]) fed with the
+//!      IMU and the GNSS velocity, for any platform, once its yaw σ is below
+//!      [`GSF_HANDOVER_STD`]. The GSF also carries roll and pitch through
+//!      the motion (centripetal-compensated tilt), so nothing is levelled
+//!      while moving.
+//!
+//!    The filter starts at the first GNSS epoch where the heading is known,
+//!    at that fix's velocity, with σ from the sources. Before that there is no
+//!    INS solution. If the heading never becomes observable (no turn, no
+//!    acceleration, no course), the run still starts, at the epoch of the
+//!    smallest GSF yaw σ, with that σ and a warning.
+//! 3. **Initial velocity** — `[init] velocity`, 0 in a static start, else the
+//!    GNSS velocity (Doppler when the fix has one, else from positions).
 
 use crate::config::RunConfig;
 use crate::error::{PipelineError, Result};
 use crate::input::AuxSeries;
-use navfuse_core::estimators::eskf::{ImuErrors, InitStd};
+use crate::profile::Profile;
+use crate::sensors::SensorNoise;
+use navfuse_core::earth;
+use navfuse_core::estimators::eskf::{ImuErrors, ImuNoise, InitStd};
 use navfuse_core::ins::align;
 use navfuse_core::ins::mech::{q_bn_from_rpy, NavState};
+use navfuse_core::ins::yaw_gsf::{GsfConfig, YawGsf};
 use navfuse_core::types::{GnssFix, ImuSample};
-use navfuse_core::Vec3;
+use navfuse_core::{Mat3, Vec3};
+
+/// Shortest static window used for levelling [s]: the mean of 1 s of MEMS
+/// specific force has σ ≈ VRW/√1 s ≲ 2.5 mm/s² for consumer parts
+/// (0.15 m/s/√h), i.e. < 0.015° of tilt, below the accelerometer-bias
+/// limit; shorter windows are dominated by vibration transients.
+pub const MIN_STATIC_S: f64 = 1.0;
+/// Largest GNSS speed [m/s] with which a quiet IMU window still counts as
+/// static: 3σ of a consumer receiver's Doppler velocity (0.1 m/s per axis).
+pub const STATIC_MAX_GNSS_SPEED: f64 = 0.3;
+/// Course σ at which the course becomes the heading [rad] (3°): within the
+/// ESKF's small-angle region with margin, and comparable to the unknown
+/// mounting/sideslip term [`COURSE_MOUNT_STD`] that is added to it.
+pub const COURSE_MAX_STD: f64 = 3.0 * core::f64::consts::PI / 180.0;
+/// Course ≠ heading for a non-holonomic vehicle by the IMU's yaw mounting
+/// misalignment and tyre sideslip: 2° (1σ), see [`crate::profile`].
+pub const COURSE_MOUNT_STD: f64 = 2.0 * core::f64::consts::PI / 180.0;
+/// GSF yaw σ at which the ESKF takes over [rad] (5°): at 3σ = 15° the
+/// ESKF's small-angle attitude error model neglects 1 − cos 15° ≈ 3.4 % of
+/// the rotated specific force for the first seconds, which its GNSS
+/// velocity updates absorb; waiting for 2° costs tens of seconds of walking.
+pub const GSF_HANDOVER_STD: f64 = 5.0 * core::f64::consts::PI / 180.0;
+/// 1-σ of the GSF's roll/pitch at hand-over [rad] (2°): its tilt filter is
+/// corrected with the GNSS-derived acceleration, whose 1 Hz differencing
+/// leaves ≈ 0.3 m/s² of residual platform acceleration ≈ 1.8° of tilt.
+pub const GSF_TILT_STD: f64 = 2.0 * core::f64::consts::PI / 180.0;
+/// Earth rate, the part of a static gyro mean not separable from the bias
+/// before the heading is known [rad/s] (15.04°/h).
+const EARTH_RATE: f64 = 7.292_115e-5;
 
 /// Where and how the ESKF starts.
 #[derive(Clone, Debug)]
 pub struct Alignment {
-    /// Index in the IMU slice of the first sample the filter is fed.
+    /// Index in the IMU slice of the first sample the filter is fed; the
+    /// initial state holds at the end of that sample's interval.
     pub k_start: usize,
     /// Initial navigation state (IMU position, `v_n` NED, `q_bn`).
     pub nav: NavState,
@@ -26,6 +82,105 @@ pub struct Alignment {
     pub init_std: InitStd,
     /// What was done (the summary's `alignment`).
     pub description: String,
+    /// `static`, `static+course`, `static+gsf`, `course`, `gsf`, `given`, `gsf-unconverged`.
+    pub method: &'static str,
+    /// Length of the static window used [s] (0: none).
+    pub static_s: f64,
+    /// 1-σ of the initial yaw [rad].
+    pub yaw_std: f64,
+    /// Seconds from the first IMU sample to the filter's start.
+    pub wait_s: f64,
+    /// Warnings for the summary.
+    pub warnings: Vec<String>,
+}
+
+/// The sensor- and platform-dependent inputs of [`align`].
+#[derive(Clone, Copy, Debug)]
+pub struct AlignModel<'a> {
+    /// IMU noise in the filter (for the GSF and the initial bias σ).
+    pub noise: &'a ImuNoise,
+    /// The sensor preset, if known: turn-on bias σ for the initial covariance.
+    pub sensor: Option<&'a SensorNoise>,
+    /// The platform profile, if any (course = heading for NHC platforms).
+    pub profile: Option<&'a Profile>,
+    /// GNSS antenna in the body frame FRD [m].
+    pub lever_arm_b: Vec3,
+}
+
+/// A GNSS velocity (NED) with its per-axis σ at a fix: the fix's own
+/// (Doppler) velocity, else the central (or one-sided) position difference.
+fn gnss_velocity(gnss: &[GnssFix], j: usize) -> Option<(Vec3, Vec3)> {
+    let g = &gnss[j];
+    if let (Some(v), Some(s)) = (g.v_n, g.std_v_n) {
+        if v.iter().chain(s.iter()).all(|x| x.is_finite()) {
+            return Some((v, s.map(|x| x.max(0.01))));
+        }
+    }
+    let (a, b) = match (j.checked_sub(1), gnss.get(j + 1)) {
+        (Some(i), Some(_)) if gnss[j + 1].t - gnss[i].t <= 2.5 => (&gnss[i], &gnss[j + 1]),
+        (Some(i), _) if g.t - gnss[i].t <= 1.5 => (&gnss[i], g),
+        (_, Some(n)) if n.t - g.t <= 1.5 => (g, n),
+        _ => return None,
+    };
+    let dt = b.t - a.t;
+    if dt <= 1e-3 {
+        return None;
+    }
+    let (rm, rn) = earth::radii(a.lat);
+    let v = Vec3::new(
+        (b.lat - a.lat) * (rm + a.h) / dt,
+        (b.lon - a.lon) * (rn + a.h) * a.lat.cos() / dt,
+        -(b.h - a.h) / dt,
+    );
+    let s = (a.std_ned.component_mul(&a.std_ned) + b.std_ned.component_mul(&b.std_ned))
+        .map(|x| x.sqrt().max(0.005) / dt);
+    Some((v, s))
+}
+
+/// The course at fix `j` as a heading [rad] with its σ, when σ ≤
+/// [`COURSE_MAX_STD`]: from the fix's velocity (`v`, σ `sv`), else from the
+/// chord to an earlier fix up to 10 s back over which the gyro says the
+/// heading stayed within [`COURSE_MAX_STD`] (σ = position σ of both ends
+/// over the chord length; the chord's course is the heading at its middle,
+/// so the gyro's turn over the second half is added).
+fn course_at(
+    gnss: &[GnssFix],
+    j: usize,
+    v: &Vec3,
+    sv: &Vec3,
+    yaw_turn: &dyn Fn(f64, f64) -> f64,
+) -> Option<(f64, f64)> {
+    let std = sv.xy().norm() / v.xy().norm().max(1e-9);
+    if std <= COURSE_MAX_STD {
+        return Some((v.y.atan2(v.x), std));
+    }
+    let b = &gnss[j];
+    for a in gnss[..j].iter().rev() {
+        let dt = b.t - a.t;
+        if dt > 10.0 {
+            break;
+        }
+        if dt <= 0.0 {
+            continue;
+        }
+        let turn = yaw_turn(a.t, b.t);
+        if turn.abs() > COURSE_MAX_STD {
+            break;
+        }
+        let (rm, rn) = earth::radii(a.lat);
+        let (dn, de) = (
+            (b.lat - a.lat) * (rm + a.h),
+            (b.lon - a.lon) * (rn + a.h) * a.lat.cos(),
+        );
+        let len = dn.hypot(de);
+        let sp = (a.std_ned.xy().norm_squared() + b.std_ned.xy().norm_squared()).sqrt();
+        let std = sp / len.max(1e-9);
+        if std <= COURSE_MAX_STD {
+            let yaw = de.atan2(dn) + yaw_turn(0.5 * (a.t + b.t), b.t);
+            return Some((navfuse_core::attitude::wrap_pi(yaw), std));
+        }
+    }
+    None
 }
 
 /// The initial state for `imu` (already cut at `[input] start`) and the GNSS
@@ -35,159 +190,426 @@ pub fn align(
     imu: &[ImuSample],
     gnss: &[GnssFix],
     aux: Option<&AuxSeries>,
+    model: &AlignModel,
 ) -> Result<Alignment> {
-    // Alignment: static calibration over the detected static window
-    // (`SEEDS.md §1` eq. 1–2), heading given or from the GNSS course.
     let first = gnss
         .first()
         .ok_or_else(|| PipelineError::Alignment("no GNSS fixes".into()))?;
-    let n_static = align::initial_static_len(imu, 50, 0.15, 3.0f64.to_radians());
-    let cal = align::static_calibration(&imu[..n_static.max(2)], first.lat, first.h)
-        .ok_or_else(|| PipelineError::Alignment("static calibration failed".into()))?;
-    // Heading: given, AHRS or magnetometer average over the static window,
-    // or the GNSS course once moving (a MEMS gyro cannot find north).
-    let source = cfg.init.heading.as_deref().unwrap_or("auto");
-    let (t_s0, t_s1) = (imu[0].t - imu[0].dt, imu[n_static.max(2) - 1].t);
-    let ahrs = || aux.and_then(|a| a.mean_yaw(t_s0, t_s1));
-    let mag = || {
-        let m = aux?.mean_mag(t_s0, t_s1)?;
-        let dec = cfg
-            .init
-            .magnetic_declination_deg
-            .unwrap_or(0.0)
-            .to_radians();
-        align::heading_from_magnetometer(&m, cal.roll, cal.pitch, dec)
-    };
-    let dec_note = match cfg.init.magnetic_declination_deg {
-        Some(d) => format!("declination {d:+.2}°"),
-        None => "declination not given: 0 assumed".into(),
-    };
-    let static_heading = match (source, cfg.init.attitude) {
-        ("auto", Some(a)) => Some((a[2].to_radians(), "attitude given".to_string())),
-        ("auto", None) => ahrs()
-            .map(|y| (y, "AHRS yaw averaged over the static window".to_string()))
-            .or_else(|| {
-                mag().map(|y| {
-                    (y, format!("magnetometer averaged over the static window, tilt-compensated, {dec_note}"))
-                })
-            }),
-        ("ahrs", _) => Some((
-            ahrs().ok_or_else(|| PipelineError::Alignment("[init] heading = \"ahrs\": give [input.csv] ahrs_yaw (a column with samples in the static window)".into()))?,
-            "AHRS yaw averaged over the static window".to_string(),
-        )),
-        ("magnetometer", _) => Some((
-            mag().ok_or_else(|| PipelineError::Alignment("[init] heading = \"magnetometer\": give [input.csv] mag columns (samples in the static window, a horizontal field)".into()))?,
-            format!("magnetometer averaged over the static window, tilt-compensated, {dec_note}"),
-        )),
-        ("course", _) => None,
-        (h, _) => {
-            return Err(cfg.err(format!(
-                "[init] heading {h:?}: expected auto, ahrs, magnetometer or course"
-            )))
-        }
-    };
-    let (mut k_start, yaw, how) = match static_heading {
-        Some((y, how)) => (0usize, y, how),
-        None => {
-            // First pair of fixes ≥ 1 s apart with a course speed ≥ 3 m/s.
-            let mut found = None;
-            for w in gnss.windows(2) {
-                let dt = w[1].t - w[0].t;
-                if dt <= 0.0 {
-                    continue;
-                }
-                let (rm, rn) = navfuse_core::earth::radii(w[0].lat);
-                let v = Vec3::new(
-                    (w[1].lat - w[0].lat) * (rm + w[0].h) / dt,
-                    (w[1].lon - w[0].lon) * (rn + w[0].h) * w[0].lat.cos() / dt,
-                    -(w[1].h - w[0].h) / dt,
-                );
-                if let Some(y) = align::heading_from_velocity(&v, 3.0) {
-                    found = Some((w[1].t, y));
-                    break;
-                }
+    let mut warnings = Vec::new();
+    let dt_imu = imu[imu.len() / 2].dt.max(1e-4);
+    // 1. Static window: quiet IMU and a GNSS at rest.
+    let n_quiet = align::initial_static_len(imu, 50, 0.15, 3.0f64.to_radians());
+    let t_quiet_end = imu[n_quiet.max(1) - 1].t;
+    let gnss_moving = (0..gnss.len())
+        .take_while(|&j| gnss[j].t <= t_quiet_end)
+        .filter_map(|j| gnss_velocity(gnss, j))
+        .any(|(v, s)| v.xy().norm() > STATIC_MAX_GNSS_SPEED.max(3.0 * s.xy().norm()));
+    let static_s = n_quiet as f64 * dt_imu;
+    let is_static = static_s >= MIN_STATIC_S && !gnss_moving;
+    if n_quiet > 0 && !is_static {
+        warnings.push(format!(
+            "the first {static_s:.1} s of IMU are quiet but {}: not used for levelling",
+            if gnss_moving {
+                "the GNSS moves"
+            } else {
+                "shorter than 1 s"
             }
-            let (t, y) = found.ok_or_else(|| {
-                PipelineError::Alignment(
-                    "heading: no GNSS course ≥ 3 m/s found (give [init] attitude)".into(),
-                )
+        ));
+    }
+    let cal = if is_static {
+        align::static_calibration(&imu[..n_quiet], first.lat, first.h)
+    } else {
+        None
+    };
+    // Heading given or from an AHRS/magnetometer over the static window.
+    let source = cfg.init.heading.as_deref().unwrap_or("auto");
+    let given_yaw = cfg
+        .init
+        .heading_deg
+        .or(cfg.init.attitude.map(|a| a[2]))
+        .map(f64::to_radians);
+    let static_heading = static_heading(cfg, imu, aux, cal.as_ref(), n_quiet, source)?;
+    let yaw_known = match (source, given_yaw, &static_heading) {
+        ("auto", Some(y), _) => Some((y, 1.0f64.to_radians(), "heading given".to_string())),
+        (_, _, Some((y, how))) => Some((*y, 2.0f64.to_radians(), how.clone())),
+        _ => None,
+    };
+    let std_user = |d: f64| d.to_radians();
+    let att_std_given = cfg.init.attitude_std_deg.map(|a| a.map(std_user));
+    let (bg0, bg_std) = bias_prior(
+        cal.as_ref(),
+        model,
+        yaw_known.as_ref().map(|y| y.0),
+        first.lat,
+        dt_imu,
+    );
+
+    // 2a. Static start with a known heading: start at the first sample.
+    if let (Some(c), Some((yaw, yaw_std, how))) = (&cal, &yaw_known) {
+        let (roll, pitch) = match cfg.init.attitude {
+            Some(a) => (a[0].to_radians(), a[1].to_radians()),
+            None => (c.roll, c.pitch),
+        };
+        let tilt_std =
+            (model.sensor.map_or(0.2, |s| s.init_ba_std) / 9.81).max(0.2f64.to_radians());
+        let att = att_std_given.map_or(Vec3::new(tilt_std, tilt_std, *yaw_std), Vec3::from);
+        let mut nav = NavState {
+            q_bn: q_bn_from_rpy(&Vec3::new(roll, pitch, *yaw)),
+            ..Default::default()
+        };
+        let (lat, lon, h) = cfg
+            .init
+            .position
+            .map(|p| (p[0].to_radians(), p[1].to_radians(), p[2]))
+            .unwrap_or((first.lat, first.lon, first.h));
+        place(
+            &mut nav,
+            lat,
+            lon,
+            h,
+            &model.lever_arm_b,
+            cfg.init.position.is_none(),
+        );
+        nav.v_n = cfg.init.velocity.map_or(Vec3::zeros(), Vec3::from);
+        let init_std = init_std(cfg, model, first.std_ned, Vec3::repeat(0.05), att, bg_std);
+        return Ok(Alignment {
+            k_start: 0,
+            nav,
+            errors: ImuErrors {
+                bg: bg0,
+                ..Default::default()
+            },
+            init_std,
+            description: format!(
+                "static window {static_s:.1} s: roll {:.2}°, pitch {:.2}°, gyro bias from it; {how}",
+                roll.to_degrees(),
+                pitch.to_degrees()
+            ),
+            method: "static",
+            static_s,
+            yaw_std: att.z,
+            wait_s: 0.0,
+            warnings,
+        });
+    }
+
+    // 2b. In motion (or static with the heading still unknown): the GSF
+    // carries tilt and yaw hypotheses from the first sample.
+    let mut gcfg = GsfConfig {
+        arw: model.noise.arw.max(),
+        vrw: model.noise.vrw.max(),
+        gyro_bias_std: (bg_std.max() * bg_std.max() + EARTH_RATE * EARTH_RATE).sqrt(),
+        accel_bias_std: model.sensor.map_or(0.03, |s| s.init_ba_std),
+        converged_std: GSF_HANDOVER_STD,
+        ..GsfConfig::industrial_mems()
+    };
+    gcfg.gyro_bias_b = bg0;
+    let mut gsf = YawGsf::new(gcfg);
+    // Without a platform profile the vehicle is assumed to move forward (the
+    // KF-GINS model's users, cars): the course is the heading there too.
+    let use_course =
+        model.profile.is_none_or(|p| p.course_is_heading) && matches!(source, "auto" | "course");
+    let use_gsf = matches!(source, "auto" | "gsf");
+    // Heading change between two times from the z gyro (a straightness test
+    // for course chords; tilt ignored: cos 10° = 0.985).
+    let mut cum_z = Vec::with_capacity(imu.len() + 1);
+    cum_z.push(0.0);
+    for s in imu {
+        cum_z.push(cum_z[cum_z.len() - 1] + s.dtheta_b.z);
+    }
+    let yaw_turn = |ta: f64, tb: f64| {
+        let ia = imu.partition_point(|s| s.t < ta);
+        let ib = imu.partition_point(|s| s.t < tb);
+        cum_z[ib] - cum_z[ia]
+    };
+    let mut k = 0usize;
+    let mut best: Option<(usize, f64)> = None; // (fix index, yaw σ)
+    let mut chosen: Option<(usize, f64, f64, &'static str)> = None; // (j, yaw, σ, method)
+    let t_imu0 = imu[0].t - imu[0].dt;
+    for j in 0..gnss.len() {
+        let g = &gnss[j];
+        if g.t < t_imu0 {
+            continue;
+        }
+        while k < imu.len() && imu[k].t <= g.t {
+            let _ = gsf.push_imu(&imu[k]);
+            k += 1;
+        }
+        if k >= imu.len() {
+            break;
+        }
+        let Some((v, sv)) = gnss_velocity(gnss, j) else {
+            continue;
+        };
+        if gsf.push_gnss_velocity(g.t, &v, &sv).is_err() {
+            continue;
+        }
+        let Some(e) = gsf.estimate() else { continue };
+        // Tilt needs a few GNSS epochs of acceleration compensation in motion.
+        let tilt_ok = is_static || g.t - t_imu0 >= 3.0;
+        if !tilt_ok {
+            continue;
+        }
+        if let Some((yaw, yaw_std, _)) = &yaw_known {
+            chosen = Some((j, *yaw, *yaw_std, "given"));
+            break;
+        }
+        if use_course {
+            if let Some((yaw, course_std)) = course_at(gnss, j, &v, &sv, &yaw_turn) {
+                chosen = Some((j, yaw, course_std.hypot(COURSE_MOUNT_STD), "course"));
+                break;
+            }
+        }
+        if use_gsf && e.converged {
+            chosen = Some((j, e.yaw, e.std, "gsf"));
+            break;
+        }
+        if use_gsf && best.is_none_or(|(_, s)| e.std < s) {
+            best = Some((j, e.std));
+        }
+    }
+    let (j, yaw, yaw_std, method) = match chosen {
+        Some(c) => c,
+        None => {
+            // Never observable: start anyway from the best GSF epoch, honestly.
+            let (j, _) = best.ok_or_else(|| {
+                PipelineError::Alignment(if source == "course" {
+                    "heading: no GNSS course with σ ≤ 3° found (the antenna never moved fast \
+                     enough): give [init] heading_deg, a magnetometer or heading = \"auto\""
+                        .into()
+                } else {
+                    "heading: no GNSS velocity overlaps the IMU (check the time bases), \
+                     or give [init] heading_deg"
+                        .into()
+                })
             })?;
-            let k = imu.partition_point(|s| s.t < t);
-            (
-                k,
-                y,
-                format!(
-                    "yaw from the GNSS course at t = {t:.2} ({:.1}°)",
-                    y.to_degrees()
-                ),
-            )
+            let e = rerun_gsf_to(gcfg, imu, gnss, j)
+                .ok_or_else(|| PipelineError::Alignment("heading: GSF failed".into()))?;
+            warnings.push(format!(
+                "heading never became observable (no turns or accelerations, no usable course): \
+                 started with yaw σ {:.0}° — give [init] heading_deg",
+                e.std.to_degrees()
+            ));
+            (j, e.yaw, e.std, "gsf-unconverged")
         }
     };
-    let bg = align::gyro_bias(&cal, yaw, first.lat);
-    let (roll, pitch) = match cfg.init.attitude {
-        Some(a) => (a[0].to_radians(), a[1].to_radians()),
-        None => (cal.roll, cal.pitch),
+    let g = gnss[j];
+    let (roll, pitch) = match (cfg.init.attitude, method) {
+        (Some(a), _) => (a[0].to_radians(), a[1].to_radians()),
+        _ => {
+            let e = rerun_gsf_to(gcfg, imu, gnss, j)
+                .ok_or_else(|| PipelineError::Alignment("tilt: GSF failed".into()))?;
+            (e.roll, e.pitch)
+        }
     };
+    let (v, sv) = gnss_velocity(gnss, j).unwrap_or((Vec3::zeros(), Vec3::repeat(1.0)));
+    let k_start = imu.partition_point(|s| s.t < g.t).min(imu.len() - 1);
     let mut nav = NavState {
         q_bn: q_bn_from_rpy(&Vec3::new(roll, pitch, yaw)),
         ..Default::default()
     };
-    let description;
-    if k_start == 0 {
-        let p = cfg
-            .init
-            .position
-            .map(|p| (p[0].to_radians(), p[1].to_radians(), p[2]));
-        let (lat, lon, h) = p.unwrap_or((first.lat, first.lon, first.h));
-        nav.lat = lat;
-        nav.lon = lon;
-        nav.h = h;
-        description = format!(
-            "static window {n_static} samples: roll {:.2}°, pitch {:.2}°; {how}",
-            roll.to_degrees(),
-            pitch.to_degrees()
-        );
+    // Move the fix to the IMU and on to the start sample's time (≤ one IMU interval).
+    place(&mut nav, g.lat, g.lon, g.h, &model.lever_arm_b, true);
+    let v0 = cfg.init.velocity.map_or(v, Vec3::from);
+    let dt = imu[k_start].t - g.t;
+    let (rm, rn) = earth::radii(nav.lat);
+    nav.lat += v0.x * dt / (rm + nav.h);
+    nav.lon += v0.y * dt / ((rn + nav.h) * nav.lat.cos());
+    nav.h -= v0.z * dt;
+    nav.v_n = v0;
+    let tilt_std = if cal.is_some() {
+        GSF_TILT_STD.min(1.0f64.to_radians())
     } else {
-        // Start at the fix that gave the course, moving at its velocity.
-        let g = gnss[gnss
-            .partition_point(|g| g.t < imu[k_start].t)
-            .saturating_sub(1)];
-        nav.lat = g.lat;
-        nav.lon = g.lon;
-        nav.h = g.h;
-        let prev = gnss[gnss.partition_point(|x| x.t < g.t).saturating_sub(1)];
-        let dt = (g.t - prev.t).max(1e-3);
-        let (rm, rn) = navfuse_core::earth::radii(g.lat);
-        nav.v_n = Vec3::new(
-            (g.lat - prev.lat) * (rm + g.h) / dt,
-            (g.lon - prev.lon) * (rn + g.h) * g.lat.cos() / dt,
-            -(g.h - prev.h) / dt,
-        );
-        k_start = k_start.saturating_sub(1);
-        description = format!(
-            "static window {n_static} samples: roll {:.2}°, pitch {:.2}°, gyro bias from it; {how}",
-            roll.to_degrees(),
-            pitch.to_degrees()
-        );
-    }
-    let init_std = InitStd {
-        pos: Vec3::repeat(if k_start == 0 { 0.5 } else { 1.0 }),
-        vel: Vec3::repeat(if k_start == 0 { 0.1 } else { 1.0 }),
-        att: Vec3::new(1.0, 1.0, 5.0).map(f64::to_radians),
-        bg: Vec3::repeat(100.0f64.to_radians() / 3600.0),
-        ba: Vec3::repeat(0.2),
-        sg: Vec3::repeat(1e-3),
-        sa: Vec3::repeat(1e-3),
+        GSF_TILT_STD
     };
-    let errors = ImuErrors {
-        bg,
-        ..Default::default()
+    let att = att_std_given.map_or(Vec3::new(tilt_std, tilt_std, yaw_std), Vec3::from);
+    let init_std = init_std(cfg, model, g.std_ned, sv, att, bg_std);
+    let wait_s = g.t - t_imu0;
+    let how = match method {
+        "course" => format!(
+            "yaw from the GNSS course at t = {:.2} ({:.1}° ± {:.1}°)",
+            g.t,
+            yaw.to_degrees(),
+            yaw_std.to_degrees()
+        ),
+        "given" => "heading given; roll/pitch from the in-motion tilt filter".to_string(),
+        _ => format!(
+            "yaw from the Gaussian-sum yaw filter at t = {:.2} ({:.1}° ± {:.1}°)",
+            g.t,
+            yaw.to_degrees(),
+            yaw_std.to_degrees()
+        ),
+    };
+    let lead = if is_static {
+        format!("static window {static_s:.1} s (roll/pitch, gyro bias), then moving; ")
+    } else {
+        "no static window: started in motion; ".to_string()
     };
     Ok(Alignment {
         k_start,
         nav,
-        errors,
+        errors: ImuErrors {
+            bg: bg0,
+            ..Default::default()
+        },
         init_std,
-        description,
+        description: format!(
+            "{lead}{how}; roll {:.2}°, pitch {:.2}°; speed {:.2} m/s; {wait_s:.1} s after the first IMU sample",
+            roll.to_degrees(),
+            pitch.to_degrees(),
+            v0.xy().norm()
+        ),
+        method: match (is_static, method) {
+            (true, "course") => "static+course",
+            (true, "gsf") => "static+gsf",
+            (_, m) => m,
+        },
+        static_s: if is_static { static_s } else { 0.0 },
+        yaw_std: att.z,
+        wait_s,
+        warnings,
     })
+}
+
+/// Heading from the static window's AHRS yaw or magnetometer columns, as
+/// `[init] heading` asks (`auto`: AHRS, else magnetometer, else none).
+fn static_heading(
+    cfg: &RunConfig,
+    imu: &[ImuSample],
+    aux: Option<&AuxSeries>,
+    cal: Option<&align::StaticCalibration>,
+    n_quiet: usize,
+    source: &str,
+) -> Result<Option<(f64, String)>> {
+    let (t_s0, t_s1) = (imu[0].t - imu[0].dt, imu[n_quiet.max(1) - 1].t);
+    let ahrs = || aux.and_then(|a| a.mean_yaw(t_s0, t_s1));
+    let dec = cfg.init.magnetic_declination_deg;
+    let mag = || {
+        let (c, m) = (cal?, aux?.mean_mag(t_s0, t_s1)?);
+        align::heading_from_magnetometer(&m, c.roll, c.pitch, dec.unwrap_or(0.0).to_radians())
+    };
+    let dec_note = match dec {
+        Some(d) => format!("declination {d:+.2}°"),
+        None => "declination not given: 0 assumed".into(),
+    };
+    let ahrs_how = "AHRS yaw averaged over the static window".to_string();
+    let mag_how =
+        format!("magnetometer averaged over the static window, tilt-compensated, {dec_note}");
+    Ok(match source {
+        "auto" => ahrs()
+            .map(|y| (y, ahrs_how))
+            .or_else(|| mag().map(|y| (y, mag_how))),
+        "ahrs" => Some((
+            ahrs().ok_or_else(|| PipelineError::Alignment("[init] heading = \"ahrs\": give [input.csv] ahrs_yaw (a column with samples in the static window)".into()))?,
+            ahrs_how,
+        )),
+        "magnetometer" => Some((
+            mag().ok_or_else(|| PipelineError::Alignment("[init] heading = \"magnetometer\": give [input.csv] mag columns (samples in a static window, a horizontal field)".into()))?,
+            mag_how,
+        )),
+        "course" | "gsf" => None,
+        h => {
+            return Err(cfg.err(format!(
+                "[init] heading {h:?}: expected auto, ahrs, magnetometer, course or gsf"
+            )))
+        }
+    })
+}
+
+/// Initial gyro bias and its σ: from the static window when there is one
+/// (the earth rate's share is exact once the yaw is known, else it stays in
+/// the σ), else zero with the sensor's turn-on σ (100 °/h when the noise
+/// came from a file with no turn-on figure).
+fn bias_prior(
+    cal: Option<&align::StaticCalibration>,
+    model: &AlignModel,
+    yaw: Option<f64>,
+    lat: f64,
+    dt_imu: f64,
+) -> (Vec3, Vec3) {
+    let turn_on = model
+        .sensor
+        .map_or(100.0f64.to_radians() / 3600.0, |s| s.init_bg_std);
+    match cal {
+        Some(c) => {
+            // Residual: the window mean's noise ARW/√T plus the in-run
+            // instability, and the earth rate while the yaw is unknown.
+            let t = c.n as f64 * dt_imu;
+            let resid = (model.noise.arw.max() / t.max(1.0).sqrt()).hypot(model.noise.bg_std.max());
+            match yaw {
+                Some(y) => (align::gyro_bias(c, y, lat), Vec3::repeat(resid.max(1e-6))),
+                None => (c.w_mean_b, Vec3::repeat(resid.hypot(EARTH_RATE))),
+            }
+        }
+        None => (Vec3::zeros(), Vec3::repeat(turn_on)),
+    }
+}
+
+/// The GSF estimate right after the GNSS epoch `j` (a second pass, so the
+/// first pass needs no copies of the bank per epoch).
+fn rerun_gsf_to(
+    gcfg: GsfConfig,
+    imu: &[ImuSample],
+    gnss: &[GnssFix],
+    j_end: usize,
+) -> Option<navfuse_core::ins::yaw_gsf::YawEstimate> {
+    let mut gsf = YawGsf::new(gcfg);
+    let mut k = 0;
+    let t_imu0 = imu[0].t - imu[0].dt;
+    for j in 0..=j_end {
+        let g = &gnss[j];
+        if g.t < t_imu0 {
+            continue;
+        }
+        while k < imu.len() && imu[k].t <= g.t {
+            let _ = gsf.push_imu(&imu[k]);
+            k += 1;
+        }
+        if let Some((v, sv)) = gnss_velocity(gnss, j) {
+            let _ = gsf.push_gnss_velocity(g.t, &v, &sv);
+        }
+    }
+    gsf.estimate()
+}
+
+/// Put `nav` at the antenna position (lat, lon, h) moved to the IMU by the
+/// lever arm (`r_imu = r_ant − C_bn l_b`) when `from_antenna`.
+fn place(nav: &mut NavState, lat: f64, lon: f64, h: f64, lever_b: &Vec3, from_antenna: bool) {
+    let d_n: Vec3 = if from_antenna {
+        let c_bn: Mat3 = nav.c_bn();
+        c_bn * lever_b
+    } else {
+        Vec3::zeros()
+    };
+    let (rm, rn) = earth::radii(lat);
+    nav.lat = lat - d_n.x / (rm + h);
+    nav.lon = lon - d_n.y / ((rn + h) * lat.cos());
+    nav.h = h + d_n.z;
+}
+
+/// Initial σ: `[init]` σ keys when given, else the start fix's position σ,
+/// the velocity σ `sv`, the attitude σ `att` and the sensor's bias σ.
+fn init_std(
+    cfg: &RunConfig,
+    model: &AlignModel,
+    pos_std: Vec3,
+    sv: Vec3,
+    att: Vec3,
+    bg_std: Vec3,
+) -> InitStd {
+    let i = &cfg.init;
+    let s = model.sensor;
+    InitStd {
+        pos: i
+            .position_std_m
+            .map_or(pos_std.map(|x| x.max(0.02)), Vec3::repeat),
+        vel: i
+            .velocity_std_m_s
+            .map_or(sv.map(|x| x.max(0.01)), Vec3::repeat),
+        att,
+        bg: bg_std,
+        ba: Vec3::repeat(s.map_or(0.2, |s| s.init_ba_std)),
+        sg: Vec3::repeat(s.map_or(1e-3, |s| s.init_sg_std.max(1e-4))),
+        sa: Vec3::repeat(s.map_or(1e-3, |s| s.init_sa_std.max(1e-4))),
+    }
 }

@@ -6,6 +6,7 @@ use crate::error::{PipelineError, Result};
 use crate::profile::Platform;
 use crate::time_offset::TimeOffsetCfg;
 use navfuse_io::kfgins_yaml::KfGinsNoise;
+use navfuse_io::timebase::TimeBase;
 use serde::{Deserialize, Serialize};
 use std::path::{Path, PathBuf};
 
@@ -18,12 +19,16 @@ use std::path::{Path, PathBuf};
 /// imu_rate = 100.0
 /// gnss = "gnss.txt"          # KF-GINS GNSS text, RTKLIB .pos, NMEA (.nmea) or UBX (.ubx)
 /// gnss_format = "kf-gins"    # optional: "kf-gins" | "pos" | "nmea" | "ubx"
-/// start = 243262.0           # optional, seconds (the IMU file's time base)
+/// start = 243262.0           # optional: GPS seconds, or TOW when the IMU file has TOW only
 /// imu_time_offset = 0.0      # optional: seconds added to IMU stamps, or "auto"
+/// imu_time_base = "gps_seconds"  # optional: gps_week_tow | gps_seconds | gps_seconds_1970
+///                            #   | unix_utc | counter_tag (with imu_tag = "imu.csv.tag")
+/// gnss_time_base = "gps_seconds" # optional, checked against the GNSS format
 ///
 /// [input.csv]                # for imu_format = "csv": a preset or a column map
-/// preset = "drive_0708"      # "drive_0708" | "vn310", or instead:
-/// # time = "t" (or week = 0, tow = 1), gyro = ["gx","gy","gz"], accel = [3, 4, 5],
+/// preset = "rtklib-imu-gpst" # | "rtklib-imu-counter" | "vectornav-vn310", or instead:
+/// # time = "t" (or week = 0, tow = 1, or counter = 6), time_base = "unix_utc",
+/// # gyro = ["gx","gy","gz"], accel = [3, 4, 5],
 /// # gyro_unit = "deg"|"rad", accel_unit = "g"|"m/s2", form = "rate"|"increment",
 /// # delimiter = ",", header = true, mount_rpy_deg = [180, 0, 180]
 /// # mag = ["mx", "my", "mz"], ahrs_yaw = "yaw_deg"   (initial heading sources)
@@ -130,8 +135,10 @@ pub struct InputCfg {
     pub gnss: String,
     /// "kf-gins", "pos", "nmea" or "ubx" (default: from the extension).
     pub gnss_format: Option<String>,
-    /// First IMU stamp used [s], in the IMU file's own time base (GPS
-    /// seconds, or time of week for KF-GINS text); must lie inside the IMU span.
+    /// First IMU stamp used [s] on the run's time axis: GPS seconds since
+    /// 1980 when the IMU file has absolute time (whatever its time base),
+    /// the time of week when it has only that (KF-GINS text); must lie
+    /// inside the IMU span (an error says which base the file uses).
     pub start: Option<f64>,
     /// Seconds added to the IMU stamps (true time = stamp + offset), `"auto"`
     /// (estimated with its σ, applied only when significant; the default) or
@@ -140,6 +147,16 @@ pub struct InputCfg {
     /// RTKLIB time-tag file (`.tag`) of the IMU log, for a CSV whose time
     /// column is a device counter (`[input.csv] counter`).
     pub imu_tag: Option<String>,
+    /// The time base of the IMU file's stamps: `gps_week_tow`,
+    /// `gps_seconds` (since 1980-01-06), `gps_seconds_1970` (GPS time
+    /// counted from 1970, RTKLIB), `unix_utc`, `counter_tag` (a counter +
+    /// `imu_tag`). KF-GINS text is `gps_week_tow` by definition; for a CSV
+    /// this is `[input.csv] time_base`. Undeclared: an implausible first
+    /// stamp is an error naming the likely base.
+    pub imu_time_base: Option<TimeBase>,
+    /// The time base of the GNSS file: `gps_week_tow` for KF-GINS text,
+    /// `gps_seconds` for `.pos`/NMEA/UBX (calendar dates); checked, not converted.
+    pub gnss_time_base: Option<TimeBase>,
 }
 
 fn default_rate() -> f64 {
@@ -232,7 +249,8 @@ pub struct NhcCfg {
     pub min_speed: Option<f64>,
     /// Minimum time between updates [s].
     pub interval: Option<f64>,
-    /// Learn σ from the innovations within [`min_std`, `max_std`].
+    /// Learn σ from the innovations within [`min_std`, `max_std`] (default
+    /// false: real NHC violations are time-correlated, see `eskf_run`).
     pub adaptive: Option<bool>,
     pub min_std: Option<f64>,
     pub max_std: Option<f64>,

@@ -3,13 +3,18 @@
 //! alignment ([`crate::align`]), the filter loop and the RTS smoother.
 //! Writes nothing; [`crate::run::run`] writes its results.
 
-use crate::align::align;
+use crate::align::{align, AlignModel};
 use crate::check::smoothed_solution;
 use crate::config::{resolve_path, RunConfig};
 use crate::error::{PipelineError, Result};
 use crate::input::AuxSeries;
-use crate::time_offset::{estimate_time_offset, time_offset_note};
-use navfuse_core::estimators::eskf::{rts_smooth, Eskf, EskfConfig, EskfStats, UpdateLog};
+use crate::profile::{Platform, Profile};
+use crate::sensors::{imu_noise_preset, measured_white_noise, SensorNoise, DEFAULT_IMU_PRESET};
+use crate::time_offset::{auto_estimate, time_offset_note, AutoOffset};
+use navfuse_core::estimators::adaptive::{AdaptedNoise, AdaptiveConstraints};
+use navfuse_core::estimators::eskf::{
+    rts_smooth, Eskf, EskfConfig, EskfStats, NhcConfig, UpdateLog,
+};
 use navfuse_core::types::{Estimator, Event, GnssFix, ImuSample, NavSolution};
 use navfuse_core::Vec3;
 use navfuse_io::kfgins_yaml::KfGinsConfig;
@@ -43,6 +48,7 @@ pub(crate) fn select_span<'a>(
     imu: &'a [ImuSample],
     gnss_all: &'a [GnssFix],
 ) -> Result<Span<'a>> {
+    crate::run_checks::check_run_keys(cfg, imu, gnss_all)?;
     let start = cfg.input.start.unwrap_or(f64::NEG_INFINITY);
     let i0 = imu.partition_point(|s| s.t < start);
     let imu = &imu[i0..];
@@ -68,48 +74,198 @@ pub(crate) fn select_span<'a>(
     })
 }
 
-/// The ESKF configuration of `[filter]`: the IMU noise from `noise_yaml`,
-/// `imu_noise` (KF-GINS units) or the seed 001 preset, then the preset
-/// (`kf-gins`, `enhanced` = [`crate::kf_gins::enhanced`], `seed001`), the
-/// lever arm (body FRD, m) and the smoother.
-pub fn filter_config(cfg: &RunConfig, base_dir: &Path) -> Result<EskfConfig> {
-    let mut ecfg = match (&cfg.filter.noise_yaml, &cfg.filter.imu_noise) {
-        (Some(_), Some(_)) => {
-            return Err(cfg.err("[filter] give noise_yaml or imu_noise, not both"));
-        }
-        (Some(y), None) => KfGinsConfig::load(&resolve_path(base_dir, y))
-            .map_err(PipelineError::Input)?
-            .eskf_config(),
-        (None, Some(n)) => {
-            n.validate(&cfg.name(), "filter.imu_noise")
-                .map_err(PipelineError::Input)?;
+/// The resolved `[filter]`: the ESKF configuration, the adaptation of its
+/// constraint noise, the platform profile and the sensor noise preset used.
+#[derive(Clone, Debug)]
+pub struct FilterSetup {
+    pub eskf: EskfConfig,
+    pub adaptive: AdaptiveConstraints,
+    /// The platform profile applied (`None`: no vehicle constraints).
+    pub profile: Option<Profile>,
+    /// The sensor preset the IMU noise came from, if any.
+    pub sensor: Option<SensorNoise>,
+    /// Where the IMU noise came from (the summary's words).
+    pub noise_source: String,
+}
+
+/// The ESKF configuration of `[filter]`.
+///
+/// IMU noise (exactly one source): `noise_yaml` (a KF-GINS YAML),
+/// `[filter.imu_noise]`, `imu_preset` (a sensor by model), else the
+/// conservative MEMS preset [`crate::sensors::DEFAULT_IMU_PRESET`]. Then the
+/// model: `preset = "kf-gins"` (the plain 21-state KF-GINS model), `"enhanced"`
+/// (gating + the `car` constraints unless another `platform` is named) or
+/// `"seed001"` (the paper's noise and model, replacing everything). A named
+/// `platform` applies its profile ([`crate::profile`]) on any preset;
+/// `[filter.nhc]` / `[filter.zupt]` override single values; constraint noise is
+/// learnt from the innovations with `adaptive = true` (off by default). Lever arm: body FRD [m].
+pub fn filter_setup(cfg: &RunConfig, base_dir: &Path) -> Result<FilterSetup> {
+    let f = &cfg.filter;
+    let given = [
+        f.noise_yaml.is_some(),
+        f.imu_noise.is_some(),
+        f.imu_preset.is_some(),
+    ];
+    if given.iter().filter(|g| **g).count() > 1 {
+        return Err(
+            cfg.err("[filter] give one IMU noise source: noise_yaml, imu_noise or imu_preset")
+        );
+    }
+    let mut sensor = None;
+    let (mut ecfg, mut noise_source) = if let Some(y) = &f.noise_yaml {
+        (
+            KfGinsConfig::load(&resolve_path(base_dir, y))
+                .map_err(PipelineError::Input)?
+                .eskf_config(),
+            format!("noise_yaml {y}"),
+        )
+    } else if let Some(n) = &f.imu_noise {
+        n.validate(&cfg.name(), "filter.imu_noise")
+            .map_err(PipelineError::Input)?;
+        (
             EskfConfig {
                 noise: n.to_si(),
                 scale_factors: true,
                 ..EskfConfig::seed001()
-            }
-        }
-        (None, None) => EskfConfig::seed001(),
+            },
+            "[filter.imu_noise]".to_string(),
+        )
+    } else {
+        let name = f.imu_preset.as_deref().unwrap_or(DEFAULT_IMU_PRESET);
+        let s = imu_noise_preset(name).map_err(|e| cfg.err(format!("[filter] {e}")))?;
+        let how = if f.imu_preset.is_some() {
+            "imu_preset"
+        } else {
+            "no noise given: the conservative MEMS default"
+        };
+        let src = format!("{how} {name:?} ({}; {})", s.sensor, s.source);
+        let c = EskfConfig {
+            noise: s.noise,
+            scale_factors: true,
+            ..EskfConfig::seed001()
+        };
+        sensor = Some(s);
+        (c, src)
     };
-    ecfg = match cfg.filter.preset.as_str() {
-        "kf-gins" => ecfg,
-        "enhanced" => crate::kf_gins::enhanced(ecfg),
-        "seed001" => EskfConfig::seed001(),
-        p => {
+    let platform = match (f.preset.as_str(), f.platform) {
+        ("kf-gins", p) => p,
+        ("enhanced", p) => Some(p.unwrap_or(Platform::Car)),
+        ("seed001", p) => {
+            ecfg = EskfConfig::seed001();
+            noise_source = "the seed 001 preset".into();
+            sensor = None;
+            p
+        }
+        (p, _) => {
             return Err(cfg.err(format!(
                 "[filter] preset {p:?}: expected kf-gins, enhanced or seed001"
             )))
         }
     };
-    ecfg.lever_arm_b = Vec3::new(
-        cfg.filter.lever_arm[0],
-        cfg.filter.lever_arm[1],
-        cfg.filter.lever_arm[2],
-    );
-    if cfg.filter.smooth {
+    let mut profile = platform.map(Platform::profile);
+    if let Some(pr) = &mut profile {
+        override_constraints(cfg, pr)?;
+        ecfg = pr.apply(ecfg);
+    }
+    // Adaptive constraint noise is opt-in (`adaptive = true`): NHC
+    // violations of a real vehicle are dominated by constant or slowly
+    // varying terms (mounting misalignment, lever from the axle), which an
+    // innovation-based estimate does not see — it learns the white part and
+    // makes the filter overconfident between GNSS fixes (on drive_0708 the
+    // forward outage drift doubled with it). See `crate::profile`.
+    let adaptive = match &profile {
+        Some(pr) => {
+            let full = pr.adaptive();
+            let nhc = f.nhc.as_ref();
+            let mut a = AdaptiveConstraints::default();
+            if nhc.and_then(|n| n.adaptive) == Some(true) {
+                a.nhc = full.nhc.map(|mut an| {
+                    an.min_std = nhc.and_then(|n| n.min_std).unwrap_or(an.min_std);
+                    an.max_std = nhc.and_then(|n| n.max_std).unwrap_or(an.max_std);
+                    an
+                });
+            }
+            if f.zupt.as_ref().and_then(|z| z.adaptive) == Some(true) {
+                a.zupt = full.zupt;
+                a.zaru = full.zaru;
+            }
+            a
+        }
+        None => AdaptiveConstraints::default(),
+    };
+    ecfg.lever_arm_b = Vec3::new(f.lever_arm[0], f.lever_arm[1], f.lever_arm[2]);
+    if f.smooth {
         ecfg.smoother_every = 10;
     }
-    Ok(ecfg)
+    Ok(FilterSetup {
+        eskf: ecfg,
+        adaptive,
+        profile,
+        sensor,
+        noise_source,
+    })
+}
+
+/// `[filter.nhc]` and `[filter.zupt]` on top of the profile's constraints.
+fn override_constraints(cfg: &RunConfig, pr: &mut Profile) -> Result<()> {
+    let pos = |v: Option<f64>, key: &str| -> Result<Option<f64>> {
+        match v {
+            Some(x) if !(x.is_finite() && x >= 0.0) => {
+                Err(cfg.err(format!("[filter] {key} = {x}: must be finite and ≥ 0")))
+            }
+            _ => Ok(v),
+        }
+    };
+    if let Some(n) = &cfg.filter.nhc {
+        if n.enabled == Some(false) {
+            pr.nhc = None;
+        } else {
+            let mut c = pr.nhc.unwrap_or(NhcConfig {
+                std: 0.5,
+                interval: 0.1,
+                min_speed: 0.5,
+            });
+            c.std = pos(n.std, "nhc.std")?.unwrap_or(c.std);
+            c.min_speed = pos(n.min_speed, "nhc.min_speed")?.unwrap_or(c.min_speed);
+            c.interval = pos(n.interval, "nhc.interval")?.unwrap_or(c.interval);
+            if c.std <= 0.0 {
+                return Err(cfg.err("[filter] nhc.std must be > 0"));
+            }
+            pr.nhc = Some(c);
+        }
+    }
+    if let Some(z) = &cfg.filter.zupt {
+        if z.enabled == Some(false) {
+            pr.zupt = None;
+        } else {
+            let mut c = pr.zupt.unwrap_or(
+                Platform::Car
+                    .profile()
+                    .zupt
+                    .unwrap_or_else(|| unreachable!("the car profile has a standstill detector")),
+            );
+            c.vel_std = pos(z.vel_std, "zupt.vel_std")?.unwrap_or(c.vel_std);
+            if let Some(d) = pos(z.zaru_std_dps, "zupt.zaru_std_dps")? {
+                c.zaru_std = (d > 0.0).then(|| d.to_radians());
+            }
+            c.max_accel_std =
+                pos(z.max_accel_std, "zupt.max_accel_std")?.unwrap_or(c.max_accel_std);
+            if let Some(d) = pos(z.max_gyro_std_dps, "zupt.max_gyro_std_dps")? {
+                c.max_gyro_std = d.to_radians();
+            }
+            c.max_speed = pos(z.max_speed, "zupt.max_speed")?.unwrap_or(c.max_speed);
+            if c.vel_std <= 0.0 {
+                return Err(cfg.err("[filter] zupt.vel_std must be > 0"));
+            }
+            pr.zupt = Some(c);
+        }
+    }
+    Ok(())
+}
+
+/// The ESKF configuration of `[filter]` ([`filter_setup`]'s `eskf`).
+pub fn filter_config(cfg: &RunConfig, base_dir: &Path) -> Result<EskfConfig> {
+    filter_setup(cfg, base_dir).map(|s| s.eskf)
 }
 
 /// Everything an in-memory ESKF run produced.
@@ -127,10 +283,23 @@ pub struct EskfRun {
     pub config: EskfConfig,
     /// How the filter was aligned (the summary's `alignment`).
     pub alignment: String,
-    /// Residual IMU–GNSS time offset estimated on the inputs: τ [s] to add to
-    /// the IMU stamps and the correlation r ([`estimate_time_offset`], ±0.5 s);
-    /// reported, not applied.
-    pub time_offset_estimate: Option<(f64, f64)>,
+    /// The alignment method ([`crate::align::Alignment::method`]), seconds
+    /// from the first IMU sample to the filter start, initial yaw σ [deg].
+    pub align_method: &'static str,
+    pub align_wait_s: f64,
+    pub align_yaw_std_deg: f64,
+    /// Warnings for the user (summary.json `warnings`).
+    pub warnings: Vec<String>,
+    /// The constraint noise the adaptation learnt (σ per axis).
+    pub adapted: AdaptedNoise,
+    /// The platform profile applied, if any.
+    pub platform: Option<Platform>,
+    /// Where the IMU noise came from.
+    pub noise_source: String,
+    /// Residual IMU–GNSS time offset estimated on the inputs (after any
+    /// offset the loading applied), with its σ ([`auto_estimate`]); reported,
+    /// not applied.
+    pub time_offset_estimate: AutoOffset,
     /// IMU samples given, and of them before `[input] start`.
     pub imu_samples_read: usize,
     pub imu_samples_before_start: usize,
@@ -146,7 +315,7 @@ impl EskfRun {
     /// The summary's `time_offset` text, given the offset the input loading
     /// applied (τ [s] and how), if any.
     pub fn time_offset_text(&self, applied: Option<&(f64, String)>) -> String {
-        time_offset_note(self.time_offset_estimate, applied)
+        time_offset_note(&self.time_offset_estimate, applied)
     }
 }
 
@@ -173,10 +342,38 @@ pub(crate) fn run_eskf_span(
     span: &Span,
     aux: Option<&AuxSeries>,
 ) -> Result<EskfRun> {
-    let ecfg = filter_config(cfg, base_dir)?;
+    let mut setup = filter_setup(cfg, base_dir)?;
+    // Noise from a sensor preset (datasheet, quiet bench) is raised to the
+    // white noise the recording shows (vibration), never lowered.
+    if setup.sensor.is_some() {
+        if let Some((g, a)) = measured_white_noise(span.imu) {
+            let n = &mut setup.eskf.noise;
+            if g > n.arw.max() || a > n.vrw.max() {
+                setup.noise_source += &format!(
+                    "; white noise raised to the level the recording shows (vibration): \
+                     ARW {:.3}°/√h, VRW {:.4} m/s/√h measured, datasheet {:.3}°/√h, {:.4} m/s/√h",
+                    g.to_degrees() * 60.0,
+                    a * 60.0,
+                    n.arw.max().to_degrees() * 60.0,
+                    n.vrw.max() * 60.0
+                );
+                n.arw = n.arw.map(|x| x.max(g));
+                n.vrw = n.vrw.map(|x| x.max(a));
+            }
+        }
+    }
+    let ecfg = setup.eskf;
     let (imu, gnss) = (span.imu, &span.gnss[..]);
-    let a = align(cfg, imu, gnss, aux)?;
-    let mut eskf = Eskf::new(ecfg, a.nav, a.errors, &a.init_std);
+    let model = AlignModel {
+        noise: &ecfg.noise,
+        sensor: setup.sensor.as_ref(),
+        profile: setup.profile.as_ref(),
+        lever_arm_b: ecfg.lever_arm_b,
+    };
+    let a = align(cfg, imu, gnss, aux, &model)?;
+    let mut eskf = Eskf::new(ecfg, a.nav, a.errors, &a.init_std)
+        .with_adaptive_noise(setup.adaptive)
+        .map_err(|e| cfg.err(format!("[filter] adaptive constraint noise: {e:?}")))?;
     let k_start = a.k_start;
     let t_filter = Instant::now();
     let mut g = gnss.partition_point(|x| x.t <= imu[k_start].t);
@@ -213,7 +410,14 @@ pub(crate) fn run_eskf_span(
         stats: *eskf.stats(),
         config: *eskf.config(),
         alignment: a.description,
-        time_offset_estimate: estimate_time_offset(imu, span.gnss_all, 0.5),
+        align_method: a.method,
+        align_wait_s: a.wait_s,
+        align_yaw_std_deg: a.yaw_std.to_degrees(),
+        warnings: a.warnings,
+        adapted: eskf.adapted_noise(),
+        platform: setup.profile.map(|p| p.platform),
+        noise_source: setup.noise_source,
+        time_offset_estimate: auto_estimate(imu, span.gnss_all),
         imu_samples_read: imu.len() + span.imu_before_start,
         imu_samples_before_start: span.imu_before_start,
         gnss_fixes_read: span.gnss_all.len(),

@@ -6,6 +6,14 @@
 //! preset or a column map). GNSS: KF-GINS text (`kf-gins`), RTKLIB `.pos`
 //! (`pos`), NMEA 0183 (`nmea`) or u-blox UBX NAV-PVT (`ubx`).
 //!
+//! Time bases are stated, never guessed silently: `[input] imu_time_base`
+//! (or `[input.csv] time_base`; a counter column with `[input] imu_tag` is
+//! `counter_tag`, its clock fitted on the tag file, [`crate::imu_clock`])
+//! and `gnss_time_base` (checked against the format). An undeclared CSV
+//! time column whose first stamp is no plausible GPS-seconds date is an
+//! error naming the likely base ([`crate::run_checks`]); IMU and GNSS spans
+//! that do not overlap are an error naming both.
+//!
 //! Time: the run works on the IMU's time base. KF-GINS files carry the GPS
 //! time of week only; the other formats carry full GPS seconds. When the two
 //! streams differ, the GNSS times are moved to the IMU's base (the week is
@@ -14,16 +22,20 @@
 //! IMU–GNSS lag; `"auto"` estimates it first by course-rate / yaw-rate
 //! cross-correlation ([`crate::time_offset::estimate_time_offset`]).
 
-use crate::csv_map::{csv_config, CsvCfg};
+use crate::csv_map::{csv_plan, CsvCfg};
 use crate::error::{PipelineError, Result};
+use crate::imu_clock::{clock_json, fit_counter};
+use crate::resolved::csv_keys;
+use crate::run_checks::{check_overlap, check_undeclared_stamp};
 use crate::time_offset::{TimeOffset, TimeOffsetCfg};
 use navfuse_core::types::{GnssFix, ImuSample};
 use navfuse_core::Vec3;
-use navfuse_io::csv_imu::{CsvAux, CsvImuReader};
+use navfuse_io::csv_imu::{CsvAux, CsvImuReader, CsvTime};
 use navfuse_io::error::RecordStats;
 use navfuse_io::kfgins::{KfGinsGnssReader, KfGinsImuOptions, KfGinsImuReader};
 use navfuse_io::nmea::{NmeaOptions, NmeaReader};
 use navfuse_io::pos::PosReader;
+use navfuse_io::timebase::TimeBase;
 use navfuse_io::ubx::{UbxMessage, UbxReader};
 use serde::Serialize;
 use std::path::Path;
@@ -45,6 +57,9 @@ pub struct InputReport {
     pub skipped: u64,
     /// Rejected records by reason.
     pub rejected: serde_json::Map<String, serde_json::Value>,
+    /// A counter clock fitted on the tag file ([`crate::imu_clock::clock_json`]).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub clock: Option<serde_json::Value>,
 }
 
 impl InputReport {
@@ -61,6 +76,7 @@ impl InputReport {
                 .iter()
                 .map(|(r, n)| (r.to_string(), serde_json::Value::from(*n)))
                 .collect(),
+            clock: None,
         }
     }
 
@@ -85,6 +101,10 @@ pub struct Loaded {
     pub imu_time_offset: Option<(f64, String)>,
     /// Magnetometer / AHRS-yaw rows of the CSV, when `[input.csv]` names them.
     pub aux: Option<AuxSeries>,
+    /// Doubts worth the user's attention (summary.json `warnings`).
+    pub warnings: Vec<String>,
+    /// The effective reader configuration (summary.json `resolved_input`).
+    pub resolved: serde_json::Value,
 }
 
 /// Magnetometer (body FRD, mounting applied) and AHRS yaw rows of a CSV IMU
@@ -163,32 +183,148 @@ fn ext_is(path: &Path, exts: &[&str]) -> bool {
         .is_some_and(|e| exts.iter().any(|x| e.eq_ignore_ascii_case(x)))
 }
 
-fn read_imu(
-    path: &Path,
-    format: &'static str,
-    csv: Option<&CsvCfg>,
-    rate_hz: f64,
-) -> Result<(Vec<ImuSample>, InputReport, Option<AuxSeries>), String> {
-    let (rdr, name) = navfuse_io::open(path).map_err(|e| e.to_string())?;
+/// What [`read_imu`] read, and how.
+struct ImuRead {
+    imu: Vec<ImuSample>,
+    report: InputReport,
+    aux: Option<AuxSeries>,
+    /// `resolved_input.imu`.
+    resolved: serde_json::Value,
+    warnings: Vec<String>,
+}
+
+fn read_imu(spec: &InputSpec, format: &'static str) -> Result<ImuRead, String> {
+    let path = spec.imu;
     let e = |e: navfuse_io::error::ReadError| e.to_string();
-    if format == "csv" {
-        let cfg = csv_config(&csv.cloned().unwrap_or_default(), rate_hz)
-            .map_err(|m| format!("{}: {m}", path.display()))?;
-        let mut r = CsvImuReader::new(rdr, &name, cfg);
-        let v = r.by_ref().collect::<Result<Vec<_>, _>>().map_err(e)?;
-        let rep = InputReport::new(path, format, r.stats(), v.len());
-        let aux = (!r.aux().is_empty()).then(|| AuxSeries(r.aux().to_vec()));
-        Ok((v, rep, aux))
-    } else {
+    if format != "csv" {
+        if let Some(b) = spec.imu_time_base.filter(|b| *b != TimeBase::GpsWeekTow) {
+            return Err(format!(
+                "{}: [input] imu_time_base = \"{b}\": KF-GINS IMU text carries the GPS time \
+                 of week by definition (gps_week_tow)",
+                path.display()
+            ));
+        }
+        if let Some(t) = spec.imu_tag {
+            return Err(format!(
+                "[input] imu_tag = {:?}: a tag file times a CSV counter column \
+                 ([input.csv] counter); {} is KF-GINS text with its own time of week",
+                t.display().to_string(),
+                path.display()
+            ));
+        }
+        let (rdr, name) = navfuse_io::open(path).map_err(|e| e.to_string())?;
         let opt = KfGinsImuOptions {
             week: 0,
             columns: 7,
-            nominal_rate_hz: Some(rate_hz),
+            nominal_rate_hz: Some(spec.imu_rate),
         };
         let mut r = KfGinsImuReader::new(rdr, &name, opt);
         let v = r.by_ref().collect::<Result<Vec<_>, _>>().map_err(e)?;
-        let rep = InputReport::new(path, format, r.stats(), v.len());
-        Ok((v, rep, None))
+        let report = InputReport::new(path, format, r.stats(), v.len());
+        let resolved = serde_json::json!({
+            "file": path.display().to_string(), "format": format,
+            "time_base": TimeBase::GpsWeekTow.name(), "columns": 7,
+            "form": "increment", "nominal_rate_hz": spec.imu_rate,
+        });
+        return Ok(ImuRead {
+            imu: v,
+            report,
+            aux: None,
+            resolved,
+            warnings: Vec::new(),
+        });
+    }
+    let in_file = |m: PipelineError| format!("{}: {m}", path.display());
+    let mut plan = csv_plan(
+        &spec.csv.cloned().unwrap_or_default(),
+        spec.imu_rate,
+        spec.imu_time_base,
+    )
+    .map_err(in_file)?;
+    let mut clock_report = None;
+    match (&plan.counter, spec.imu_tag) {
+        (Some(c), Some(tag)) => {
+            let (clock, fit) = fit_counter(path, tag, &plan.cfg, c)?;
+            clock_report = Some(clock_json(tag, &clock, &fit));
+            plan.cfg.time = CsvTime::Counter {
+                col: c.col.clone(),
+                clock,
+            };
+        }
+        (Some(_), None) => {
+            return Err(format!(
+                "{}: [input.csv] counter: the counter needs the log's RTKLIB time-tag file, \
+                 [input] imu_tag = \"….tag\"",
+                path.display()
+            ))
+        }
+        (None, Some(t)) => {
+            return Err(format!(
+                "[input] imu_tag = {:?}: a tag file times a counter column, but [input.csv] \
+                 of {} has none (give `counter = COL`)",
+                t.display().to_string(),
+                path.display()
+            ))
+        }
+        (None, None) => {}
+    }
+    let (rdr, name) = navfuse_io::open(path).map_err(|e| e.to_string())?;
+    let mut r = CsvImuReader::new(rdr, &name, plan.cfg.clone());
+    let v = r.by_ref().collect::<Result<Vec<_>, _>>().map_err(e)?;
+    let base = match (&plan.cfg.time, v.first()) {
+        (CsvTime::Seconds(_), Some(s0)) => Some(check_undeclared_stamp(path, &plan.cfg, s0.t)?),
+        _ => None,
+    };
+    let mut report = InputReport::new(path, format, r.stats(), v.len());
+    report.clock = clock_report.clone();
+    let aux = (!r.aux().is_empty()).then(|| AuxSeries(r.aux().to_vec()));
+    let mut warnings = plan.warnings;
+    warnings.extend(
+        r.warnings()
+            .iter()
+            .map(|w| format!("{}: {w}", path.display())),
+    );
+    let keys = csv_keys(&plan.cfg, base, plan.counter.as_ref());
+    let mut resolved = serde_json::json!({
+        "file": path.display().to_string(), "format": format,
+        "time_base": keys["time_base"].clone(), "preset": plan.preset,
+        "nominal_rate_hz": spec.imu_rate, "csv": keys,
+    });
+    if let (Some(tag), Some(c)) = (spec.imu_tag, clock_report) {
+        resolved["imu_tag"] = tag.display().to_string().into();
+        resolved["clock_fit"] = c;
+    }
+    Ok(ImuRead {
+        imu: v,
+        report,
+        aux,
+        resolved,
+        warnings,
+    })
+}
+
+/// The base of a GNSS format's times, and a declared `gnss_time_base`
+/// checked against it: KF-GINS text carries the time of week; `.pos`, NMEA
+/// and UBX carry calendar dates (GPST or UTC, converted by their readers),
+/// i.e. absolute GPS seconds.
+fn gnss_base(path: &Path, format: &str, declared: Option<TimeBase>) -> Result<TimeBase, String> {
+    let own = if format == "kf-gins" {
+        TimeBase::GpsWeekTow
+    } else {
+        TimeBase::GpsSeconds
+    };
+    match declared {
+        Some(b) if b != own => Err(format!(
+            "{}: [input] gnss_time_base = \"{b}\": {format} files carry {} by definition \
+             (gnss_time_base = \"{own}\")",
+            path.display(),
+            if own == TimeBase::GpsWeekTow {
+                "the GPS time of week"
+            } else {
+                "calendar dates with their time system, read as GPS seconds"
+            }
+        )),
+        _ => Ok(own),
     }
 }
 
@@ -271,6 +407,11 @@ pub struct InputSpec<'a> {
     pub gnss: &'a Path,
     pub gnss_format: Option<&'a str>,
     pub imu_time_offset: Option<&'a TimeOffsetCfg>,
+    /// `[input] imu_time_base` / `gnss_time_base`: the declared bases.
+    pub imu_time_base: Option<TimeBase>,
+    pub gnss_time_base: Option<TimeBase>,
+    /// `[input] imu_tag`: the RTKLIB time-tag file of a counter-timed CSV.
+    pub imu_tag: Option<&'a Path>,
 }
 
 /// Read both inputs, put them on the IMU's time base and apply the IMU time
@@ -282,12 +423,21 @@ pub fn load(spec: &InputSpec) -> Result<Loaded> {
 fn load_inner(spec: &InputSpec) -> Result<Loaded, String> {
     let imu_fmt = imu_format(spec.imu, spec.imu_format)?;
     let gnss_fmt = gnss_format(spec.gnss, spec.gnss_format)?;
-    let (mut imu, imu_report, mut aux) = read_imu(spec.imu, imu_fmt, spec.csv, spec.imu_rate)?;
+    let gnss_base = gnss_base(spec.gnss, gnss_fmt, spec.gnss_time_base)?;
+    let ImuRead {
+        mut imu,
+        report: imu_report,
+        mut aux,
+        resolved: imu_resolved,
+        mut warnings,
+    } = read_imu(spec, imu_fmt)?;
     let (mut gnss, gnss_report) = read_gnss(spec.gnss, gnss_fmt)?;
     gnss.sort_by(|a, b| a.t.total_cmp(&b.t));
     let time_base = align_time_bases(&imu, &mut gnss);
+    warnings.extend(check_overlap(spec.imu, &imu, spec.gnss, &gnss)?);
+    // Default `auto`: estimated with its σ, applied only when significant.
     let mode = match spec.imu_time_offset {
-        None => Ok(TimeOffset::None),
+        None => Ok(TimeOffset::Auto),
         Some(TimeOffsetCfg::Seconds(s)) => TimeOffset::parse(&s.to_string()),
         Some(TimeOffsetCfg::Named(n)) => TimeOffset::parse(n),
     }
@@ -303,6 +453,13 @@ fn load_inner(spec: &InputSpec) -> Result<Loaded, String> {
             a.0.iter_mut().for_each(|x| x.t += tau);
         }
     }
+    let resolved = serde_json::json!({
+        "imu": imu_resolved,
+        "gnss": {"file": spec.gnss.display().to_string(), "format": gnss_fmt,
+                 "time_base": gnss_base.name()},
+        "joined": time_base,
+        "imu_time_offset_s": imu_time_offset.as_ref().map(|o| o.0),
+    });
     Ok(Loaded {
         imu,
         gnss,
@@ -311,6 +468,8 @@ fn load_inner(spec: &InputSpec) -> Result<Loaded, String> {
         time_base,
         imu_time_offset,
         aux,
+        warnings,
+        resolved,
     })
 }
 

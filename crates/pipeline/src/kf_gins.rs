@@ -10,10 +10,9 @@ pub use crate::check;
 use crate::error::{PipelineError, Result};
 use crate::kf_gins_out::{write_err_line, write_nav_line, write_std_line, OutFile, OutRow};
 use crate::kfgins_input::{read_kfgins, RunInput};
-use crate::time_offset::TimeOffset;
-use navfuse_core::estimators::eskf::{
-    rts_smooth, Eskf, EskfConfig, EskfStats, NhcConfig, SmoothedEpoch, ZuptConfig,
-};
+use crate::profile::Platform;
+use crate::time_offset::{auto_estimate, describe, TimeOffset};
+use navfuse_core::estimators::eskf::{rts_smooth, Eskf, EskfConfig, EskfStats, SmoothedEpoch};
 use navfuse_core::types::{Estimator, Event, GnssFix, NavSolution};
 use navfuse_io::kfgins_yaml::KfGinsConfig;
 use std::path::{Path, PathBuf};
@@ -24,6 +23,9 @@ use std::time::Instant;
 pub struct KfGinsOptions {
     /// navfuse's land-vehicle configuration ([`enhanced`]): NHC, ZUPT/ZARU, χ² gating.
     pub enhanced: bool,
+    /// A platform profile's constraints and gating ([`crate::profile`]);
+    /// `enhanced` is `Some(Platform::Car)`.
+    pub platform: Option<Platform>,
     /// Also run the RTS smoother and write `KF_GINS_Navresult_smoothed.nav`.
     pub smooth: bool,
     /// χ² innovation gate probability for the KF-GINS model, in [0.9, 1).
@@ -34,7 +36,8 @@ pub struct KfGinsOptions {
     /// Write the outputs here instead of the YAML's `outputpath`.
     pub output: Option<PathBuf>,
     /// IMU–GNSS time offset added to the IMU stamps: seconds, `auto` or
-    /// `none`. Default: `auto` with `enhanced`, else `none`.
+    /// `none`. Default: `auto` (applied only when significant) with
+    /// `enhanced` or a platform, else `none` (KF-GINS applies none).
     pub time_offset: Option<String>,
     /// Print the applied time offset and timings to stderr.
     pub verbose: bool,
@@ -56,41 +59,12 @@ pub struct KfGinsRun {
     pub time_offset: Option<(f64, String)>,
 }
 
-/// navfuse's best land-vehicle configuration on top of a KF-GINS model.
-///
-/// - χ² gate at 0.9999 on every update; innovations up to 100× the gate
-///   (Mahalanobis distance ≈ 46 for 3 dof) are de-weighted (R·NIS/gate), beyond
-///   are rejected; after 5 consecutive rejected GNSS
-///   positions the next is applied ungated (no lock-out after a divergence).
-/// - NHC: lateral and vertical body velocity 0 ± 0.5 m/s at 10 Hz above
-///   0.5 m/s. The σ covers the IMU's offset from the axles, mounting
-///   misalignment and vibration; chosen from 0.05–1.0 m/s on drive_0708
-///   (0.1 over-constrains: a false along-track correction in the first
-///   outage; 1.0 under-uses the constraint).
-/// - Standstill: 0.5-s window with std |f| < 0.1 m/s², gyro std < 2 °/s
-///   (the engine idles at 1–1.5 °/s rms), mean f within 0.2 m/s² of gravity
-///   at the current attitude and filter speed < 1 m/s; then ZUPT (σ 0.02 m/s)
-///   at 10 Hz and ZARU (σ 0.1 °/s) once per window.
-pub fn enhanced(mut c: EskfConfig) -> EskfConfig {
-    c.gate_probability = Some(0.9999);
-    c.gate_deweight_factor = 100.0;
-    c.gnss_force_after = 5;
-    c.nhc = Some(NhcConfig {
-        std: 0.5,
-        interval: 0.1,
-        min_speed: 0.5,
-    });
-    c.zupt = Some(ZuptConfig {
-        window: 50,
-        max_accel_std: 0.1,
-        max_gyro_std: 2.0f64.to_radians(),
-        max_accel_dev: 0.2,
-        max_speed: 1.0,
-        vel_std: 0.02,
-        zaru_std: Some(0.1f64.to_radians()),
-        interval: 0.1,
-    });
-    c
+/// navfuse's land-vehicle configuration on top of a KF-GINS model: the `car`
+/// platform profile ([`crate::profile`], where every value has its physical
+/// reason) — χ² gate 0.9999 with de-weighting, NHC σ 0.5 m/s at 10 Hz above
+/// 0.5 m/s, standstill detection with ZUPT (0.02 m/s) and ZARU (0.1 °/s).
+pub fn enhanced(c: EskfConfig) -> EskfConfig {
+    Platform::Car.profile().apply(c)
 }
 
 /// Run the KF-GINS YAML `yaml` (paths inside relative to it): read, filter,
@@ -104,17 +78,15 @@ pub fn run_kf_gins(yaml: &Path, args: &KfGinsOptions) -> Result<KfGinsRun> {
     let mode = match &args.time_offset {
         Some(s) => TimeOffset::parse(s)
             .map_err(|e| PipelineError::Options(format!("--time-offset: {e}")))?,
-        None if args.enhanced => TimeOffset::Auto,
+        None if args.enhanced || args.platform.is_some() => TimeOffset::Auto,
         None => TimeOffset::None,
     };
-    let applied = match mode.resolve(&input.imu, &input.gnss) {
-        Ok(a) => a,
-        // auto without an estimate: run without an offset, as KF-GINS does.
-        Err(e) => {
-            eprintln!("IMU–GNSS {e}; none applied");
-            None
-        }
-    };
+    let applied = mode.resolve(&input.imu, &input.gnss)?;
+    if mode == TimeOffset::Auto && applied.is_none() && args.verbose {
+        // Not significant (or not estimable): none applied, as KF-GINS does.
+        let e = auto_estimate(&input.imu, &input.gnss);
+        eprintln!("IMU–GNSS time offset not applied: {}", describe(&e));
+    }
     if let Some((tau, how)) = &applied {
         for s in input.imu.iter_mut() {
             s.t += tau;
@@ -127,8 +99,9 @@ pub fn run_kf_gins(yaml: &Path, args: &KfGinsOptions) -> Result<KfGinsRun> {
         eprintln!("read inputs: {:.3} s", t_read.elapsed().as_secs_f64());
     }
     let mut ecfg = cfg.eskf_config();
-    if args.enhanced {
-        ecfg = enhanced(ecfg);
+    let platform = args.platform.or(args.enhanced.then_some(Platform::Car));
+    if let Some(p) = platform {
+        ecfg = p.profile().apply(ecfg);
     }
     if args.smooth {
         ecfg.smoother_every = 10;
@@ -164,6 +137,7 @@ pub fn run_kf_gins(yaml: &Path, args: &KfGinsOptions) -> Result<KfGinsRun> {
         cfg.endtime
     };
     let mut eskf = Eskf::new(ecfg, cfg.init_nav(), cfg.init_errors(), &cfg.init_std());
+
     let t_filter = Instant::now();
     let r = filter(&mut eskf, &input, cfg.starttime, end, &out_dir, args.smooth)?;
     if args.verbose {

@@ -18,6 +18,7 @@ pub mod csv_map;
 pub mod error;
 pub mod eskf_run;
 pub mod experiments;
+pub mod imu_clock;
 pub mod input;
 pub mod kf_gins;
 mod kf_gins_out;
@@ -25,11 +26,15 @@ pub mod kfgins_input;
 mod other;
 pub mod outputs;
 pub mod profile;
+pub mod resolved;
 pub mod run;
+pub mod run_checks;
 pub mod sensors;
 mod summary;
 pub mod time_offset;
 
+#[cfg(test)]
+mod input_tests;
 #[cfg(test)]
 mod kf_gins_tests;
 #[cfg(test)]

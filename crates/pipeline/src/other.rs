@@ -25,6 +25,9 @@ pub(crate) struct OtherRun<'a> {
     pub formats: &'a [OutFormat],
     pub inputs: &'a serde_json::Value,
     pub imu_before_start: usize,
+    /// The summary's `warnings` and `resolved_input`.
+    pub warnings: &'a [String],
+    pub resolved: &'a serde_json::Value,
 }
 
 /// Run PF-LC (seed 002) or GPS-ACC (seed 004) with their default
@@ -73,6 +76,8 @@ pub(crate) fn run_other(name: &str, r: &OtherRun) -> Result<RunOutcome> {
         "estimator": est.name(),
         "filter": config,
         "inputs": r.inputs,
+        "warnings": r.warnings,
+        "resolved_input": r.resolved,
         "imu_samples_read": r.imu.len() + r.imu_before_start,
         "imu_samples_before_start": r.imu_before_start,
         "gnss_fixes_read": r.n_gnss,

@@ -26,7 +26,8 @@
 //! innovation-based adaptation bounded by [`NHC_ADAPT_MIN`], [`NHC_ADAPT_MAX`]
 //! when adaptation is on.
 
-use navfuse_core::estimators::eskf::{NhcConfig, ZuptConfig};
+use navfuse_core::estimators::adaptive::{AdaptiveConstraints, AdaptiveNoise};
+use navfuse_core::estimators::eskf::{EskfConfig, NhcConfig, ZuptConfig};
 use serde::{Deserialize, Serialize};
 
 /// A platform (vehicle type) whose physics set the constraint defaults.
@@ -92,6 +93,50 @@ pub struct Profile {
     /// Largest plausible horizontal acceleration [m/s²]: GNSS velocity
     /// changes beyond it are outliers (alignment, time offset).
     pub max_accel: f64,
+}
+
+/// χ² gate probability of every update of a profiled run: a 1-in-10⁴ false
+/// rejection per update, so over a 1 h, 10 Hz constraint stream ≈ 4 honest
+/// innovations are de-weighted or rejected; innovations up to
+/// [`GATE_DEWEIGHT_FACTOR`]× the gate are de-weighted (R·NIS/gate) rather
+/// than rejected, and after [`GNSS_FORCE_AFTER`] consecutive rejected GNSS
+/// positions the next is applied ungated (no lock-out after a divergence).
+pub const GATE_PROBABILITY: f64 = 0.9999;
+/// See [`GATE_PROBABILITY`]: a Mahalanobis distance ≈ 46 for 3 dof.
+pub const GATE_DEWEIGHT_FACTOR: f64 = 100.0;
+/// See [`GATE_PROBABILITY`]: 5 s of 1 Hz fixes.
+pub const GNSS_FORCE_AFTER: u32 = 5;
+
+impl Profile {
+    /// `c` with this profile's gating and constraints (the IMU noise, lever
+    /// arm and everything else of `c` kept).
+    pub fn apply(&self, mut c: EskfConfig) -> EskfConfig {
+        c.gate_probability = Some(GATE_PROBABILITY);
+        c.gate_deweight_factor = GATE_DEWEIGHT_FACTOR;
+        c.gnss_force_after = GNSS_FORCE_AFTER;
+        c.nhc = self.nhc;
+        c.zupt = self.zupt;
+        c
+    }
+
+    /// Innovation-based adaptation of this profile's constraint noise
+    /// ([`navfuse_core::estimators::adaptive`]): NHC within
+    /// [[`NHC_ADAPT_MIN`], [`NHC_ADAPT_MAX`]] started from the profile's σ,
+    /// ZUPT and ZARU within their physical bounds.
+    pub fn adaptive(&self) -> AdaptiveConstraints {
+        AdaptiveConstraints {
+            nhc: self.nhc.map(|_| AdaptiveNoise {
+                min_std: NHC_ADAPT_MIN,
+                max_std: NHC_ADAPT_MAX,
+                ..AdaptiveNoise::nhc_ground_vehicle()
+            }),
+            zupt: self.zupt.map(|_| AdaptiveNoise::zupt()),
+            zaru: self
+                .zupt
+                .and_then(|z| z.zaru_std)
+                .map(|_| AdaptiveNoise::zaru()),
+        }
+    }
 }
 
 impl Platform {

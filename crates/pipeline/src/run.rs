@@ -9,6 +9,7 @@ use crate::eskf_run::{run_eskf_span, select_span};
 use crate::input::{self, InputSpec};
 use crate::other::{run_other, OtherRun};
 use crate::outputs::{out_formats, write_innovations, write_solutions};
+use crate::run_checks::time_keys_json;
 use crate::summary::Summary;
 use navfuse_core::estimators::eskf::EskfStats;
 use std::path::{Path, PathBuf};
@@ -52,6 +53,7 @@ pub fn run(cfg: &RunConfig, base_dir: &Path, opts: &RunOptions) -> Result<RunOut
     let rel = |p: &str| resolve_path(base_dir, p);
     let t_read = Instant::now();
     let (imu_path, gnss_path) = (rel(&cfg.input.imu), rel(&cfg.input.gnss));
+    let imu_tag = cfg.input.imu_tag.as_deref().map(rel);
     let loaded = input::load(&InputSpec {
         imu: &imu_path,
         imu_format: cfg.input.imu_format.as_deref(),
@@ -60,6 +62,9 @@ pub fn run(cfg: &RunConfig, base_dir: &Path, opts: &RunOptions) -> Result<RunOut
         gnss: &gnss_path,
         gnss_format: cfg.input.gnss_format.as_deref(),
         imu_time_offset: cfg.input.imu_time_offset.as_ref(),
+        imu_time_base: cfg.input.imu_time_base,
+        gnss_time_base: cfg.input.gnss_time_base,
+        imu_tag: imu_tag.as_deref(),
     })
     .map_err(|e| cfg.err(e.to_string()))?;
     let inputs = serde_json::json!({
@@ -71,6 +76,9 @@ pub fn run(cfg: &RunConfig, base_dir: &Path, opts: &RunOptions) -> Result<RunOut
     });
     let seconds_read = t_read.elapsed().as_secs_f64();
     let span = select_span(cfg, &loaded.imu, &loaded.gnss)?;
+    let mut resolved = loaded.resolved.clone();
+    resolved["time_keys"] = time_keys_json(cfg, &loaded.imu);
+    let warnings = &loaded.warnings;
     let out_dir = opts
         .output
         .clone()
@@ -96,6 +104,8 @@ pub fn run(cfg: &RunConfig, base_dir: &Path, opts: &RunOptions) -> Result<RunOut
                 formats: &formats,
                 inputs: &inputs,
                 imu_before_start: span.imu_before_start,
+                warnings,
+                resolved: &resolved,
             },
         );
     }
@@ -121,7 +131,10 @@ pub fn run(cfg: &RunConfig, base_dir: &Path, opts: &RunOptions) -> Result<RunOut
         )?);
     }
     let time_offset = r.time_offset_text(loaded.imu_time_offset.as_ref());
-    let summary = Summary::new(cfg, &r, inputs, time_offset, seconds_read, outputs.clone());
+    let mut summary = Summary::new(cfg, &r, inputs, time_offset, seconds_read, outputs.clone());
+    // The inputs' warnings first, then the run's (alignment, …).
+    summary.warnings = warnings.iter().cloned().chain(summary.warnings).collect();
+    summary.resolved_input = &resolved;
     let p = out_dir.join("summary.json");
     let json =
         serde_json::to_string_pretty(&summary).map_err(|e| PipelineError::Output(e.to_string()))?;

@@ -11,7 +11,7 @@ use navfuse_io::kfgins_yaml::KfGinsConfig;
 use std::path::Path;
 
 /// `navfuse run CONFIG --output OUT [--estimator E]`: the error as text.
-fn run_with(config: &Path, out: &Path, estimator: Option<&str>) -> Result<(), String> {
+pub(super) fn run_with(config: &Path, out: &Path, estimator: Option<&str>) -> Result<(), String> {
     let cfg = RunConfig::from_toml_file(config).map_err(|e| e.to_string())?;
     let base = config.parent().map(Path::to_path_buf).unwrap_or_default();
     let opts = RunOptions {
@@ -24,12 +24,12 @@ fn run_with(config: &Path, out: &Path, estimator: Option<&str>) -> Result<(), St
 }
 
 /// `navfuse run CONFIG --output OUT` with the config's estimator.
-fn run_to(config: &Path, out: &Path) -> Result<(), String> {
+pub(super) fn run_to(config: &Path, out: &Path) -> Result<(), String> {
     run_with(config, out, None)
 }
 
 /// A trajectory file's solutions (`.nav` with TOW-only lines in GPS week `week`, `.pos`).
-fn read_trajectory(path: &Path, week: u32) -> Vec<NavSolution> {
+pub(super) fn read_trajectory(path: &Path, week: u32) -> Vec<NavSolution> {
     let fmt = navfuse_io::trajectory::InFormat::from_path(path).unwrap();
     navfuse_io::trajectory::open_nav_source(path, fmt, week)
         .unwrap()
@@ -39,7 +39,11 @@ fn read_trajectory(path: &Path, week: u32) -> Vec<NavSolution> {
 
 /// [`run_to`], then its `solution.nav` (GPS week `week` for TOW-only
 /// lines) and `summary.json`.
-fn run_and_read(config: &Path, out: &Path, week: u32) -> (Vec<NavSolution>, serde_json::Value) {
+pub(super) fn run_and_read(
+    config: &Path,
+    out: &Path,
+    week: u32,
+) -> (Vec<NavSolution>, serde_json::Value) {
     run_to(config, out).unwrap();
     let sols = read_trajectory(&out.join("solution.nav"), week);
     let summary =
@@ -270,8 +274,11 @@ fn csv_imu_with_nmea_or_ubx_gnss_runs_like_kfgins_text() {
         dn.hypot(de),
         sb["used_rejected"]["gnss_position"]
     );
+    // 2 cm: the alignment seeds the initial covariance from each file's own
+    // fix σ (GST in the NMEA, the σ columns of the text), so the two runs
+    // differ by more than the NMEA rounding alone.
     assert!(
-        dn.hypot(de) < 0.01,
+        dn.hypot(de) < 0.02,
         "end points differ by {dn:.4} N {de:.4} E m; {}",
         dir.display()
     );
@@ -369,7 +376,7 @@ fn static_start_takes_the_heading_from_the_magnetometer_or_ahrs() {
     );
     for (extra, expect) in [
         (noise.to_string(), "filter.imu_noise.arw"),
-        (both, "not both"),
+        (both, "one IMU noise source"),
     ] {
         std::fs::write(
             dir.join("run.toml"),
@@ -449,6 +456,29 @@ fn parked_vn310_starts_from_its_magnetometer() {
     let _ = std::fs::remove_dir_all(&dir);
 }
 
+/// Run `DIR/NAME.toml` (a drive_0708 run, GPS week 2374) into `DIR/NAME`:
+/// the horizontal RMS [m] of its antenna (lever arm (0, −0.05, 0) m FRD)
+/// against `reference` (the 4 Hz `.pos`), and its summary.
+pub(super) fn drive_rms(
+    dir: &Path,
+    name: &str,
+    reference: &[NavSolution],
+) -> (f64, serde_json::Value) {
+    let (mut sols, summary) =
+        run_and_read(&dir.join(format!("{name}.toml")), &dir.join(name), 2374);
+    for s in sols.iter_mut() {
+        if s.t < 604_800.0 {
+            s.t += 2374.0 * 604_800.0;
+        }
+    }
+    let cfg = navfuse_eval::EvalConfig {
+        lever_arm_b: Some([0.0, -0.05, 0.0]),
+        ..Default::default()
+    };
+    let ev = navfuse_eval::evaluate(&sols, reference, &cfg, None, None).unwrap();
+    (ev.summary.horizontal.unwrap().rms, summary)
+}
+
 /// drive_0708 from the raw CSV IMU (preset, duplicates rejected, offset
 /// estimated) and the 4 Hz RTKLIB .pos must give what the prepared
 /// KF-GINS `imu.txt` gives with the same .pos: the generic path loses
@@ -481,26 +511,15 @@ fn raw_csv_drive_matches_the_prepared_kfgins_file() {
     )
     .unwrap();
     let reference = read_trajectory(&pos, 0);
-    let rms = |name: &str| -> (f64, serde_json::Value) {
-        let (mut sols, summary) =
-            run_and_read(&dir.join(format!("{name}.toml")), &dir.join(name), 2374);
-        for s in sols.iter_mut() {
-            if s.t < 604_800.0 {
-                s.t += 2374.0 * 604_800.0;
-            }
-        }
-        let cfg = navfuse_eval::EvalConfig {
-            lever_arm_b: Some([0.0, -0.05, 0.0]),
-            ..Default::default()
-        };
-        let ev = navfuse_eval::evaluate(&sols, &reference, &cfg, None, None).unwrap();
-        (ev.summary.horizontal.unwrap().rms, summary)
-    };
+    let rms = |name: &str| drive_rms(&dir, name, &reference);
     let (rms_txt, _) = rms("txt");
     let (rms_csv, s) = rms("csv");
     eprintln!("horizontal RMS vs the .pos: raw CSV {rms_csv:.4} m, imu.txt {rms_txt:.4} m");
     let tau = s["inputs"]["imu_time_offset_applied_s"].as_f64().unwrap();
-    assert!((tau + 0.2).abs() < 0.03, "estimated IMU offset {tau}");
+    // The stamps lag by ≈ 0.2 s (README); `auto` applies the least extreme
+    // of its model variants (the antenna-lever fit says −0.15 s, without it
+    // −0.21 s), so anything clearly negative and within that spread.
+    assert!((-0.25..-0.1).contains(&tau), "estimated IMU offset {tau}");
     let imu = &s["inputs"]["imu"];
     assert_eq!(imu["used"], 53_720);
     let rejected: u64 = imu["rejected"]

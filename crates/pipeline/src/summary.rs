@@ -9,10 +9,18 @@ use serde::Serialize;
 #[derive(Serialize)]
 pub(crate) struct Summary<'a> {
     pub config: &'a RunConfig,
-    pub filter: String,
+    /// The effective filter configuration (SI units), not the TOML echo.
+    pub filter: serde_json::Value,
     pub alignment: String,
+    /// How the filter was started: method, wait, initial yaw σ.
+    pub alignment_detail: serde_json::Value,
+    /// Warnings the user should read (alignment, inputs).
+    pub warnings: Vec<String>,
     /// Per input file: records read, used, skipped, rejected by reason.
     pub inputs: serde_json::Value,
+    /// The effective reader configuration (format, time base, columns,
+    /// units, mounting, counter clock; [`crate::resolved`]).
+    pub resolved_input: &'a serde_json::Value,
     pub imu_samples_read: usize,
     pub imu_samples_before_start: usize,
     pub gnss_fixes_read: usize,
@@ -40,9 +48,16 @@ impl<'a> Summary<'a> {
         let st = &run.stats;
         Summary {
             config,
-            filter: format!("{:?}", run.config),
+            filter: filter_json(run),
             alignment: run.alignment.clone(),
+            alignment_detail: serde_json::json!({
+                "method": run.align_method,
+                "seconds_after_first_imu_sample": run.align_wait_s,
+                "initial_yaw_std_deg": run.align_yaw_std_deg,
+            }),
+            warnings: run.warnings.clone(),
             inputs,
+            resolved_input: &serde_json::Value::Null,
             imu_samples_read: run.imu_samples_read,
             imu_samples_before_start: run.imu_samples_before_start,
             gnss_fixes_read: run.gnss_fixes_read,
@@ -69,4 +84,42 @@ impl<'a> Summary<'a> {
             outputs,
         }
     }
+}
+
+/// The effective ESKF configuration as JSON (SI units, names of
+/// [`navfuse_core::estimators::eskf::EskfConfig`]), with the platform, the
+/// noise source and the constraint noise the adaptation learnt.
+fn filter_json(run: &EskfRun) -> serde_json::Value {
+    let c = &run.config;
+    let v = |x: &navfuse_core::Vec3| [x.x, x.y, x.z];
+    let a = &run.adapted;
+    serde_json::json!({
+        "platform": run.platform.map(|p| p.to_string()),
+        "imu_noise_source": run.noise_source,
+        "noise": {
+            "arw_rad_per_sqrt_s": v(&c.noise.arw), "vrw_m_s_per_sqrt_s": v(&c.noise.vrw),
+            "gyro_bias_gm_std_rad_s": v(&c.noise.bg_std), "accel_bias_gm_std_m_s2": v(&c.noise.ba_std),
+            "gyro_scale_std": v(&c.noise.sg_std), "accel_scale_std": v(&c.noise.sa_std),
+            "corr_time_s": if c.noise.corr_time.is_finite() { Some(c.noise.corr_time) } else { None },
+        },
+        "lever_arm_b_m": v(&c.lever_arm_b),
+        "scale_factors": c.scale_factors,
+        "gate_probability": c.gate_probability,
+        "gate_deweight_factor": c.gate_deweight_factor,
+        "gnss_force_after": c.gnss_force_after,
+        "use_gnss_velocity": c.use_gnss_velocity,
+        "position_until_s": c.position_until,
+        "nhc": c.nhc.map(|n| serde_json::json!({
+            "std_m_s": n.std, "interval_s": n.interval, "min_speed_m_s": n.min_speed,
+            "adapted_std_m_s": a.nhc_std, "adaptation_used_rejected": a.nhc_counts,
+        })),
+        "zupt": c.zupt.map(|z| serde_json::json!({
+            "window_samples": z.window, "max_accel_std_m_s2": z.max_accel_std,
+            "max_gyro_std_rad_s": z.max_gyro_std, "max_accel_dev_m_s2": z.max_accel_dev,
+            "max_speed_m_s": z.max_speed, "vel_std_m_s": z.vel_std, "zaru_std_rad_s": z.zaru_std,
+            "interval_s": z.interval,
+            "adapted_vel_std_m_s": a.zupt_std, "adapted_zaru_std_rad_s": a.zaru_std,
+        })),
+        "smoother_every": c.smoother_every,
+    })
 }

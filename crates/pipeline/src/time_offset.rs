@@ -3,7 +3,9 @@
 //! Convention: true time = IMU stamp + τ.
 
 use crate::error::{PipelineError, Result};
+use navfuse_core::ins::time_offset::{TimeOffsetConfig, TimeOffsetEstimate};
 use navfuse_core::types::{GnssFix, ImuSample};
+use navfuse_core::Vec3;
 use serde::{Deserialize, Serialize};
 
 /// `imu_time_offset`: a number of seconds or `"auto"`.
@@ -18,7 +20,7 @@ pub enum TimeOffsetCfg {
 pub enum TimeOffset {
     /// No offset applied.
     None,
-    /// Estimated by [`estimate_time_offset`] (±0.5 s).
+    /// Estimated with its σ ([`auto_estimate`]), applied when significant.
     Auto,
     /// Given [s].
     Seconds(f64),
@@ -43,27 +45,263 @@ impl TimeOffset {
         }
     }
 
-    /// The offset [s] and how it was found; an error when `Auto` finds no
-    /// estimate (too little turning at speed).
+    /// The offset [s] to apply and how it was found. `Auto` estimates τ with
+    /// its σ ([`auto_estimate`]) and applies it only when it is significantly
+    /// non-zero (|τ| > 3.29 σ, a 0.1 % two-sided false alarm, and σ ≤ 20 ms);
+    /// otherwise nothing is applied (`Ok(None)`): a default must never make a
+    /// data set worse, and an unsignificant τ can only add error.
     pub fn resolve(self, imu: &[ImuSample], gnss: &[GnssFix]) -> Result<Option<(f64, String)>> {
         match self {
             TimeOffset::None => Ok(None),
             TimeOffset::Seconds(s) => Ok(Some((s, "given".into()))),
-            TimeOffset::Auto => estimate_time_offset(imu, gnss, 0.5)
-                .map(|(tau, r)| {
-                    Some((
-                        tau,
-                        format!("estimated by course-rate / yaw-rate cross-correlation (r = {r:.4})"),
-                    ))
+            TimeOffset::Auto => {
+                let e = auto_estimate(imu, gnss);
+                Ok(match (e.apply, e.tau_s) {
+                    (true, Some(tau)) => Some((tau, describe(&e))),
+                    _ => None,
                 })
-                .ok_or_else(|| {
-                    PipelineError::Input(
-                        "time offset auto: no estimate (needs ≥ 30 turning GNSS course pairs at ≥ 3 m/s)"
-                            .into(),
-                    )
-                }),
+            }
         }
     }
+}
+
+/// The IMU–GNSS time offset τ with its σ, and whether applying it is safe
+/// (convention: true time = IMU stamp + τ).
+///
+/// Each estimate is [`navfuse_core::ins::time_offset::estimate`] (GNSS course
+/// against the integrated z gyro, gyro bias/scale fitted, gross errors
+/// rejected, course σ from the GNSS σ and speed, so no fixed speed
+/// threshold). Its σ is honest for its own model only, and two model choices
+/// the data cannot settle move τ by more than σ on real drives: whether the
+/// antenna sits ahead of the vehicle's zero-sideslip point (a course lead
+/// `l·ω/v`, which looks like a time shift), and whether the receiver's
+/// velocity is as timely as its positions (a filtered velocity lags — the
+/// RTKLIB `.pos` of `../shared/data/drive_0708` by ~0.12 s). So τ is
+/// estimated under every available variant — lever fitted or not, course
+/// from the receiver velocity (its latency behind the positions first
+/// estimated and removed, [`velocity_latency`]) or from position chords —
+/// and applied only when every variant with σ ≤ 20 ms is significant
+/// (|τ| > 3.29 σ, a 0.1 % two-sided false alarm) and of one sign; the
+/// applied τ is the least extreme of them (every model supports moving the
+/// stamps at least that far). Otherwise it is reported, not applied.
+pub fn auto_estimate(imu: &[ImuSample], gnss: &[GnssFix]) -> AutoOffset {
+    let has_vel = gnss.iter().filter(|g| g.v_n.is_some()).count() * 2 >= gnss.len().max(1);
+    let positions: Vec<GnssFix>;
+    let retimed: Vec<GnssFix>;
+    let mut sources: Vec<(&'static str, &[GnssFix])> = Vec::with_capacity(2);
+    let mut latency = None;
+    if has_vel {
+        latency = velocity_latency(gnss);
+        match latency {
+            Some((l, sl)) if l.abs() > 3.29 * sl => {
+                retimed = retime_velocity(gnss, l);
+                sources.push(("velocity (latency-corrected)", &retimed));
+            }
+            _ => sources.push(("velocity", gnss)),
+        }
+        positions = gnss
+            .iter()
+            .map(|g| GnssFix {
+                v_n: None,
+                std_v_n: None,
+                ..*g
+            })
+            .collect();
+        sources.push(("positions", &positions));
+    } else {
+        sources.push(("positions", gnss));
+    }
+    let mut variants = Vec::with_capacity(4);
+    for (src, fixes) in sources {
+        for lever in [true, false] {
+            let cfg = TimeOffsetConfig {
+                fit_lever: lever,
+                ..TimeOffsetConfig::default()
+            };
+            let e = navfuse_core::ins::time_offset::estimate(imu, fixes, &cfg);
+            let name = if lever { "lever fitted" } else { "no lever" };
+            variants.push((format!("{src}, {name}"), e));
+        }
+    }
+    let mut d = decide(variants);
+    d.velocity_latency = latency;
+    d
+}
+
+/// The latency `L` [s] of a receiver's velocity behind its positions (a
+/// filtered velocity reported at `t` is the velocity of `t − L`) and its σ,
+/// from the GNSS alone: the displacement between consecutive fixes must
+/// equal the integral of the velocity over the same interval shifted by
+/// `L` (trapezoid on linearly interpolated velocities). Grid over ±0.5 s
+/// by 5 ms; σ from the curvature of the χ² at its minimum, scaled by the
+/// reduced χ² (so a wrong σ of the fixes cannot make it overconfident).
+/// `None` when fewer than 30 intervals ≤ 1.5 s carry velocities at both ends.
+pub fn velocity_latency(gnss: &[GnssFix]) -> Option<(f64, f64)> {
+    let fixes: Vec<&GnssFix> = gnss.iter().filter(|g| g.v_n.is_some()).collect();
+    if fixes.len() < 31 {
+        return None;
+    }
+    let v_at = |t: f64| -> Option<Vec3> {
+        let k = fixes.partition_point(|g| g.t < t);
+        let (a, b) = (fixes.get(k.checked_sub(1)?)?, fixes.get(k)?);
+        let w = (t - a.t) / (b.t - a.t).max(1e-9);
+        Some(a.v_n? * (1.0 - w) + b.v_n? * w)
+    };
+    let cost = |l: f64| -> Option<(f64, usize)> {
+        let (mut c, mut n) = (0.0, 0usize);
+        for w in fixes.windows(2) {
+            let (a, b) = (w[0], w[1]);
+            let dt = b.t - a.t;
+            if !(dt > 0.0 && dt <= 1.5) {
+                continue;
+            }
+            let (Some(va), Some(vm), Some(vb)) =
+                (v_at(a.t + l), v_at(0.5 * (a.t + b.t) + l), v_at(b.t + l))
+            else {
+                continue;
+            };
+            // Simpson's rule over the interval.
+            let int = (va + vm * 4.0 + vb) * (dt / 6.0);
+            let (rm, rn) = navfuse_core::earth::radii(a.lat);
+            let dp = Vec3::new(
+                (b.lat - a.lat) * (rm + a.h),
+                (b.lon - a.lon) * (rn + a.h) * a.lat.cos(),
+                0.0,
+            );
+            let s2 = (a.std_ned.xy().norm_squared() + b.std_ned.xy().norm_squared()).max(1e-6);
+            c += (dp.xy() - int.xy()).norm_squared() / s2;
+            n += 2;
+        }
+        (n >= 60).then_some((c, n))
+    };
+    let step = 0.005;
+    let mut best: Option<(f64, f64, usize)> = None;
+    for i in -100..=100 {
+        let l = i as f64 * step;
+        if let Some((c, n)) = cost(l) {
+            if best.is_none_or(|b| c < b.1) {
+                best = Some((l, c, n));
+            }
+        }
+    }
+    let (l, c0, n) = best?;
+    if l.abs() > 0.5 - step {
+        return None;
+    }
+    let (cm, _) = cost(l - step)?;
+    let (cp, _) = cost(l + step)?;
+    let curv = (cp - 2.0 * c0 + cm) / (step * step);
+    if curv <= 0.0 {
+        return None;
+    }
+    // Parabolic refinement and σ² = 2/curv · reduced χ².
+    let l = l - step * (cp - cm) / (2.0 * (cp - 2.0 * c0 + cm));
+    let red = (c0 / n as f64).max(1.0);
+    Some((l, (2.0 / curv * red).sqrt()))
+}
+
+/// `gnss` with each fix's velocity replaced by the velocity reported `l` s
+/// later (interpolated), i.e. the velocity of the fix's own time when the
+/// receiver reports it with latency `l`. Fixes past the end keep theirs.
+fn retime_velocity(gnss: &[GnssFix], l: f64) -> Vec<GnssFix> {
+    let with: Vec<&GnssFix> = gnss.iter().filter(|g| g.v_n.is_some()).collect();
+    gnss.iter()
+        .map(|g| {
+            let t = g.t + l;
+            let k = with.partition_point(|x| x.t < t);
+            let v = match (k.checked_sub(1).and_then(|i| with.get(i)), with.get(k)) {
+                (Some(a), Some(b)) if b.t - a.t <= 1.5 => {
+                    let w = (t - a.t) / (b.t - a.t).max(1e-9);
+                    match (a.v_n, b.v_n) {
+                        (Some(va), Some(vb)) => Some(va * (1.0 - w) + vb * w),
+                        _ => g.v_n,
+                    }
+                }
+                _ => g.v_n,
+            };
+            GnssFix { v_n: v, ..*g }
+        })
+        .collect()
+}
+
+/// The combined decision over the model variants (see [`auto_estimate`]).
+fn decide(variants: Vec<(String, TimeOffsetEstimate)>) -> AutoOffset {
+    let max_std = TimeOffsetConfig::default().max_std_s;
+    let usable: Vec<(f64, f64, bool)> = variants
+        .iter()
+        .filter_map(|(_, e)| e.tau_s.map(|t| (t, e.std_s, e.significant)))
+        .filter(|(_, s, _)| s.is_finite() && *s <= max_std)
+        .collect();
+    let all_significant = usable.iter().all(|u| u.2);
+    let one_sign = usable.iter().all(|u| u.0.signum() == usable[0].0.signum());
+    // The least extreme of the variants: every model supports moving at
+    // least that far, none supports less.
+    let least = usable
+        .iter()
+        .min_by(|a, b| a.0.abs().total_cmp(&b.0.abs()))
+        .map(|u| (u.0, u.1));
+    let (apply, reason) = if usable.is_empty() {
+        (false, "no variant estimates τ within 20 ms")
+    } else if !one_sign {
+        (
+            false,
+            "model-dependent: the variants differ in sign; not applied",
+        )
+    } else if !all_significant {
+        (false, "not significant under every variant; not applied")
+    } else {
+        (
+            true,
+            "significant under every variant; the least extreme applied",
+        )
+    };
+    let (tau, std) = least.map_or((None, f64::INFINITY), |(t, s)| (Some(t), s));
+    AutoOffset {
+        tau_s: tau,
+        std_s: std,
+        apply,
+        reason,
+        variants,
+        velocity_latency: None,
+    }
+}
+
+/// The decision of [`auto_estimate`].
+#[derive(Clone, Debug)]
+pub struct AutoOffset {
+    /// The least extreme usable variant's τ [s], and its σ.
+    pub tau_s: Option<f64>,
+    pub std_s: f64,
+    /// Whether τ is applied.
+    pub apply: bool,
+    /// Why (one phrase).
+    pub reason: &'static str,
+    /// Every variant's estimate, named.
+    pub variants: Vec<(String, TimeOffsetEstimate)>,
+    /// The receiver velocity's latency behind its positions [s] and σ
+    /// ([`velocity_latency`]), when the fixes carry velocity.
+    pub velocity_latency: Option<(f64, f64)>,
+}
+
+/// One line: `τ = +0.1000 ± 0.0040 s: significant … [velocity, no lever: …]`.
+pub fn describe(e: &AutoOffset) -> String {
+    let head = match e.tau_s {
+        Some(tau) => format!("τ = {tau:+.4} ± {:.4} s: {}", e.std_s, e.reason),
+        None => format!("no estimate: {}", e.reason),
+    };
+    let parts: Vec<String> = e
+        .variants
+        .iter()
+        .map(|(n, v)| match v.tau_s {
+            Some(t) => format!("{n}: {t:+.4} ± {:.4} s ({})", v.std_s, v.reason.describe()),
+            None => format!("{n}: {}", v.reason.describe()),
+        })
+        .collect();
+    let lat = match e.velocity_latency {
+        Some((l, sl)) => format!("; receiver velocity latency {l:+.3} ± {sl:.3} s"),
+        None => String::new(),
+    };
+    format!("{head} [{}]{lat}", parts.join("; "))
 }
 
 /// IMU–GNSS time offset by cross-correlation of the GNSS course rate with the
@@ -185,18 +423,16 @@ pub fn estimate_time_offset(
     scan(&kept)
 }
 
-/// The summary's `time_offset` text: the residual offset `estimate`
-/// ([`estimate_time_offset`] on the run's inputs: τ [s], correlation r)
-/// after the offset the input loading applied (`applied`: τ [s] and how).
-pub fn time_offset_note(estimate: Option<(f64, f64)>, applied: Option<&(f64, String)>) -> String {
+/// The summary's `time_offset` text: the offset the input loading applied
+/// (`applied`: τ [s] and how) and the estimate on the run's inputs after it
+/// (`residual`, reported, never applied twice).
+pub fn time_offset_note(residual: &AutoOffset, applied: Option<&(f64, String)>) -> String {
     let applied = match applied {
-        Some((tau, how)) => format!("{tau:+.3} s, {how}"),
+        Some((tau, how)) => format!("{tau:+.4} s, {how}"),
         None => "none".into(),
     };
-    match estimate {
-        Some((tau, r)) => format!(
-            "after the input's imu_time_offset ({applied}): a further {tau:+.3} s to add to the IMU stamps (course-rate / yaw-rate cross-correlation r = {r:.4}); reported, not applied"
-        ),
-        None => "not estimable (too little turning at speed)".into(),
-    }
+    format!(
+        "applied to the IMU stamps: {applied}; estimate on the inputs after it: {}",
+        describe(residual)
+    )
 }

@@ -561,13 +561,20 @@ pub fn estimate(imu: &[ImuSample], gnss: &[GnssFix], cfg: &TimeOffsetConfig) -> 
     let active = 2 + usize::from(cfg.fit_scale) + usize::from(cfg.fit_lever);
     let t0 = obs.first().map_or(0.0, |o| o.t);
     let mut result = None;
-    for _ in 0..4 {
+    const ROUNDS: usize = 4;
+    for round in 0..=ROUNDS {
         if obs.len() < cfg.min_pairs.max(active + 2) {
             return none(obs.len(), outliers);
         }
         let Some((p, lin)) = fit(&obs, &head, cfg, t0) else {
             return none(obs.len(), outliers);
         };
+        // After ROUNDS screenings the fit stands (precise data keeps a
+        // heavy-tailed residual: screening it further would only thin it).
+        if round == ROUNDS {
+            result = Some((p, std_tau(&obs, &lin, active)));
+            break;
+        }
         let dropped = screen(&mut obs, &lin, cfg.outlier_k);
         outliers += dropped;
         if dropped == 0 {
