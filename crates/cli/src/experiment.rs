@@ -53,6 +53,10 @@ pub enum Which {
     Seed003(Seed003Args),
     /// Seed 004 (GPS-ACC): Tables 3 and 4, GPS + accelerometer dead reckoning.
     Seed004(crate::exp_seed004::Args),
+    /// Generalisation matrix: platform × IMU grade × GNSS × time offset, default vs oracle vs KF-GINS model.
+    Generalise(crate::exp_platform::GeneraliseArgs),
+    /// Alignment check: pedestrian and car starting in motion, default configuration.
+    Align(crate::exp_platform::AlignArgs),
 }
 
 #[derive(ClapArgs, Debug)]
@@ -105,6 +109,8 @@ pub fn run(args: Args) -> Result<(), String> {
         Which::Seed002(a) => crate::exp_seed002::run(a),
         Which::Seed003(a) => seed003(a),
         Which::Seed004(a) => crate::exp_seed004::run(a),
+        Which::Generalise(a) => crate::exp_platform::generalise(a),
+        Which::Align(a) => crate::exp_platform::align(a),
     }
 }
 

@@ -12,6 +12,7 @@ mod bench;
 mod convert;
 mod demo;
 mod eval;
+mod exp_platform;
 mod exp_seed002;
 mod exp_seed004;
 mod experiment;

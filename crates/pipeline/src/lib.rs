@@ -18,6 +18,7 @@ pub mod csv_map;
 pub mod csv_sniff;
 pub mod error;
 pub mod eskf_run;
+pub mod experiments;
 pub mod imu_clock;
 pub mod input;
 pub mod kf_gins;

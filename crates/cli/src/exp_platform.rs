@@ -1,0 +1,76 @@
+//! `navfuse experiment generalise` and `navfuse experiment align`: thin
+//! wrappers of [`navfuse_pipeline::experiments`] (the scenario definitions,
+//! scores and targets live there).
+
+use clap::Args as ClapArgs;
+use navfuse_pipeline::experiments::{align_check, generalise};
+use std::path::{Path, PathBuf};
+
+#[derive(ClapArgs, Debug)]
+pub struct GeneraliseArgs {
+    /// Seeds per cell (even seeds static start, odd seeds moving start).
+    #[arg(long, default_value_t = 10)]
+    pub seeds: u64,
+    /// First seed.
+    #[arg(long, default_value_t = 0)]
+    pub seed0: u64,
+    /// Trajectory length [s].
+    #[arg(long, default_value_t = 600.0)]
+    pub duration: f64,
+    /// Cells to run: comma-separated `platform[:imu[:gnss[:offset]]]`
+    /// patterns (`*` = any), e.g. `car,uav:tactical:*:0.1`. Default: all 48.
+    #[arg(long)]
+    pub cells: Option<String>,
+    /// Write the results as JSON here.
+    #[arg(long)]
+    pub json: Option<PathBuf>,
+}
+
+#[derive(ClapArgs, Debug)]
+pub struct AlignArgs {
+    /// Seeds per scenario.
+    #[arg(long, default_value_t = 50)]
+    pub seeds: u64,
+    /// Write the shares and per-seed rows as JSON here.
+    #[arg(long)]
+    pub json: Option<PathBuf>,
+}
+
+fn write_json<T: serde::Serialize>(path: &Path, v: &T) -> Result<(), String> {
+    let text = serde_json::to_string_pretty(v).map_err(|e| e.to_string())?;
+    std::fs::write(path, text).map_err(|e| format!("{}: cannot write: {e}", path.display()))
+}
+
+pub fn generalise(a: GeneraliseArgs) -> Result<(), String> {
+    let cells = match &a.cells {
+        Some(p) => generalise::select_cells(p).map_err(|e| e.to_string())?,
+        None => generalise::matrix(),
+    };
+    let opt = generalise::GeneraliseOptions {
+        seeds: a.seeds,
+        seed0: a.seed0,
+        duration_s: a.duration,
+    };
+    eprintln!(
+        "generalise: {} cells × {} seeds × 3 configurations, {} s each",
+        cells.len(),
+        a.seeds,
+        a.duration
+    );
+    let r = generalise::run_generalise(&cells, &opt).map_err(|e| e.to_string())?;
+    print!("{}", generalise::format_table(&r));
+    if let Some(p) = &a.json {
+        write_json(p, &r)?;
+    }
+    Ok(())
+}
+
+pub fn align(a: AlignArgs) -> Result<(), String> {
+    let r = align_check::run_align_check(&align_check::scenarios(), a.seeds)
+        .map_err(|e| e.to_string())?;
+    print!("{}", align_check::format_summary(&r));
+    if let Some(p) = &a.json {
+        write_json(p, &r)?;
+    }
+    Ok(())
+}
