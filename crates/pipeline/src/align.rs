@@ -244,6 +244,36 @@ pub fn align(
         dt_imu,
     );
 
+    // 0. The whole initial state given: start at the first sample with it.
+    if let (Some(p), Some(a), Some(v)) = (cfg.init.position, cfg.init.attitude, cfg.init.velocity) {
+        let rpy = Vec3::new(a[0], a[1], a[2]).map(f64::to_radians);
+        let nav = NavState {
+            q_bn: q_bn_from_rpy(&rpy),
+            lat: p[0].to_radians(),
+            lon: p[1].to_radians(),
+            h: p[2],
+            v_n: Vec3::from(v),
+            ..Default::default()
+        };
+        let att = att_std_given.map_or(Vec3::repeat(1.0f64.to_radians()), Vec3::from);
+        let init_std = init_std(cfg, model, Vec3::repeat(1.0), Vec3::repeat(0.1), att, bg_std);
+        return Ok(Alignment {
+            k_start: 0,
+            nav,
+            errors: ImuErrors {
+                bg: bg0,
+                ..Default::default()
+            },
+            init_std,
+            description: "initial position, velocity and attitude given ([init])".into(),
+            method: "given",
+            static_s: if is_static { static_s } else { 0.0 },
+            yaw_std: att.z,
+            wait_s: 0.0,
+            warnings,
+        });
+    }
+
     // 2a. Static start with a known heading: start at the first sample.
     if let (Some(c), Some((yaw, yaw_std, how))) = (&cal, &yaw_known) {
         let (roll, pitch) = match cfg.init.attitude {
