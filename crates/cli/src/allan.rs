@@ -24,8 +24,8 @@ use std::fmt::Write as _;
 use std::io::BufRead;
 use std::path::{Path, PathBuf};
 
-const R2D: f64 = 180.0 / core::f64::consts::PI;
-const G0: f64 = 9.806_65;
+pub(crate) const R2D: f64 = 180.0 / core::f64::consts::PI;
+pub(crate) const G0: f64 = 9.806_65;
 
 /// Overlapping Allan deviation of an IMU log with fitted noise terms.
 #[derive(ClapArgs, Debug)]
@@ -227,59 +227,6 @@ impl AllanResult {
         o
     }
 
-    /// The fitted noise as a `[filter.imu_noise]` block in datasheet keys
-    /// (`navfuse_pipeline::noise_cfg`), per axis x, y, z, with the fit and
-    /// its limits in comments. `bias_corr_time_s`: the median gyro τ of the
-    /// Allan minimum / 1.89 (a Gauss–Markov bias of correlation time T has
-    /// its Allan peak at τ ≈ 1.89 T, `noise_cfg::gm_allan_deviation`).
-    pub fn toml(&self, src: &str) -> String {
-        let (g, a) = (&self.fits[..3], &self.fits[3..]);
-        let arr = |f: &[NoiseFit], k: &dyn Fn(&NoiseFit) -> f64| {
-            format!("[{:.4e}, {:.4e}, {:.4e}]", k(&f[0]), k(&f[1]), k(&f[2]))
-        };
-        let record = self.samples as f64 * self.tau0;
-        let longest = self.curves[0].last().map_or(0.0, |p| p.tau);
-        let mut taus: Vec<f64> = g.iter().map(|f| f.tau_min).collect();
-        taus.sort_by(f64::total_cmp);
-        let corr = taus[1] / 1.89;
-        let floor_reached = taus[1] < 0.5 * longest;
-        format!(
-            "# navfuse allan: IMU noise fitted to {src}\n\
-             # ({} samples, τ₀ = {:.4} s, record {record:.0} s; per axis x, y, z).\n\
-             # Fit: overlapping Allan deviation, σ²(τ) = N²/τ + C + K²τ/3 over all τ;\n\
-             # noise density = N, bias instability = √C/0.664 (IEEE Std 952), used as\n\
-             # the Gauss–Markov σ; bias_corr_time_s = gyro τ at the Allan minimum / 1.89.\n\
-             # A {record:.0} s record shows no bias wander slower than ~{:.0} s (8 clusters):\n\
-             # the bias instability is a LOWER BOUND of what a long run sees; record hours.\n\
-             {}\
-             # Not observable from a static record: scale factors, turn-on bias (add\n\
-             # gyro_scale_ppm, accel_scale_ppm, gyro_turn_on_bias_dps, accel_turn_on_bias_mg\n\
-             # from the datasheet). Rate random walk K [°/h/√h]: {} (not in the ESKF model).\n\
-             [filter.imu_noise]\n\
-             gyro_noise_dps_rthz = {}\n\
-             accel_noise_ug_rthz = {}\n\
-             gyro_bias_instability_dph = {}\n\
-             accel_bias_instability_ug = {}\n\
-             bias_corr_time_s = {corr:.1}\n",
-            self.samples,
-            self.tau0,
-            record / 8.0,
-            if floor_reached {
-                String::new()
-            } else {
-                format!(
-                    "# The Allan minimum is at the longest τ ({longest:.0} s): the curve was still\n\
-                     # falling, so bias_corr_time_s is a guess from the record length.\n"
-                )
-            },
-            arr(g, &|f| f.k * R2D * 3600.0 * 60.0),
-            arr(g, &|f| f.n * R2D),
-            arr(a, &|f| f.n / G0 * 1e6),
-            arr(g, &|f| f.b * R2D * 3600.0),
-            arr(a, &|f| f.b / G0 * 1e6),
-        )
-    }
-
     /// Log–log SVG of the six curves (gyro left, accel right).
     fn svg(&self) -> String {
         let (w, h) = (900.0, 420.0);
@@ -379,7 +326,10 @@ pub fn run(args: Args) -> Result<(), String> {
     if let Some(p) = &args.toml {
         let text = r.toml(&args.imu_file.display().to_string());
         std::fs::write(p, text).map_err(|e| format!("{}: {e}", p.display()))?;
-        println!("wrote {} ([filter.imu_noise] for a run configuration)", p.display());
+        println!(
+            "wrote {} ([filter.imu_noise] for a run configuration)",
+            p.display()
+        );
     }
     println!(
         "wrote {}/allan.csv, allan_noise.toml, allan.svg",
@@ -431,48 +381,6 @@ duration_s = 600
         let k = analyse(&dir.join("imu.txt"), "auto").unwrap();
         assert!((k.fits[0].n / r.fits[0].n - 1.0).abs() < 1e-3);
         let _ = std::fs::remove_dir_all(&dir);
-    }
-
-    /// A static phone-grade IMU (navfuse-sim preset `phone`: Gauss–Markov
-    /// bias σ 20 °/h and 0.1 mg, T = 100 s; noise 0.007 °/s/√Hz, 150 µg/√Hz)
-    /// for one hour: the `[filter.imu_noise]` block parses back into a run
-    /// configuration with the preset's noise densities within 5 % (the
-    /// white-noise fit of the test above), bias instability within 35 % —
-    /// the Allan reading of a Gauss–Markov bias is 0.617/0.664 = 0.93 σ,
-    /// and the 19 clusters at τ ≈ 190 s leave ±16 % (1σ) scatter per axis —
-    /// and the correlation time within a factor 2.
-    #[test]
-    fn simulated_phone_imu_gives_a_run_noise_block() {
-        let sc = navfuse_sim::Scenario::from_toml(
-            "[start]\nlat_deg = 45\nlon_deg = 7\n[imu]\nrate_hz = 100\nsubsteps = 1\n\
-             preset = \"phone\"\n[[segment]]\ntype = \"hold\"\nduration_s = 3600\n",
-            "t",
-        )
-        .unwrap();
-        let run = navfuse_sim::simulate(&sc, 11, None, None).unwrap();
-        let r = analyse_samples(&run.imu).unwrap();
-        let block = r.toml("sim");
-        println!("{block}");
-        let cfg: navfuse_pipeline::RunConfig =
-            toml::from_str(&format!("[input]\nimu = \"i\"\ngnss = \"g\"\n{block}")).unwrap();
-        let n = cfg.filter.imu_noise.unwrap();
-        n.validate("allan", "filter.imu_noise").unwrap();
-        let got = n.to_si();
-        let want = navfuse_pipeline::sensors::imu_noise_preset("phone")
-            .unwrap()
-            .noise;
-        for i in 0..3 {
-            for (what, x, y, tol) in [
-                ("ARW", got.arw[i], want.arw[i], 0.05),
-                ("VRW", got.vrw[i], want.vrw[i], 0.05),
-                ("gyro BI", got.bg_std[i], want.bg_std[i], 0.35),
-                ("accel BI", got.ba_std[i], want.ba_std[i], 0.35),
-            ] {
-                assert!((x / y - 1.0).abs() < tol, "{what} axis {i}: {x:e} vs {y:e}");
-            }
-        }
-        let t = got.corr_time / want.corr_time;
-        assert!(t > 0.5 && t < 2.0, "T {} s vs {} s", got.corr_time, want.corr_time);
     }
 
     #[test]

@@ -6,6 +6,7 @@ use clap::{Parser, Subcommand};
 use std::process::ExitCode;
 
 mod allan;
+mod allan_noise;
 mod attitude;
 mod baseline;
 mod bench;

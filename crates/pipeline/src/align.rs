@@ -256,7 +256,14 @@ pub fn align(
             ..Default::default()
         };
         let att = att_std_given.map_or(Vec3::repeat(1.0f64.to_radians()), Vec3::from);
-        let init_std = init_std(cfg, model, Vec3::repeat(1.0), Vec3::repeat(0.1), att, bg_std);
+        let init_std = init_std(
+            cfg,
+            model,
+            Vec3::repeat(1.0),
+            Vec3::repeat(0.1),
+            att,
+            bg_std,
+        );
         return Ok(Alignment {
             k_start: 0,
             nav,

@@ -3,9 +3,9 @@
 
 use crate::csv_map::CsvCfg;
 use crate::error::{PipelineError, Result};
+use crate::noise_cfg::ImuNoiseCfg;
 use crate::profile::Platform;
 use crate::time_offset::TimeOffsetCfg;
-use crate::noise_cfg::ImuNoiseCfg;
 use navfuse_io::timebase::TimeBase;
 use serde::{Deserialize, Serialize};
 use std::path::{Path, PathBuf};

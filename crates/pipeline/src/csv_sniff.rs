@@ -107,18 +107,29 @@ fn tokens(name: &str) -> (Vec<String>, String) {
     (t, unit)
 }
 
-/// The sensor and axis a column name stands for.
-fn classify(name: &str) -> Option<(Kind, usize)> {
-    let (mut t, _) = tokens(name);
-    // Trailing unit words of names like `dtheta_x_rad` or `gyro_x_dps`.
+/// Tokens without trailing unit words (`dtheta_x_rad`, `gyro_x_dps`), and
+/// the unit: the bracketed text, else those words joined by `/`.
+fn split_unit(name: &str) -> (Vec<String>, String) {
+    let (mut t, mut unit) = tokens(name);
+    let mut words = Vec::new();
     while t.len() > 1
         && matches!(
             t.last().map(String::as_str),
             Some("rad" | "deg" | "dps" | "s" | "m" | "s2" | "mps2" | "g" | "rads" | "ms2")
         )
     {
-        t.pop();
+        words.extend(t.pop());
     }
+    if unit.is_empty() {
+        words.reverse();
+        unit = words.join("/");
+    }
+    (t, unit)
+}
+
+/// The sensor and axis a column name stands for.
+fn classify(name: &str) -> Option<(Kind, usize)> {
+    let (mut t, _) = split_unit(name);
     let last = t.pop()?;
     let axis = |s: &str| match s {
         "x" => Some(0),
@@ -140,8 +151,7 @@ fn classify(name: &str) -> Option<(Kind, usize)> {
         || has(&["gyr", "angvel", "angular", "dtheta", "rot"])
     {
         Kind::Gyro
-    } else if matches!(stem.as_str(), "a" | "f" | "fb")
-        || has(&["acc", "dvel", "force", "linear"])
+    } else if matches!(stem.as_str(), "a" | "f" | "fb") || has(&["acc", "dvel", "force", "linear"])
     {
         Kind::Accel
     } else {
@@ -188,15 +198,17 @@ pub fn sniff_csv(path: &Path) -> Result<CsvGuess> {
         }
     }
     let first = lines.first().ok_or_else(|| {
-        PipelineError::Input(format!("{}: no data lines to guess a column map from", path.display()))
+        PipelineError::Input(format!(
+            "{}: no data lines to guess a column map from",
+            path.display()
+        ))
     })?;
     let delimiter = [',', ';', '\t']
         .into_iter()
         .max_by_key(|d| first.matches(*d).count())
         .unwrap_or(',');
-    let split = |l: &str| -> Vec<String> {
-        l.split(delimiter).map(|s| s.trim().to_string()).collect()
-    };
+    let split =
+        |l: &str| -> Vec<String> { l.split(delimiter).map(|s| s.trim().to_string()).collect() };
     let head = split(first);
     if head.len() < 7 {
         return Err(PipelineError::Input(format!(
@@ -209,7 +221,12 @@ pub fn sniff_csv(path: &Path) -> Result<CsvGuess> {
     let names = if header { head.clone() } else { Vec::new() };
     let rows: Vec<Vec<f64>> = lines[usize::from(header)..]
         .iter()
-        .map(|l| split(l).iter().map(|f| f.parse().unwrap_or(f64::NAN)).collect())
+        .map(|l| {
+            split(l)
+                .iter()
+                .map(|f| f.parse().unwrap_or(f64::NAN))
+                .collect()
+        })
         .filter(|r: &Vec<f64>| r.len() == head.len())
         .collect();
 
@@ -249,7 +266,7 @@ pub fn sniff_csv(path: &Path) -> Result<CsvGuess> {
             .collect()
     };
     let f_med = median(norm(accel.value));
-    let unit_of = |c: usize| names.get(c).map(|n| tokens(n).1).unwrap_or_default();
+    let unit_of = |c: usize| names.get(c).map(|n| split_unit(n).1).unwrap_or_default();
     let (a_unit, g_unit) = (unit_of(accel.value[0]), unit_of(gyro.value[0]));
     let in_band = |x: f64, g: f64| x > G_BAND.0 * g && x < G_BAND.1 * g;
     let (accel_unit, form) = match (f_med, dt) {
@@ -263,9 +280,12 @@ pub fn sniff_csv(path: &Path) -> Result<CsvGuess> {
         ),
         (Some(f), Some(d)) if in_band(f / d, G0) || in_band(f / d, 1.0) => (
             if in_band(f / d, G0) {
-                guess("m/s2", format!("median |Δv| = {f:.5} ≈ g·dt in m/s (dt {d} s)"))
+                guess(
+                    "m/s2",
+                    format!("median |Δv| = {f:.5} ≈ g·dt in m/s (dt {d:.6} s)"),
+                )
             } else {
-                guess("g", format!("median |Δv| = {f:.6} ≈ 1 g·dt (dt {d} s)"))
+                guess("g", format!("median |Δv| = {f:.6} ≈ 1 g·dt (dt {d:.6} s)"))
             },
             guess("increment", "|Δv| ≈ g·dt: increments"),
         ),
@@ -276,21 +296,32 @@ pub fn sniff_csv(path: &Path) -> Result<CsvGuess> {
                     if g { "g" } else { "m/s2" },
                     format!(
                         "no gravity-sized |f| in the rows read; {}",
-                        if a_unit.is_empty() { "the reader's default".into() } else { format!("header unit [{a_unit}]") }
+                        if a_unit.is_empty() {
+                            "the reader's default".into()
+                        } else {
+                            format!("header unit [{a_unit}]")
+                        }
                     ),
                 ),
                 guess("rate", "the reader's default"),
             )
         }
     };
-    let per_s = if form.value == "increment" { dt.unwrap_or(1.0) } else { 1.0 };
+    let per_s = if form.value == "increment" {
+        dt.unwrap_or(1.0)
+    } else {
+        1.0
+    };
     let w_max = norm(gyro.value).into_iter().fold(0.0, f64::max) / per_s;
     let gyro_unit = if g_unit.contains("rad") {
         guess("rad", format!("header unit [{g_unit}]"))
     } else if g_unit.contains("deg") || g_unit.contains('°') || g_unit.contains("dps") {
         guess("deg", format!("header unit [{g_unit}]"))
     } else if w_max > std::f64::consts::TAU {
-        guess("deg", format!("|ω| reaches {w_max:.1}: more than one turn per second in rad/s"))
+        guess(
+            "deg",
+            format!("|ω| reaches {w_max:.1}: more than one turn per second in rad/s"),
+        )
     } else {
         guess(
             "deg",
@@ -306,7 +337,8 @@ pub fn sniff_csv(path: &Path) -> Result<CsvGuess> {
     let sd = (fs.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / fs.len().max(1) as f64).sqrt();
     let still = fs.len() > 10 && sd * scale < 0.02 * G0;
     let f_rest = still.then(|| {
-        let m = |i: usize| col(a[i]).filter(|v| v.is_finite()).sum::<f64>() / rows.len() as f64 * scale;
+        let m =
+            |i: usize| col(a[i]).filter(|v| v.is_finite()).sum::<f64>() / rows.len() as f64 * scale;
         [m(0), m(1), m(2)]
     });
     Ok(CsvGuess {
@@ -355,6 +387,9 @@ mod tests {
             assert_eq!(classify(n), None, "{n}");
         }
         assert!(!is_time("Time::GpsWeek"));
+        assert_eq!(split_unit("dtheta_x_rad").1, "rad");
+        assert_eq!(split_unit("gyro_x_rad_s").1, "rad/s");
+        assert_eq!(split_unit("IMU::UncompGyro::X [rad/s]").1, "rad/s");
     }
 
     #[test]
@@ -364,14 +399,24 @@ mod tests {
         let mut s = String::from("timestamp;gyr_x;gyr_y;gyr_z;acc_x;acc_y;acc_z;temp\n");
         for k in 0..300 {
             let e = if k % 2 == 0 { 0.001 } else { -0.001 };
-            s += &format!("{:.2};{e};0.02;-0.01;0.01;{e};1.0;25\n", 100.0 + k as f64 * 0.01);
+            s += &format!(
+                "{:.2};{e};0.02;-0.01;0.01;{e};1.0;25\n",
+                100.0 + k as f64 * 0.01
+            );
         }
         std::fs::write(&p, s).unwrap();
         let g = sniff_csv(&p).unwrap();
         assert_eq!((g.delimiter, g.header, g.rows), (';', true, 300));
-        assert_eq!((g.time.value, g.gyro.value, g.accel.value), (0, [1, 2, 3], [4, 5, 6]));
+        assert_eq!(
+            (g.time.value, g.gyro.value, g.accel.value),
+            (0, [1, 2, 3], [4, 5, 6])
+        );
         assert_eq!((g.accel_unit.value, g.form.value), ("g", "rate"));
-        assert!(g.gyro_unit.why.contains("cannot tell"), "{}", g.gyro_unit.why);
+        assert!(
+            g.gyro_unit.why.contains("cannot tell"),
+            "{}",
+            g.gyro_unit.why
+        );
         assert!((g.rate_hz.unwrap() - 100.0).abs() < 1e-6);
         // Sensor z up: f_z ≈ +g at rest.
         assert!((g.f_rest.unwrap()[2] - G0).abs() < 1e-9);

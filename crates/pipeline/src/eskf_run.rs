@@ -10,7 +10,7 @@ use crate::error::{PipelineError, Result};
 use crate::input::AuxSeries;
 use crate::profile::{Platform, Profile};
 use crate::sensors::{imu_noise_preset, measured_white_noise, SensorNoise, DEFAULT_IMU_PRESET};
-use crate::time_offset::{auto_estimate, time_offset_note, AutoOffset};
+use crate::time_offset::{auto_estimate, time_offset_note, AutoOffset, TimeOffset, TimeOffsetCfg};
 use navfuse_core::estimators::adaptive::{AdaptedNoise, AdaptiveConstraints};
 use navfuse_core::estimators::eskf::{
     rts_smooth, Eskf, EskfConfig, EskfStats, NhcConfig, UpdateLog,
@@ -309,6 +309,9 @@ pub struct EskfRun {
     pub gnss_fixes_fed: usize,
     /// Wall-clock seconds of the filter loop.
     pub seconds_filter: f64,
+    /// The IMU time offset [s] this in-memory run applied and how
+    /// ([`run_eskf`] only; file runs report it from the loading).
+    pub time_offset_applied: Option<(f64, String)>,
 }
 
 impl EskfRun {
@@ -331,8 +334,30 @@ pub fn run_eskf(
     gnss: &[GnssFix],
     aux: Option<&AuxSeries>,
 ) -> Result<EskfRun> {
+    // The in-memory path applies `[input] imu_time_offset` itself (the file
+    // path does it while loading, `crate::input::load`).
+    let mode = match &cfg.input.imu_time_offset {
+        None => TimeOffset::Auto,
+        Some(TimeOffsetCfg::Seconds(s)) => TimeOffset::parse(&s.to_string())?,
+        Some(TimeOffsetCfg::Named(n)) => TimeOffset::parse(n)?,
+    };
+    let shifted: Vec<ImuSample>;
+    let mut applied = None;
+    let imu = match mode.resolve(imu, gnss)? {
+        Some((tau, how)) => {
+            shifted = imu
+                .iter()
+                .map(|s| ImuSample { t: s.t + tau, ..*s })
+                .collect();
+            applied = Some((tau, how));
+            &shifted[..]
+        }
+        None => imu,
+    };
     let span = select_span(cfg, imu, gnss)?;
-    run_eskf_span(cfg, base_dir, &span, aux)
+    let mut r = run_eskf_span(cfg, base_dir, &span, aux)?;
+    r.time_offset_applied = applied;
+    Ok(r)
 }
 
 /// [`run_eskf`] on a selected span.
@@ -424,6 +449,7 @@ pub(crate) fn run_eskf_span(
         gnss_fixes_cut_by_outage: span.cut(),
         gnss_fixes_fed: gnss_fed,
         seconds_filter,
+        time_offset_applied: None,
     })
 }
 

@@ -7,6 +7,9 @@
 //! - [`run_eskf`]: the same ESKF run in memory on given IMU/GNSS streams,
 //!   writing nothing (for simulation experiments); [`run()`] is built on it.
 //! - [`kf_gins::run_kf_gins`]: a KF-GINS YAML configuration, KF-GINS's files.
+//! - [`template::run_template`]: the commented TOML `navfuse init` writes
+//!   (every key: `docs/config.md`); [`noise_cfg`]: `[filter.imu_noise]` in
+//!   KF-GINS or datasheet keys.
 //!
 //! Frames: body FRD, navigation NED; GPS time in seconds (or time of week
 //! for KF-GINS files); SI units inside, degrees only in files and configs.

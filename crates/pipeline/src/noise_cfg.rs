@@ -150,9 +150,12 @@ pub const DATASHEET_OPTIONAL_KEYS: &[&str] = &[
     "accel_turn_on_bias_mg",
 ];
 
+/// (key, given) pairs of one form.
+type Present = Vec<(&'static str, bool)>;
+
 impl ImuNoiseKeys {
     /// (key, present) of the KF-GINS form, then of the datasheet form.
-    fn present(&self) -> (Vec<(&'static str, bool)>, Vec<(&'static str, bool)>) {
+    fn present(&self) -> (Present, Present) {
         let k = vec![
             ("arw", self.arw.is_some()),
             ("vrw", self.vrw.is_some()),
@@ -176,8 +179,14 @@ impl ImuNoiseKeys {
             ("bias_corr_time_s", self.bias_corr_time_s.is_some()),
             ("gyro_scale_ppm", self.gyro_scale_ppm.is_some()),
             ("accel_scale_ppm", self.accel_scale_ppm.is_some()),
-            ("gyro_turn_on_bias_dps", self.gyro_turn_on_bias_dps.is_some()),
-            ("accel_turn_on_bias_mg", self.accel_turn_on_bias_mg.is_some()),
+            (
+                "gyro_turn_on_bias_dps",
+                self.gyro_turn_on_bias_dps.is_some(),
+            ),
+            (
+                "accel_turn_on_bias_mg",
+                self.accel_turn_on_bias_mg.is_some(),
+            ),
         ];
         (k, d)
     }
@@ -478,14 +487,26 @@ mod tests {
         assert!((s.vrw.x - 5.883_99e-4).abs() < 1e-12, "{}", s.vrw.x);
         assert!((s.vrw.z - 9.806_65e-4).abs() < 1e-12);
         // 2 °/h = 9.6963e-6 rad/s; 3.6 µg = 3.530394e-5 m/s².
-        assert!((s.bg_std.y - 9.696_273_6e-6).abs() < 1e-13, "{}", s.bg_std.y);
+        assert!(
+            (s.bg_std.y - 9.696_273_6e-6).abs() < 1e-13,
+            "{}",
+            s.bg_std.y
+        );
         assert!((s.ba_std.z - 3.530_394e-5).abs() < 1e-12);
         assert_eq!((s.sg_std.x, s.sa_std.x, s.corr_time), (1e-3, 5e-4, 500.0));
         // Initial bias σ: turn-on 0.2 °/s = 3.4907e-3 rad/s ⊕ 9.70e-6;
         // 25 mg = 0.24517 m/s² ⊕ 3.5e-5.
         let sn = n.sensor_noise();
-        assert!((sn.init_bg_std - 3.490_672e-3).abs() < 1e-8, "{}", sn.init_bg_std);
-        assert!((sn.init_ba_std - 0.245_166_3).abs() < 1e-6, "{}", sn.init_ba_std);
+        assert!(
+            (sn.init_bg_std - 3.490_672e-3).abs() < 1e-8,
+            "{}",
+            sn.init_bg_std
+        );
+        assert!(
+            (sn.init_ba_std - 0.245_166_3).abs() < 1e-6,
+            "{}",
+            sn.init_ba_std
+        );
         // Optional keys default: no scale error, initial σ = instability.
         let m = noise(
             "gyro_noise_dps_rthz = 0.0025\naccel_noise_ug_rthz = 60\n\
@@ -495,8 +516,7 @@ mod tests {
         assert_eq!(m.to_si().sg_std, Vec3::zeros());
         assert_eq!(m.sensor_noise().init_bg_std, s.bg_std.x);
         // Round trip through the TOML writer keeps the form and the numbers.
-        let back: ImuNoiseCfg =
-            toml::from_str(&toml::to_string(&n).unwrap()).unwrap();
+        let back: ImuNoiseCfg = toml::from_str(&toml::to_string(&n).unwrap()).unwrap();
         assert_eq!(back, n);
     }
 
@@ -543,7 +563,10 @@ mod tests {
             n += 1;
             let cfg = ImuNoiseCfg::Datasheet(d);
             cfg.validate(p, "imu_noise").unwrap();
-            let (mine, theirs) = (cfg.sensor_noise(), crate::sensors::imu_noise_preset(p).unwrap());
+            let (mine, theirs) = (
+                cfg.sensor_noise(),
+                crate::sensors::imu_noise_preset(p).unwrap(),
+            );
             let close = |a: f64, b: f64| (a - b).abs() <= 1e-12 * b.abs().max(1e-30);
             let (x, y) = (mine.noise, theirs.noise);
             for (a, b) in [
@@ -569,7 +592,10 @@ mod tests {
             .map(|i| i as f64 * 0.001)
             .map(|x| (x, gm_allan_deviation(1.0, 1.0, x)))
             .fold((0.0, 0.0), |b, p| if p.1 > b.1 { p } else { b });
-        assert!((peak - 0.6174).abs() < 1e-3 && (tau - 1.89).abs() < 0.01, "{peak} at {tau}");
+        assert!(
+            (peak - 0.6174).abs() < 1e-3 && (tau - 1.89).abs() < 0.01,
+            "{peak} at {tau}"
+        );
         // Short τ: rate random walk σ√(2τ/3T); long τ: white √(2σ²T/τ).
         assert!((gm_allan_deviation(1.0, 1.0, 1e-3) / (2e-3f64 / 3.0).sqrt() - 1.0).abs() < 1e-3);
         assert!((gm_allan_deviation(1.0, 1.0, 1e4) / (2e-4f64).sqrt() - 1.0).abs() < 1e-3);

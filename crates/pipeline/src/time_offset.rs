@@ -82,8 +82,10 @@ impl TimeOffset {
 /// estimated and removed, [`velocity_latency`]) or from position chords —
 /// and applied only when every variant with σ ≤ 20 ms is significant
 /// (|τ| > 3.29 σ, a 0.1 % two-sided false alarm) and of one sign; the
-/// applied τ is the least extreme of them (every model supports moving the
-/// stamps at least that far). Otherwise it is reported, not applied.
+/// applied τ is their inverse-variance mean when they agree within 3 σ of
+/// their differences, else the least extreme of them (every model supports
+/// moving the stamps at least that far). Otherwise it is reported, not
+/// applied.
 pub fn auto_estimate(imu: &[ImuSample], gnss: &[GnssFix]) -> AutoOffset {
     let has_vel = gnss.iter().filter(|g| g.v_n.is_some()).count() * 2 >= gnss.len().max(1);
     let positions: Vec<GnssFix>;
@@ -234,12 +236,25 @@ fn decide(variants: Vec<(String, TimeOffsetEstimate)>) -> AutoOffset {
         .collect();
     let all_significant = usable.iter().all(|u| u.2);
     let one_sign = usable.iter().all(|u| u.0.signum() == usable[0].0.signum());
-    // The least extreme of the variants: every model supports moving at
-    // least that far, none supports less.
-    let least = usable
-        .iter()
-        .min_by(|a, b| a.0.abs().total_cmp(&b.0.abs()))
-        .map(|u| (u.0, u.1));
+    let consistent = usable.iter().all(|(a, sa, _)| {
+        usable
+            .iter()
+            .all(|(b, sb, _)| (a - b).abs() <= 3.0 * sa.hypot(*sb))
+    });
+    // Consistent variants: their inverse-variance mean (unbiased). Variants
+    // that disagree but agree in sign: the least extreme — every model
+    // supports moving the stamps at least that far, none supports less.
+    let pick = if consistent {
+        let (sw, swt) = usable.iter().fold((0.0, 0.0), |(w, wt), (t, s, _)| {
+            (w + 1.0 / (s * s), wt + t / (s * s))
+        });
+        (sw > 0.0).then(|| (swt / sw, (1.0 / sw).sqrt()))
+    } else {
+        usable
+            .iter()
+            .min_by(|a, b| a.0.abs().total_cmp(&b.0.abs()))
+            .map(|u| (u.0, u.1))
+    };
     let (apply, reason) = if usable.is_empty() {
         (false, "no variant estimates τ within 20 ms")
     } else if !one_sign {
@@ -249,13 +264,18 @@ fn decide(variants: Vec<(String, TimeOffsetEstimate)>) -> AutoOffset {
         )
     } else if !all_significant {
         (false, "not significant under every variant; not applied")
+    } else if consistent {
+        (
+            true,
+            "significant and consistent under every variant; their weighted mean applied",
+        )
     } else {
         (
             true,
-            "significant under every variant; the least extreme applied",
+            "significant under every variant but model-dependent; the least extreme applied",
         )
     };
-    let (tau, std) = least.map_or((None, f64::INFINITY), |(t, s)| (Some(t), s));
+    let (tau, std) = pick.map_or((None, f64::INFINITY), |(t, s)| (Some(t), s));
     AutoOffset {
         tau_s: tau,
         std_s: std,
@@ -269,7 +289,7 @@ fn decide(variants: Vec<(String, TimeOffsetEstimate)>) -> AutoOffset {
 /// The decision of [`auto_estimate`].
 #[derive(Clone, Debug)]
 pub struct AutoOffset {
-    /// The least extreme usable variant's τ [s], and its σ.
+    /// The τ chosen from the usable variants [s] (see [`auto_estimate`]), and its σ.
     pub tau_s: Option<f64>,
     pub std_s: f64,
     /// Whether τ is applied.

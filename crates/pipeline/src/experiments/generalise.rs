@@ -145,6 +145,8 @@ pub struct VariantScores {
     pub outages: usize,
     /// `seed N: message` of every run that errored or could not be scored.
     pub failures: Vec<String>,
+    /// IMU time offset each scored run applied [s] (0: none), seed order.
+    pub time_offset_applied_s: Vec<f64>,
 }
 
 /// Pass/fail of the targets in one cell. A cell whose default runs failed
@@ -223,12 +225,13 @@ fn run_seed(cell: &Cell, seed: u64, duration_s: f64) -> SeedScores {
 fn score_variant(v: Variant, pr: &PlatformRun) -> Result<RunScore, String> {
     let t_move = motion_start(&pr.run.traj).ok_or("the platform never moves")?;
     let r = run_variant(&variant_config(v, pr), pr).map_err(|e| e.to_string())?;
-    let s = score_run(
+    let mut s = score_run(
         &r.solutions,
         &pr.run.traj,
         t_move + SCORE_AFTER_MOTION_S,
         &pr.outages,
     );
+    s.tau_applied = r.time_offset_applied.as_ref().map_or(0.0, |a| a.0);
     if s.n == 0 {
         return Err("no solution after motion start + 60 s".into());
     }
@@ -243,10 +246,12 @@ fn pool(cell_seeds: &[(u64, &SeedScores)], k: usize) -> VariantScores {
         (0.0, 0usize, Vec::new(), 0.0, 0usize, 0usize);
     let mut failures = Vec::new();
     let mut runs_ok = 0;
+    let mut taus = Vec::new();
     for (seed, s) in cell_seeds {
         match &s[k] {
             Ok(r) => {
                 runs_ok += 1;
+                taus.push(r.tau_applied);
                 sum_e2 += r.sum_e2;
                 n += r.n;
                 omax.extend_from_slice(&r.outage_max);
@@ -266,6 +271,7 @@ fn pool(cell_seeds: &[(u64, &SeedScores)], k: usize) -> VariantScores {
         runs_ok,
         outages: omax.len(),
         failures,
+        time_offset_applied_s: taus,
     }
 }
 

@@ -91,7 +91,7 @@ pub fn variant_config(variant: Variant, pr: &PlatformRun) -> RunConfig {
 /// config), `[input] start` = that sample's stamp.
 fn set_true_init(cfg: &mut RunConfig, pr: &PlatformRun) {
     let s = &pr.init;
-    cfg.input.start = Some(pr.init_stamp_s);
+    // No `[input] start`: the state holds at the first IMU sample anyway.
     cfg.init.position = Some([s.lat.to_degrees(), s.lon.to_degrees(), s.h]);
     cfg.init.velocity = Some([s.v_n.x, s.v_n.y, s.v_n.z]);
     cfg.init.attitude = Some([

@@ -44,6 +44,8 @@ pub(crate) struct RunScore {
     pub nees_sum: f64,
     pub nees_n: usize,
     pub nees_in95: usize,
+    /// IMU time offset the run applied [s] (0: none).
+    pub tau_applied: f64,
 }
 
 /// Score `sols` against `traj` from `t_from` [s] on; `outages` are
