@@ -21,6 +21,10 @@ pub struct GeneraliseArgs {
     /// patterns (`*` = any), e.g. `car,uav:tactical:*:0.1`. Default: all 48.
     #[arg(long)]
     pub cells: Option<String>,
+    /// True IMU time offsets [s] instead of the matrix's 0 and 0.1, comma
+    /// separated (e.g. `0,0.05,-0.05,0.2,-0.2` for the time-offset check).
+    #[arg(long, value_delimiter = ',', allow_hyphen_values = true)]
+    pub offsets: Option<Vec<f64>>,
     /// Write the results as JSON here.
     #[arg(long)]
     pub json: Option<PathBuf>,
@@ -42,9 +46,13 @@ fn write_json<T: serde::Serialize>(path: &Path, v: &T) -> Result<(), String> {
 }
 
 pub fn generalise(a: GeneraliseArgs) -> Result<(), String> {
-    let cells = match &a.cells {
-        Some(p) => generalise::select_cells(p).map_err(|e| e.to_string())?,
+    let all = match &a.offsets {
+        Some(o) => generalise::matrix_with(o),
         None => generalise::matrix(),
+    };
+    let cells = match &a.cells {
+        Some(p) => generalise::select_cells_in(all, p).map_err(|e| e.to_string())?,
+        None => all,
     };
     let opt = generalise::GeneraliseOptions {
         seeds: a.seeds,

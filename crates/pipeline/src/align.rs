@@ -253,7 +253,6 @@ pub fn align(
             lon: p[1].to_radians(),
             h: p[2],
             v_n: Vec3::from(v),
-            ..Default::default()
         };
         let att = att_std_given.map_or(Vec3::repeat(1.0f64.to_radians()), Vec3::from);
         let init_std = init_std(

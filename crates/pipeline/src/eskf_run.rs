@@ -10,7 +10,9 @@ use crate::error::{PipelineError, Result};
 use crate::input::AuxSeries;
 use crate::profile::{Platform, Profile};
 use crate::sensors::{imu_noise_preset, measured_white_noise, SensorNoise, DEFAULT_IMU_PRESET};
-use crate::time_offset::{auto_estimate, time_offset_note, AutoOffset, TimeOffset, TimeOffsetCfg};
+use crate::time_offset::{
+    auto_estimate, default_mode, time_offset_note, AutoOffset, TimeOffset, TimeOffsetCfg,
+};
 use navfuse_core::estimators::adaptive::{AdaptedNoise, AdaptiveConstraints};
 use navfuse_core::estimators::eskf::{
     rts_smooth, Eskf, EskfConfig, EskfStats, NhcConfig, UpdateLog,
@@ -337,7 +339,7 @@ pub fn run_eskf(
     // The in-memory path applies `[input] imu_time_offset` itself (the file
     // path does it while loading, `crate::input::load`).
     let mode = match &cfg.input.imu_time_offset {
-        None => TimeOffset::Auto,
+        None => default_mode(cfg),
         Some(TimeOffsetCfg::Seconds(s)) => TimeOffset::parse(&s.to_string())?,
         Some(TimeOffsetCfg::Named(n)) => TimeOffset::parse(n)?,
     };

@@ -90,6 +90,11 @@ pub struct Profile {
     pub zupt: Option<ZuptConfig>,
     /// The GNSS course over ground is the body heading when moving (NHC holds).
     pub course_is_heading: bool,
+    /// The course follows the heading up to a slowly varying offset (a
+    /// walker's device), so the course-vs-gyro time-offset estimate is valid;
+    /// false where the course is free of the heading (a multirotor flies
+    /// sideways, a boat crabs with the current).
+    pub course_follows_heading: bool,
     /// Largest plausible horizontal acceleration [m/s²]: GNSS velocity
     /// changes beyond it are outliers (alignment, time offset).
     pub max_accel: f64,
@@ -171,6 +176,7 @@ impl Platform {
                 }),
                 zupt: Some(car_zupt),
                 course_is_heading: true,
+                course_follows_heading: true,
                 // Tyre friction limit ≈ 1 g.
                 max_accel: 9.81,
             },
@@ -195,6 +201,7 @@ impl Platform {
                     ..car_zupt
                 }),
                 course_is_heading: true,
+                course_follows_heading: true,
                 max_accel: 4.0,
             },
             Platform::Pedestrian => Profile {
@@ -214,6 +221,7 @@ impl Platform {
                     ..car_zupt
                 }),
                 course_is_heading: false,
+                course_follows_heading: true,
                 max_accel: 9.81,
             },
             Platform::Uav => Profile {
@@ -221,6 +229,7 @@ impl Platform {
                 nhc: None,
                 zupt: None,
                 course_is_heading: false,
+                course_follows_heading: false,
                 max_accel: 20.0,
             },
             Platform::Marine => Profile {
@@ -228,6 +237,7 @@ impl Platform {
                 nhc: None,
                 zupt: None,
                 course_is_heading: false,
+                course_follows_heading: false,
                 max_accel: 5.0,
             },
             Platform::Static => Profile {
@@ -244,6 +254,7 @@ impl Platform {
                     ..car_zupt
                 }),
                 course_is_heading: false,
+                course_follows_heading: false,
                 max_accel: 0.5,
             },
         }

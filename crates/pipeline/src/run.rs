@@ -11,6 +11,7 @@ use crate::other::{run_other, OtherRun};
 use crate::outputs::{out_formats, write_innovations, write_solutions};
 use crate::run_checks::time_keys_json;
 use crate::summary::Summary;
+use crate::time_offset::{default_mode, TimeOffset, TimeOffsetCfg};
 use navfuse_core::estimators::eskf::EskfStats;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
@@ -54,6 +55,12 @@ pub fn run(cfg: &RunConfig, base_dir: &Path, opts: &RunOptions) -> Result<RunOut
     let t_read = Instant::now();
     let (imu_path, gnss_path) = (rel(&cfg.input.imu), rel(&cfg.input.gnss));
     let imu_tag = cfg.input.imu_tag.as_deref().map(rel);
+    let none = TimeOffsetCfg::Named("none".into());
+    let offset = match (&cfg.input.imu_time_offset, default_mode(cfg)) {
+        (Some(o), _) => Some(o),
+        (None, TimeOffset::None) => Some(&none),
+        (None, _) => None,
+    };
     let loaded = input::load(&InputSpec {
         imu: &imu_path,
         imu_format: cfg.input.imu_format.as_deref(),
@@ -61,7 +68,7 @@ pub fn run(cfg: &RunConfig, base_dir: &Path, opts: &RunOptions) -> Result<RunOut
         csv: cfg.input.csv.as_ref(),
         gnss: &gnss_path,
         gnss_format: cfg.input.gnss_format.as_deref(),
-        imu_time_offset: cfg.input.imu_time_offset.as_ref(),
+        imu_time_offset: offset,
         imu_time_base: cfg.input.imu_time_base,
         gnss_time_base: cfg.input.gnss_time_base,
         imu_tag: imu_tag.as_deref(),

@@ -456,3 +456,19 @@ pub fn time_offset_note(residual: &AutoOffset, applied: Option<&(f64, String)>) 
         describe(residual)
     )
 }
+
+/// The time-offset mode of a run whose `[input] imu_time_offset` is unset:
+/// `auto` when the platform's course follows its heading (car, robot,
+/// walker; and with no platform named, the KF-GINS model's vehicles), else
+/// none — the course-vs-gyro estimate has nothing to hold on to when a
+/// multirotor flies sideways or a boat crabs.
+pub fn default_mode(cfg: &crate::config::RunConfig) -> TimeOffset {
+    let platform = cfg
+        .filter
+        .platform
+        .or((cfg.filter.preset == "enhanced").then_some(crate::profile::Platform::Car));
+    match platform {
+        Some(p) if !p.profile().course_follows_heading => TimeOffset::None,
+        _ => TimeOffset::Auto,
+    }
+}

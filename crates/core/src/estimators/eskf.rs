@@ -635,6 +635,10 @@ pub struct Eskf {
     last_zaru: f64,
     last_dt: f64,
     standstill: bool,
+    /// Time [s] and horizontal speed [m/s] of the latest GNSS evidence of
+    /// motion (velocity of a fix, else the chord from the previous fix).
+    gnss_motion: (f64, f64),
+    last_fix: Option<GnssFix>,
     detector: StandstillDetector,
     stats: EskfStats,
     // Smoother bookkeeping.
@@ -759,6 +763,8 @@ impl Eskf {
             last_zaru: f64::NEG_INFINITY,
             last_dt: 0.01,
             standstill: false,
+            gnss_motion: (f64::NEG_INFINITY, 0.0),
+            last_fix: None,
             detector: StandstillDetector::new(),
             stats: EskfStats::default(),
             journal: [UpdateLog {
@@ -1299,12 +1305,17 @@ impl Eskf {
             let c_nb = self.nav.c_bn().transpose();
             let e = EarthAt::new(self.nav.lat, self.nav.h);
             let f_rest_b = c_nb * Vec3::new(0.0, 0.0, -e.g);
+            // An IMU cannot tell rest from smooth uniform motion (a quiet
+            // robot cruising slowly): a GNSS speed above `max_speed` within
+            // the last 2 s (two 1 Hz fixes) vetoes the standstill.
+            let gnss_moving = t - self.gnss_motion.0 <= 2.0 && self.gnss_motion.1 > z.max_speed;
             self.standstill = match self.detector.stats(z.window) {
                 Some((sf, sw, _, f_mean)) => {
                     sf < z.max_accel_std
                         && sw < z.max_gyro_std
                         && (f_mean - f_rest_b).norm() < z.max_accel_dev
                         && self.nav.v_n.norm() < z.max_speed
+                        && !gnss_moving
                 }
                 None => false,
             };
@@ -1500,6 +1511,25 @@ impl Eskf {
             self.stats.gnss_rejected_bad += 1;
             return;
         }
+        // GNSS evidence of motion for the standstill detector's veto.
+        let speed = match (g.v_n, self.last_fix) {
+            (Some(v), _) if v.x.is_finite() && v.y.is_finite() => Some(v.xy().norm()),
+            (_, Some(p)) if g.t - p.t > 0.05 && g.t - p.t <= 2.0 => {
+                let (rm, rn) = earth::radii(p.lat);
+                let dn = (g.lat - p.lat) * (rm + p.h);
+                let de = (g.lon - p.lon) * (rn + p.h) * p.lat.cos();
+                // Only a chord longer than 3σ of its ends counts as motion.
+                let s3 =
+                    3.0 * (g.std_ned.xy().norm_squared() + p.std_ned.xy().norm_squared()).sqrt();
+                let len = dn.hypot(de);
+                Some(if len > s3 { len / (g.t - p.t) } else { 0.0 })
+            }
+            _ => None,
+        };
+        if let Some(v) = speed {
+            self.gnss_motion = (g.t, v);
+        }
+        self.last_fix = Some(*g);
         if let Some(old) = self.pending.replace(*g) {
             // Two fixes inside one IMU interval: the older one is superseded.
             let _ = old;

@@ -54,11 +54,16 @@ impl Cell {
 
 /// The full matrix in its fixed order (platform, IMU, GNSS, offset).
 pub fn matrix() -> Vec<Cell> {
+    matrix_with(&OFFSETS_S)
+}
+
+/// The matrix with other true time offsets [s] (e.g. the ±50/±200 ms check).
+pub fn matrix_with(offsets: &[f64]) -> Vec<Cell> {
     let mut v = Vec::new();
     for platform in Platform::ALL {
         for imu in ImuGrade::ALL {
             for gnss in GnssGrade::ALL {
-                for offset_s in OFFSETS_S {
+                for &offset_s in offsets {
                     v.push(Cell {
                         platform,
                         imu,
@@ -76,7 +81,11 @@ pub fn matrix() -> Vec<Cell> {
 /// `platform[:imu[:gnss[:offset]]]` (`*` or a missing part matches all), e.g.
 /// `car,uav:tactical:*:0.1`. Error when a pattern matches no cell.
 pub fn select_cells(patterns: &str) -> Result<Vec<Cell>, ExperimentError> {
-    let all = matrix();
+    select_cells_in(matrix(), patterns)
+}
+
+/// [`select_cells`] among `all`.
+pub fn select_cells_in(all: Vec<Cell>, patterns: &str) -> Result<Vec<Cell>, ExperimentError> {
     let pats: Vec<Vec<String>> = patterns
         .split(',')
         .map(|p| {
