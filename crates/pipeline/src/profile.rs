@@ -196,7 +196,10 @@ impl Platform {
                 zupt: Some(ZuptConfig {
                     max_accel_std: 0.05,
                     max_gyro_std: 0.5f64.to_radians(),
-                    max_speed: 0.3,
+                    // A third of the slowest cruising speed (0.3 m/s): an
+                    // IMU cannot tell rest from smooth slow motion, so the
+                    // filter's speed must say rest with margin.
+                    max_speed: 0.1,
                     vel_std: 0.01,
                     ..car_zupt
                 }),
@@ -215,7 +218,8 @@ impl Platform {
                     max_accel_std: 0.3,
                     max_gyro_std: 10.0f64.to_radians(),
                     max_accel_dev: 0.5,
-                    max_speed: 0.5,
+                    // A third of a slow walk (0.8 m/s), as for the robot.
+                    max_speed: 0.3,
                     vel_std: 0.05,
                     zaru_std: None,
                     ..car_zupt
