@@ -19,8 +19,8 @@
 //! streams differ, the GNSS times are moved to the IMU's base (the week is
 //! taken from the other stream). An optional `imu_time_offset` (seconds,
 //! added to every IMU stamp: true time = stamp + offset) corrects a known
-//! IMU–GNSS lag; `"auto"` estimates it first by course-rate / yaw-rate
-//! cross-correlation ([`crate::time_offset::estimate_time_offset`]).
+//! IMU–GNSS lag; `"auto"` estimates it with its σ and applies it only when
+//! significant ([`crate::time_offset::auto_estimate`]).
 
 use crate::csv_map::{csv_plan, CsvCfg};
 use crate::error::{PipelineError, Result};

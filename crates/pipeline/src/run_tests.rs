@@ -4,7 +4,7 @@
 use crate::config::RunConfig;
 use crate::kfgins_input::read_kfgins;
 use crate::run::{run, RunOptions};
-use crate::time_offset::estimate_time_offset;
+use crate::time_offset::auto_estimate;
 use navfuse_core::types::{GnssFix, ImuSample, NavSolution};
 use navfuse_core::Vec3;
 use navfuse_io::kfgins_yaml::KfGinsConfig;
@@ -547,9 +547,9 @@ fn time_offset_estimate_recovers_a_shift() {
     ))
     .unwrap();
     let input = read_kfgins(&cfg).unwrap();
-    let (tau0, r0) = estimate_time_offset(&input.imu, &input.gnss, 0.5).unwrap();
-    // imu.txt already has its −0.2 s applied: the residual is small.
-    assert!(tau0.abs() <= 0.03 && r0 > 0.99, "residual {tau0} r {r0}");
+    // imu.txt already has its −0.2 s applied: nothing more is applied.
+    let e0 = auto_estimate(&input.imu, &input.gnss);
+    assert!(!e0.apply, "{}", crate::time_offset::describe(&e0));
     for shift in [0.15, -0.1] {
         let shifted: Vec<ImuSample> = input
             .imu
@@ -559,11 +559,15 @@ fn time_offset_estimate_recovers_a_shift() {
                 ..*s
             })
             .collect();
-        let (tau, _) = estimate_time_offset(&shifted, &input.gnss, 0.5).unwrap();
-        assert!(
-            (tau - (tau0 - shift)).abs() < 0.011,
-            "shift {shift}: estimated {tau}"
-        );
+        let e = auto_estimate(&shifted, &input.gnss);
+        // Every model variant moves by the shift (within 11 ms).
+        for ((name, v0), (_, v)) in e0.variants.iter().zip(&e.variants) {
+            let (t0, t) = (v0.tau_s.unwrap(), v.tau_s.unwrap());
+            assert!(
+                (t - (t0 - shift)).abs() < 0.011,
+                "shift {shift}, {name}: estimated {t} from {t0}"
+            );
+        }
     }
 }
 
