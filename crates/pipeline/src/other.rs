@@ -107,6 +107,8 @@ pub(crate) fn run_other(name: &str, r: &OtherRun) -> Result<RunOutcome> {
         summary_path: p,
         summary,
         solutions: sols.len(),
+        trajectory: sols,
+        smoothed: Vec::new(),
         alignment: None,
         stats: None,
         message,

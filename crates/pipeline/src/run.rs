@@ -13,6 +13,7 @@ use crate::run_checks::time_keys_json;
 use crate::summary::Summary;
 use crate::time_offset::{default_mode, TimeOffset, TimeOffsetCfg};
 use navfuse_core::estimators::eskf::EskfStats;
+use navfuse_core::types::NavSolution;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
@@ -39,6 +40,11 @@ pub struct RunOutcome {
     pub summary: serde_json::Value,
     /// Number of (forward) solutions.
     pub solutions: usize,
+    /// The forward solutions written to `solution.nav` (IMU point; lat/lon
+    /// [rad], NED velocity, rpy of body FRD w.r.t. NED), for in-memory callers.
+    pub trajectory: Vec<NavSolution>,
+    /// The smoothed solutions (empty unless `[filter] smooth`).
+    pub smoothed: Vec<NavSolution>,
     /// How the ESKF was aligned (`None` for the other estimators).
     pub alignment: Option<String>,
     /// The ESKF's update counters (`None` for the other estimators).
@@ -162,6 +168,8 @@ pub fn run(cfg: &RunConfig, base_dir: &Path, opts: &RunOptions) -> Result<RunOut
             .map_err(|e| PipelineError::Output(e.to_string()))?,
         summary_path: p,
         solutions: r.solutions.len(),
+        trajectory: r.solutions,
+        smoothed: r.smoothed,
         alignment: Some(r.alignment),
         stats: Some(r.stats),
         message,
