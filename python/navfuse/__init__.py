@@ -179,7 +179,8 @@ class Simulation:
     ``gnss`` (``GNSS_COLUMNS``, antenna, outages removed), ``truth``
     (``SOLUTION_COLUMNS`` at the IMU epochs, σ columns 0), ``outages``
     (``[start, end)`` GPS s), ``description``, ``imu_rate_hz``,
-    ``imu_time_offset_s`` (τ)."""
+    ``imu_time_offset_s`` (τ), ``lever_arm_m`` (GNSS antenna, body FRD
+    [m]), ``imu_preset`` (the simulated IMU model)."""
 
     imu: pd.DataFrame
     gnss: pd.DataFrame
@@ -188,6 +189,8 @@ class Simulation:
     description: str
     imu_rate_hz: float
     imu_time_offset_s: float
+    lever_arm_m: tuple = (0.0, 0.0, 0.0)
+    imu_preset: str = ""
 
 
 def simulate(scenario: Union[str, PathLike], seed: int, *, duration_s: float = 600.0,
@@ -210,6 +213,8 @@ def simulate(scenario: Union[str, PathLike], seed: int, *, duration_s: float = 6
         description=d["description"],
         imu_rate_hz=d["imu_rate_hz"],
         imu_time_offset_s=d["imu_time_offset_s"],
+        lever_arm_m=tuple(d["lever_arm_m"]),
+        imu_preset=d["imu_preset"],
     )
 
 

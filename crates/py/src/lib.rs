@@ -21,7 +21,7 @@ use std::path::{Path, PathBuf};
 use tables::Table;
 
 create_exception!(
-    _navfuse,
+    navfuse,
     NavfuseError,
     PyException,
     "A navfuse error: bad input (naming file, line and field), configuration, alignment or estimator failure."
@@ -147,8 +147,7 @@ fn run_json<'py>(
     imu: Option<(Vec<u8>, usize)>,
     gnss: Option<(Vec<u8>, usize)>,
 ) -> PyResult<Bound<'py, PyDict>> {
-    let cfg: RunConfig =
-        serde_json::from_str(json).map_err(|e| err(format!("run config: {e}")))?;
+    let cfg: RunConfig = serde_json::from_str(json).map_err(|e| err(format!("run config: {e}")))?;
     let (imu, gnss) = match (imu, gnss) {
         (None, None) => return run_cfg(py, &cfg, &base_dir, RunOptions { output, estimator }),
         (Some(i), Some(g)) => (i, g),

@@ -32,7 +32,8 @@ fn truth_solution(e: &TruthEpoch) -> NavSolution {
 /// [s], IMU grade (`consumer`, `industrial`, `tactical`), GNSS grade
 /// (`rtk`, `consumer`), static start, IMU time offset τ [s]. Returns a dict:
 /// `imu`, `gnss`, `truth` (table bytes), `outages` (`[start, end)` GPS s),
-/// `description`, `imu_rate_hz`, `imu_time_offset_s`.
+/// `description`, `imu_rate_hz`, `imu_time_offset_s`, `lever_arm_m` (GNSS
+/// antenna, body FRD [m]), `imu_preset`.
 #[pyfunction]
 #[pyo3(signature = (scenario, seed, duration_s = 600.0, imu_grade = None, gnss_grade = None, static_start = true, imu_time_offset_s = 0.0))]
 #[allow(clippy::too_many_arguments)]
@@ -97,5 +98,7 @@ pub fn simulate<'py>(
     d.set_item("description", run.scenario.description.clone())?;
     d.set_item("imu_rate_hz", rate)?;
     d.set_item("imu_time_offset_s", tau)?;
+    d.set_item("lever_arm_m", run.scenario.gnss.lever_arm_m)?;
+    d.set_item("imu_preset", run.scenario.imu.preset.clone())?;
     Ok(d)
 }

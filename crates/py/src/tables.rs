@@ -251,12 +251,8 @@ pub fn gnss_from(t: &Table) -> Result<Vec<GnssFix>, String> {
                 return Err(t.bad(i, GNSS_COLUMNS[k], &format!("not a finite number: {v}")));
             }
         }
-        let vel = (t.ncols == 13 && r[7..].iter().all(|v| v.is_finite())).then(|| {
-            (
-                Vec3::new(r[7], r[8], r[9]),
-                Vec3::new(r[10], r[11], r[12]),
-            )
-        });
+        let vel = (t.ncols == 13 && r[7..].iter().all(|v| v.is_finite()))
+            .then(|| (Vec3::new(r[7], r[8], r[9]), Vec3::new(r[10], r[11], r[12])));
         out.push(GnssFix {
             t: r[0],
             lat: r[1].to_radians(),
