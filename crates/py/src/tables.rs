@@ -155,7 +155,7 @@ impl Table<'_> {
     /// Number of rows; an error when the byte count does not fit the columns.
     pub fn rows(&self) -> Result<usize, String> {
         let w = self.ncols * 8;
-        if self.ncols == 0 || self.data.len() % w != 0 {
+        if self.ncols == 0 || !self.data.len().is_multiple_of(w) {
             return Err(format!(
                 "{}: {} bytes are not rows of {} float64 columns",
                 self.name,
