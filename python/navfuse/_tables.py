@@ -63,7 +63,7 @@ def imu_table(x: Any) -> tuple[bytes, int]:
 
 
 def gnss_table(x: Any) -> tuple[bytes, int]:
-    """GNSS rows ``t_s, lat_deg, lon_deg, h_m, std_{n,e,d}_m[, v_*_mps, std_v_*_mps]``."""
+    """GNSS rows ``t_s, lat_deg, lon_deg, h_m, std_{n,e,d}_m[, v_*_mps, std_v{n,e,d}_mps]``."""
     return _matrix(x, GNSS_COLUMNS, 7, [6], "gnss")
 
 

@@ -24,9 +24,9 @@ pub const SOLUTION_COLUMNS: [&str; 19] = [
     "std_n_m",
     "std_e_m",
     "std_d_m",
-    "std_v_n_mps",
-    "std_v_e_mps",
-    "std_v_d_mps",
+    "std_vn_mps",
+    "std_ve_mps",
+    "std_vd_mps",
     "std_roll_deg",
     "std_pitch_deg",
     "std_yaw_deg",
@@ -56,9 +56,9 @@ pub const GNSS_COLUMNS: [&str; 13] = [
     "v_n_mps",
     "v_e_mps",
     "v_d_mps",
-    "std_v_n_mps",
-    "std_v_e_mps",
-    "std_v_d_mps",
+    "std_vn_mps",
+    "std_ve_mps",
+    "std_vd_mps",
 ];
 
 /// Append `values` to `out` as little-endian bytes.
