@@ -25,6 +25,7 @@ pub mod experiments;
 pub mod imu_clock;
 pub mod input;
 pub mod kf_gins;
+pub mod kf_gins_align;
 mod kf_gins_out;
 pub mod kfgins_input;
 pub mod noise_cfg;
