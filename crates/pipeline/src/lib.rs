@@ -28,6 +28,7 @@ pub mod kf_gins;
 pub mod kf_gins_align;
 mod kf_gins_out;
 pub mod kfgins_input;
+pub mod live_align;
 pub mod noise_cfg;
 mod other;
 pub mod outputs;
