@@ -11,6 +11,7 @@ use clap::Args as ClapArgs;
 use navfuse_core::types::NavSolution;
 use navfuse_io::kfgins_yaml::KfGinsConfig;
 use navfuse_pipeline::kf_gins::{check, run_kf_gins, KfGinsOptions, KfGinsRun};
+use navfuse_pipeline::kf_gins_align::AlignSource;
 use navfuse_pipeline::PipelineError;
 use std::path::PathBuf;
 use std::time::Instant;
@@ -64,6 +65,13 @@ pub struct Args {
     /// Outage schedule for `--truth`: `START,LEN,PERIOD,COUNT` [s] (e.g. 243382,30,90,5).
     #[arg(long)]
     pub outages: Option<String>,
+    /// Initial state: `yaml` (the YAML's, as KF-GINS), `data` (navfuse's
+    /// alignment: levelling, GNSS course or the yaw Gaussian-sum filter) or
+    /// `auto` (the YAML's unless its attitude fails a χ² test against the
+    /// data's alignment; then the data's, with a warning). Default: `auto`
+    /// with `--enhanced` or `--platform`, else `yaml`.
+    #[arg(long, value_parser = AlignSource::parse)]
+    pub align: Option<AlignSource>,
 }
 
 pub fn run(args: Args) -> Result<(), String> {
@@ -133,6 +141,7 @@ pub fn run_config(args: &Args) -> Result<KfGinsRun, PipelineError> {
         output: args.output.clone(),
         time_offset: args.time_offset.clone(),
         verbose: args.verbose,
+        align: args.align,
     };
     run_kf_gins(&args.config, &opts)
 }

@@ -8,6 +8,7 @@
 
 pub use crate::check;
 use crate::error::{PipelineError, Result};
+use crate::kf_gins_align::{self, AlignDecision, AlignSource};
 use crate::kf_gins_out::{write_err_line, write_nav_line, write_std_line, OutFile, OutRow};
 use crate::kfgins_input::{read_kfgins, RunInput};
 use crate::profile::Platform;
@@ -41,6 +42,9 @@ pub struct KfGinsOptions {
     pub time_offset: Option<String>,
     /// Print the applied time offset and timings to stderr.
     pub verbose: bool,
+    /// Initial state source ([`AlignSource`]); default `Auto` with
+    /// `enhanced` or a platform, else `Yaml` (KF-GINS's behaviour).
+    pub align: Option<AlignSource>,
 }
 
 /// Everything a run produced (for the tests and the summary).
@@ -55,6 +59,8 @@ pub struct KfGinsRun {
     pub output_dir: PathBuf,
     /// Filter configuration used.
     pub config: EskfConfig,
+    /// Where the initial state came from, and why ([`kf_gins_align`]).
+    pub align: AlignDecision,
     /// IMU–GNSS time offset applied [s] and how it was found.
     pub time_offset: Option<(f64, String)>,
 }
@@ -136,10 +142,41 @@ pub fn run_kf_gins(yaml: &Path, args: &KfGinsOptions) -> Result<KfGinsRun> {
     } else {
         cfg.endtime
     };
-    let mut eskf = Eskf::new(ecfg, cfg.init_nav(), cfg.init_errors(), &cfg.init_std());
+    let source = args.align.unwrap_or(if platform.is_some() {
+        AlignSource::Auto
+    } else {
+        AlignSource::Yaml
+    });
+    let i0 = input.imu.partition_point(|s| s.t < cfg.starttime);
+    let profile = platform.map(|p| p.profile());
+    let decision = kf_gins_align::decide(
+        yaml,
+        &cfg,
+        &ecfg,
+        &input.imu[i0..],
+        &input.gnss,
+        profile.as_ref(),
+        source,
+    )?;
+    let (mut eskf, start) = match &decision.alignment {
+        Some(a) => {
+            if source == AlignSource::Auto {
+                eprintln!("warning: {}", decision.note);
+            }
+            let start = input.imu[(i0 + a.k_start).min(input.imu.len() - 1)].t;
+            (Eskf::new(ecfg, a.nav, a.errors, &a.init_std), start)
+        }
+        None => (
+            Eskf::new(ecfg, cfg.init_nav(), cfg.init_errors(), &cfg.init_std()),
+            cfg.starttime,
+        ),
+    };
+    if args.verbose && !(source == AlignSource::Auto && decision.alignment.is_some()) {
+        eprintln!("{}", decision.note);
+    }
 
     let t_filter = Instant::now();
-    let r = filter(&mut eskf, &input, cfg.starttime, end, &out_dir, args.smooth)?;
+    let r = filter(&mut eskf, &input, start, end, &out_dir, args.smooth)?;
     if args.verbose {
         eprintln!("filter + write: {:.3} s", t_filter.elapsed().as_secs_f64());
     }
@@ -150,6 +187,7 @@ pub fn run_kf_gins(yaml: &Path, args: &KfGinsOptions) -> Result<KfGinsRun> {
         output_dir: out_dir,
         config: ecfg,
         time_offset: applied,
+        align: decision,
     })
 }
 
