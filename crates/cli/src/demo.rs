@@ -298,7 +298,7 @@ pub fn run(args: Args) -> Result<(), String> {
     if args.report {
         let start = run.traj.truth[0].t;
         let outages = sc.gnss.outages.iter().map(|o| (start + o[0], start + o[1]));
-        crate::report::from_demo(&args.out, outages.collect())?;
+        navfuse_report::build::from_demo(&args.out, outages.collect())?;
     }
     Ok(())
 }

@@ -170,7 +170,7 @@ pub fn run(args: Args) -> Result<(), String> {
             (args.solution.as_path(), solution),
             (args.truth.as_path(), reference),
         );
-        crate::report::from_eval(
+        navfuse_report::build::from_eval(
             dir,
             sol,
             truth,

@@ -35,9 +35,11 @@ pub mod resolved;
 pub mod run;
 pub mod run_checks;
 pub mod sensors;
+pub mod smooth_gps;
 mod summary;
 pub mod template;
 pub mod time_offset;
+mod tool_error;
 
 #[cfg(test)]
 mod input_tests;
@@ -51,6 +53,7 @@ pub use error::PipelineError;
 pub use eskf_run::{run_eskf, EskfRun};
 pub use input::AuxSeries;
 pub use run::{run, RunOptions, RunOutcome};
+pub use tool_error::ToolError;
 
 /// A per-process scratch folder for a test, created:
 /// `navfuse-{name}-{pid}` in the system temp dir.
