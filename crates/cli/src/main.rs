@@ -6,7 +6,6 @@ use clap::{Parser, Subcommand};
 use std::process::ExitCode;
 
 mod allan;
-mod allan_noise;
 mod baseline;
 mod bench;
 mod convert;

@@ -15,10 +15,12 @@
 //! for KF-GINS files); SI units inside, degrees only in files and configs.
 
 pub mod align;
+pub mod allan;
 pub mod check;
 pub mod config;
 pub mod csv_map;
 pub mod csv_sniff;
+pub mod demo;
 pub mod error;
 pub mod eskf_run;
 pub mod experiments;
@@ -27,6 +29,7 @@ pub mod input;
 pub mod kf_gins;
 mod kf_gins_out;
 pub mod kfgins_input;
+pub mod live;
 pub mod noise_cfg;
 mod other;
 pub mod outputs;
