@@ -10,6 +10,8 @@
 # NAVFUSE_BIN into OUT_DIR; with REF_DIR, compares every file (and each
 # command's stderr) against REF_DIR byte for byte. Data: $NAVFUSE_DATA
 # (default ../shared/data relative to the repo).
+# Give OUT_DIR and REF_DIR paths of the same length (/tmp/ref, /tmp/new): a
+# report shortens long values, so the cut falls elsewhere otherwise.
 # summary.json: timing fields seconds_read/seconds_filter removed and the
 # output folder replaced by a placeholder before comparing.
 set -u
@@ -40,7 +42,7 @@ run kf_full        "$BIN" kf-gins "$D/kf-gins_full.yaml" --output "$OUT/kf_full"
 run kf_outage_es   "$BIN" kf-gins "$D/kf-gins_outage.yaml" --enhanced --smooth --output "$OUT/kf_outage_es"
 run run_out        "$BIN" run "$HERE/run.toml" --output "$OUT/run_out"
 run run_pf         "$BIN" run "$HERE/run.toml" --estimator pf-lc --output "$OUT/run_pf"
-run demo           "$BIN" demo --out "$OUT/demo"
+run demo           "$BIN" demo --out "$OUT/demo" --report
 # Error messages must not change either: bad configs and options.
 E="$OUT/errors"; mkdir -p "$E"
 base="[input]\nimu = \"$D/imu.txt\"\ngnss = \"$D/gnss_outage.txt\"\n"
@@ -125,7 +127,11 @@ except ValueError:
     print(txt)
 PY
     ;;
-    *.stderr|*.stdout|*.toml|*.html|*.csv) sed -e "s#$2#<OUT>#g" -e 's/[0-9.]* s -> /T s -> /' "$1" ;;
+    # Paths built from CARGO_MANIFEST_DIR (default scenarios) depend on where
+    # and in which crate the binary was built; run timings are not outputs.
+    *.stderr|*.stdout|*.toml|*.html|*.csv) sed -E -e 's#[^ ]*/crates/[a-z]+/\.\./\.\./scenarios/#<REPO>/scenarios/#g' \
+      -e "s#$2#<OUT>#g" -e 's/[0-9.]* s -> /T s -> /' \
+      -e 's#(seconds_(read|filter)</td><td><code>)[0-9.e-]+#\1T#g' "$1" ;;
     *) cat "$1" ;;
   esac
 }
