@@ -220,12 +220,6 @@ mod tests {
     use navfuse_eval::Evaluation;
     use std::fmt::Write as _;
 
-    fn temp_file(name: &str, text: &str) -> PathBuf {
-        let p = std::env::temp_dir().join(format!("navfuse-eval-{}-{name}", std::process::id()));
-        std::fs::write(&p, text).unwrap();
-        p
-    }
-
     #[test]
     fn command_end_to_end_on_synthetic_files() {
         // Truth at 4 Hz, standing still; the solution (KF-GINS style, week 0)
@@ -260,8 +254,12 @@ mod tests {
                 lon + deg_e(east)
             );
         }
-        let tp = temp_file("truth.nav", &truth);
-        let sp = temp_file("sol.nav", &sol);
+        let tmp = |name: &str| {
+            std::env::temp_dir().join(format!("navfuse-eval-{}-{name}", std::process::id()))
+        };
+        let (tp, sp) = (tmp("truth.nav"), tmp("sol.nav"));
+        std::fs::write(&tp, &truth).unwrap();
+        std::fs::write(&sp, &sol).unwrap();
         let jp = std::env::temp_dir().join(format!("navfuse-eval-{}-out.json", std::process::id()));
         let cp = std::env::temp_dir().join(format!("navfuse-eval-{}-out.csv", std::process::id()));
         let args = Args {

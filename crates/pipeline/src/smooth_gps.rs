@@ -109,8 +109,8 @@ pub fn smooth_file(
         seed: args.seed,
         ..Default::default()
     }));
-    let mut src = open_nav_source(&input, fin, args.gps_week).map_err(|e| e.to_string())?;
-    let mut out = create_writer(&output, fout)
+    let mut src = open_nav_source(input, fin, args.gps_week).map_err(|e| e.to_string())?;
+    let mut out = create_writer(output, fout)
         .map_err(|e| format!("{}: cannot create: {e}", output.display()))?;
     let mut plane: Option<SmallAreaPlane> = None;
     let (mut written, mut shift_sum) = (0u64, 0.0f64);
