@@ -24,8 +24,12 @@ pub struct Args {
     /// Use this scenario instead of the embedded drive.
     #[arg(long)]
     pub scenario: Option<PathBuf>,
-    /// Also write the HTML report (OUT/report/index.html, plots/*.svg).
+    /// Skip the HTML report (written by default to OUT/report/index.html,
+    /// plots/*.svg: people would rather look than read).
     #[arg(long)]
+    pub no_report: bool,
+    /// The report is the default now; accepted so that older scripts run.
+    #[arg(long, hide = true, conflicts_with = "no_report")]
     pub report: bool,
 }
 
@@ -96,10 +100,37 @@ pub fn run(args: Args) -> Result<(), String> {
         t_sim,
         t0.elapsed().as_secs_f64()
     );
-    if args.report {
+    if !args.no_report {
         let start = run.traj.truth[0].t;
         let outages = sc.gnss.outages.iter().map(|o| (start + o[0], start + o[1]));
         navfuse_report::build::from_demo(&args.out, outages.collect())?;
     }
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The report is written by default and skipped with `--no-report`.
+    #[test]
+    fn demo_writes_its_report_unless_told_not_to() {
+        let base = std::env::temp_dir().join(format!("navfuse-demo-cli-{}", std::process::id()));
+        for no_report in [false, true] {
+            let out = base.join(if no_report { "without" } else { "with" });
+            let _ = std::fs::remove_dir_all(&out);
+            let args = Args {
+                out: out.clone(),
+                seed: 1,
+                scenario: None,
+                no_report,
+                report: false,
+            };
+            run(args).unwrap();
+            assert!(out.join("eskf.nav").exists());
+            let html = out.join("report/index.html");
+            assert_eq!(html.exists(), !no_report, "{}", html.display());
+        }
+        let _ = std::fs::remove_dir_all(&base);
+    }
 }
