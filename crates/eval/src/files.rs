@@ -64,11 +64,11 @@ pub fn read_trajectory(
     Ok((out, src.stats().clone()))
 }
 
-pub fn is_tow_only(s: &[NavSolution]) -> bool {
+fn is_tow_only(s: &[NavSolution]) -> bool {
     s.iter().all(|x| x.t < WEEK_S)
 }
 
-pub fn week_of(s: &[NavSolution]) -> Option<f64> {
+fn week_of(s: &[NavSolution]) -> Option<f64> {
     s.first().map(|x| (x.t / WEEK_S).floor())
 }
 
@@ -124,7 +124,7 @@ pub fn gps_time(t: f64) -> String {
     }
 }
 
-pub fn row(out: &mut String, name: &str, unit: &str, s: &Option<Stats>, scale: f64) {
+fn row(out: &mut String, name: &str, unit: &str, s: &Option<Stats>, scale: f64) {
     match s {
         Some(s) => {
             let _ = writeln!(
@@ -143,6 +143,9 @@ pub fn row(out: &mut String, name: &str, unit: &str, s: &Option<Stats>, scale: f
     }
 }
 
+/// The `navfuse eval` table of `ev`: what was compared and how, the error
+/// statistics (positions [m], velocities [m/s], attitude [deg]; NED), and the
+/// per-outage drift of `schedule` when scored.
 pub fn render_table(
     ev: &Evaluation,
     solution: &Path,
@@ -253,6 +256,8 @@ pub fn render_table(
     o
 }
 
+/// The per-epoch error series as CSV: t [s], NED and horizontal/vertical
+/// position [m], NED velocity [m/s], roll/pitch/yaw [deg] (empty when unknown).
 pub fn errors_csv(ev: &Evaluation) -> String {
     let mut o = String::from(
         "t_s,north_m,east_m,down_m,horizontal_m,vertical_m,vel_north_mps,vel_east_mps,vel_down_mps,roll_deg,pitch_deg,yaw_deg\n",

@@ -35,6 +35,7 @@ pub enum Out {
 }
 
 impl Out {
+    /// The sink writing `format` to `sink`.
     pub fn new(format: Format, sink: Box<dyn Write>) -> Self {
         match format {
             Format::Json => Out::Json(sink),
@@ -178,6 +179,7 @@ pub struct LiveDriver {
 }
 
 impl LiveDriver {
+    /// A driver of `est`; `frame`: the kf-gins time window (None: every event).
     pub fn new(est: Box<dyn Estimator>, frame: Option<KfGinsFrame>) -> Self {
         LiveDriver {
             est,

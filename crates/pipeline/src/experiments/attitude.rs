@@ -236,6 +236,8 @@ pub fn run_scene(
     }
 }
 
+/// `navfuse attitude`: simulate the scene, run the estimator, print the
+/// error statistics and write the per-epoch CSV (`--out`).
 pub fn run(args: Options) -> Result<(), ToolError> {
     let motion = match args.motion {
         MotionArg::Paper => SceneConfig::default().motion,

@@ -39,6 +39,7 @@ pub struct Stats {
     pub rms_float_3d: f64,
 }
 
+/// [`Stats`] of `sum` against the `reference` baseline (ECEF, metres).
 pub fn stats(sum: &Summary, reference: &Vec3) -> Stats {
     let mut st = Stats {
         n: sum.paired(),
@@ -107,6 +108,7 @@ pub fn stats(sum: &Summary, reference: &Vec3) -> Stats {
     st
 }
 
+/// Read the rover and base observation files and the navigation files.
 pub fn load(
     rover: &Path,
     base: &Path,

@@ -140,6 +140,8 @@ pub(super) fn config_from(args: &Options) -> Result<PfLcConfig, String> {
     Ok(cfg)
 }
 
+/// Run the experiment: simulation seeds, then drive_0708 (unless
+/// `no_real`); print the tables, write `json` and the `report` when asked.
 pub fn run(args: Options) -> Result<(), ToolError> {
     if args.seeds == 0 {
         return Err("--seeds must be at least 1".into());

@@ -93,6 +93,8 @@ pub(super) fn rows_json(rows: &[Row], paper: &[(u32, f64, f64, f64, f64)]) -> se
     )
 }
 
+/// Run the experiment: Table 3 over the seeds, Table 4 on drive_0708 (unless
+/// `no_real`); print them beside the paper, write `json` and the `report`.
 pub fn run(args: Options) -> Result<(), ToolError> {
     if args.seeds == 0 {
         return Err("--seeds must be at least 1".into());
