@@ -6,8 +6,8 @@
 #
 # Reports checked:
 #   1. the synthetic fixture run (navfuse report --fixture), always;
-#   2. the demo's report, once `navfuse demo` has a --report flag
-#      (navfuse demo --out DIR --report writes DIR/report/index.html);
+#   2. the demo's report (navfuse demo --out DIR writes DIR/report/index.html
+#      by default; older binaries needed --report, which is still accepted);
 #   3. the drive_0708 outage run (navfuse kf-gins's ESKF and KF-GINS's result vs
 #      truth), from $NAVFUSE_DATA
 #      (default ../shared/data); required unless NAVFUSE_BROWSER_SKIP_REAL=1.

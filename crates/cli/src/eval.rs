@@ -1,8 +1,8 @@
 //! `navfuse eval`: evaluate a solution against a reference trajectory.
 //!
-//! Reads both series with navfuse-io ([`read_trajectory`]), aligns them with
-//! `navfuse-eval`, prints a table and optionally writes JSON and a per-epoch
-//! error CSV.
+//! Reads both series ([`navfuse_eval::files::read_trajectory`]), aligns them
+//! with `navfuse-eval`, prints a table and optionally writes JSON and a
+//! per-epoch error CSV.
 //!
 //! Time of week vs GPS time: a file with GPS week 0 (KF-GINS writes 0 when
 //! it does not know the week) has times of week only. When one series is
@@ -11,14 +11,9 @@
 //! same applies to `T0` of `--outages` and to `--fixes` times.
 
 use clap::Args as ClapArgs;
-use navfuse_core::NavSolution;
-use navfuse_eval::{evaluate, Align, EvalConfig, Evaluation, OutageSchedule, Stats};
-use navfuse_io::trajectory::{open_nav_source, InFormat};
-use navfuse_io::RecordStats;
-use std::fmt::Write as _;
-use std::path::{Path, PathBuf};
-
-const WEEK_S: f64 = 604_800.0;
+use navfuse_eval::files::{errors_csv, harmonise_weeks, in_week, read_trajectory, render_table};
+use navfuse_eval::{evaluate, Align, EvalConfig, OutageSchedule};
+use std::path::PathBuf;
 
 /// Evaluate a solution against a reference trajectory.
 #[derive(ClapArgs, Debug)]
@@ -139,7 +134,7 @@ pub fn run(args: Args) -> Result<(), String> {
         )
     })?;
 
-    let table = render_table(&ev, &args, schedule.as_ref());
+    let table = render_table(&ev, &args.solution, &args.truth, schedule.as_ref());
     let (title, rest) = table.split_once('\n').unwrap_or((&table, ""));
     print!("{title}\n  read: solution {sol_stats}\n        reference {ref_stats}\n{rest}");
 
@@ -170,7 +165,7 @@ pub fn run(args: Args) -> Result<(), String> {
             (args.solution.as_path(), solution),
             (args.truth.as_path(), reference),
         );
-        crate::report::from_eval(
+        navfuse_report::build::from_eval(
             dir,
             sol,
             truth,
@@ -180,83 +175,6 @@ pub fn run(args: Args) -> Result<(), String> {
         )?;
     }
     Ok(())
-}
-
-/// Read a trajectory with navfuse-io: format from the extension (`.nav`
-/// KF-GINS, `.pos` RTKLIB, `.csv` navfuse trajectory CSV; with `txt_is_gnss`
-/// a `.txt` is a KF-GINS GNSS file). `week` is used for time-of-week-only
-/// lines (KF-GINS writes week 0); 0 = unknown.
-pub fn read_trajectory(
-    path: &Path,
-    week: u32,
-    txt_is_gnss: bool,
-) -> Result<(Vec<NavSolution>, RecordStats), String> {
-    let fmt = match InFormat::from_path(path) {
-        Some(f) => f,
-        None if txt_is_gnss => InFormat::KfGinsGnss,
-        None => {
-            return Err(format!(
-                "{}: unknown trajectory format (expected .nav, .pos or .csv)",
-                path.display()
-            ))
-        }
-    };
-    let mut src = open_nav_source(path, fmt, week).map_err(|e| e.to_string())?;
-    let mut out = Vec::new();
-    for r in src.by_ref() {
-        out.push(r.map_err(|e| e.to_string())?);
-    }
-    Ok((out, src.stats().clone()))
-}
-
-fn is_tow_only(s: &[NavSolution]) -> bool {
-    s.iter().all(|x| x.t < WEEK_S)
-}
-
-fn week_of(s: &[NavSolution]) -> Option<f64> {
-    s.first().map(|x| (x.t / WEEK_S).floor())
-}
-
-/// Put time-of-week-only series into the week of the other series (or
-/// `--week`). Returns the week used for time-of-week inputs (`None`: all
-/// times are used as they are).
-fn harmonise_weeks(
-    sol: &mut [NavSolution],
-    sol_path: &Path,
-    reference: &mut [NavSolution],
-    ref_path: &Path,
-    week_arg: Option<u32>,
-) -> Result<Option<f64>, String> {
-    let (sol_tow, ref_tow) = (is_tow_only(sol), is_tow_only(reference));
-    let week = match (week_arg, sol_tow, ref_tow) {
-        (Some(w), _, _) => Some(f64::from(w)),
-        (None, true, false) => week_of(reference),
-        (None, false, true) => week_of(sol),
-        _ => None,
-    };
-    let Some(w) = week else {
-        return Ok(if sol_tow && ref_tow { Some(0.0) } else { None });
-    };
-    for (series, path, tow) in [(sol, sol_path, sol_tow), (reference, ref_path, ref_tow)] {
-        if tow && w > 0.0 {
-            eprintln!(
-                "note: {} has times of week only (GPS week 0); placed in GPS week {w}",
-                path.display()
-            );
-            for x in series.iter_mut() {
-                x.t += w * WEEK_S;
-            }
-        }
-    }
-    Ok(Some(w))
-}
-
-/// Shift a time given as time of week into `week` (when the data carry weeks).
-fn in_week(t: f64, week: Option<f64>) -> f64 {
-    match week {
-        Some(w) if t < WEEK_S => t + w * WEEK_S,
-        _ => t,
-    }
 }
 
 fn parse_floats<const N: usize>(s: &str, what: &str) -> Result<[f64; N], String> {
@@ -295,202 +213,12 @@ fn parse_outages(
     OutageSchedule::periodic(t0, sp[0], sp[1], sp[2], count).map_err(|e| format!("--outages: {e}"))
 }
 
-/// "week W TOW s" for GPS seconds (just "TOW s" in week 0).
-fn gps_time(t: f64) -> String {
-    let w = (t / WEEK_S).floor();
-    if w > 0.0 {
-        format!("week {w} TOW {:.3} s", t - w * WEEK_S)
-    } else {
-        format!("{t:.3} s")
-    }
-}
-
-fn row(out: &mut String, name: &str, unit: &str, s: &Option<Stats>, scale: f64) {
-    match s {
-        Some(s) => {
-            let _ = writeln!(
-                out,
-                "  {name:<16} {unit:<6} {:>11.4} {:>11.4} {:>11.4} {:>11.4} {:>8}",
-                s.rms * scale,
-                s.mean * scale,
-                s.max_abs * scale,
-                s.p95_abs * scale,
-                s.count
-            );
-        }
-        None => {
-            let _ = writeln!(out, "  {name:<16} {unit:<6} {:>11}", "—");
-        }
-    }
-}
-
-fn render_table(ev: &Evaluation, args: &Args, schedule: Option<&OutageSchedule>) -> String {
-    let mut o = String::new();
-    let c = &ev.counts;
-    let _ = writeln!(
-        o,
-        "navfuse eval: {} vs {}",
-        args.solution.display(),
-        args.truth.display()
-    );
-    let la = ev.config.lever_arm_b.map_or("none".to_string(), |l| {
-        format!("({}, {}, {}) m FRD", l[0], l[1], l[2])
-    });
-    let (at, other) = match ev.config.align {
-        Align::AtSolution => ("solution", "reference"),
-        Align::AtReference => ("reference", "solution"),
-    };
-    let _ = writeln!(
-        o,
-        "  compared at the {at} epochs ({other} interpolated, max gap {} s); lever arm {la}",
-        ev.config.max_gap
-    );
-    let _ = writeln!(
-        o,
-        "  {at} epochs: {}, evaluated {}; excluded: {} before the {other} span, {} after, {} in {other} gaps, {} invalid",
-        c.epochs, c.evaluated, c.before_span, c.after_span, c.in_gap, c.invalid
-    );
-    let _ = writeln!(
-        o,
-        "\n  {:<16} {:<6} {:>11} {:>11} {:>11} {:>11} {:>8}",
-        "error", "unit", "RMS", "mean", "max|x|", "p95|x|", "n"
-    );
-    let s = &ev.summary;
-    row(&mut o, "horizontal", "m", &s.horizontal, 1.0);
-    row(&mut o, "vertical", "m", &s.vertical, 1.0);
-    row(&mut o, "north", "m", &s.north, 1.0);
-    row(&mut o, "east", "m", &s.east, 1.0);
-    row(&mut o, "down", "m", &s.down, 1.0);
-    if s.vel_north.is_some() {
-        row(&mut o, "vel horizontal", "m/s", &s.vel_horizontal, 1.0);
-        row(&mut o, "vel north", "m/s", &s.vel_north, 1.0);
-        row(&mut o, "vel east", "m/s", &s.vel_east, 1.0);
-        row(&mut o, "vel down", "m/s", &s.vel_down, 1.0);
-    }
-    if s.yaw.is_some() {
-        let d = 180.0 / std::f64::consts::PI;
-        row(&mut o, "roll", "deg", &s.roll, d);
-        row(&mut o, "pitch", "deg", &s.pitch, d);
-        row(&mut o, "yaw", "deg", &s.yaw, d);
-    } else {
-        let _ = writeln!(o, "  (attitude: reference attitude unknown)");
-    }
-    if let Some(rep) = &ev.outages {
-        if let Some(OutageSchedule::Periodic(p)) = schedule {
-            let _ = writeln!(
-                o,
-                "\n  outages: {} s every {} s from t0 + {} s, t0 = {}",
-                p.length,
-                p.period,
-                p.first_after,
-                gps_time(p.t0)
-            );
-        }
-        let _ = writeln!(
-            o,
-            "  {:>3} {:>16} {:>16} {:>16} {:>8} {:>12} {:>10}",
-            "#", "start TOW s", "end TOW s", "scored to TOW s", "n", "max horiz m", "at +s"
-        );
-        for (k, r) in rep.outages.iter().enumerate() {
-            let (m, at) = match (r.max_horizontal, r.t_max) {
-                (Some(m), Some(t)) => (format!("{m:.3}"), format!("{:.2}", t - r.start)),
-                _ => ("—".into(), "—".into()),
-            };
-            let _ = writeln!(
-                o,
-                "  {:>3} {:>16.3} {:>16.3} {:>16.3} {:>8} {:>12} {:>10}",
-                k + 1,
-                r.start.rem_euclid(WEEK_S),
-                r.end.rem_euclid(WEEK_S),
-                r.window_end.rem_euclid(WEEK_S),
-                r.count,
-                m,
-                at
-            );
-        }
-        match rep.rms_of_max {
-            Some(rms) => {
-                let _ = writeln!(
-                    o,
-                    "  RMS of per-outage maxima: {rms:.3} m ({} outages{})",
-                    rep.outages.len() - rep.empty_outages,
-                    if rep.empty_outages > 0 {
-                        format!(", {} without epochs not scored", rep.empty_outages)
-                    } else {
-                        String::new()
-                    }
-                );
-            }
-            None => {
-                let _ = writeln!(o, "  no outage with evaluated epochs");
-            }
-        }
-    }
-    o
-}
-
-fn errors_csv(ev: &Evaluation) -> String {
-    let mut o = String::from(
-        "t_s,north_m,east_m,down_m,horizontal_m,vertical_m,vel_north_mps,vel_east_mps,vel_down_mps,roll_deg,pitch_deg,yaw_deg\n",
-    );
-    let d = 180.0 / std::f64::consts::PI;
-    for e in &ev.errors {
-        let _ = write!(
-            o,
-            "{:.4},{:.5},{:.5},{:.5},{:.5},{:.5}",
-            e.t, e.pos_ned[0], e.pos_ned[1], e.pos_ned[2], e.horizontal, e.vertical
-        );
-        match e.vel_ned {
-            Some(v) => {
-                let _ = write!(o, ",{:.5},{:.5},{:.5}", v[0], v[1], v[2]);
-            }
-            None => o.push_str(",,,"),
-        }
-        match e.att_rpy {
-            Some(a) => {
-                let _ = write!(o, ",{:.5},{:.5},{:.5}", a[0] * d, a[1] * d, a[2] * d);
-            }
-            None => o.push_str(",,,"),
-        }
-        o.push('\n');
-    }
-    o
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    fn temp_file(name: &str, text: &str) -> PathBuf {
-        let p = std::env::temp_dir().join(format!("navfuse-eval-{}-{name}", std::process::id()));
-        std::fs::write(&p, text).unwrap();
-        p
-    }
-
-    #[test]
-    fn reads_nav_and_reports_bad_lines() {
-        let good = temp_file(
-            "good.nav",
-            "2374 100.5 40.0 -105.0 1600.0 1.0 2.0 3.0 1.0 2.0 359.0\n\
-             0 100.75 40.0 -105.0 1600.0 0 0 0 nan nan nan\n",
-        );
-        let (v, st) = read_trajectory(&good, 0, false).unwrap();
-        assert_eq!(v.len(), 2);
-        assert_eq!(st.used, 2);
-        assert_eq!(v[0].t, 2374.0 * WEEK_S + 100.5);
-        assert!((v[0].rpy.z.to_degrees() + 1.0).abs() < 1e-9); // 359° → −1°
-        assert_eq!(v[1].t, 100.75); // week 0, no week given: time of week
-        let bad = temp_file(
-            "bad.nav",
-            "2374 1 40 -105 1600 0 0 0 0 0 0\n2374 2 4x0 -105 1600 0 0 0 0 0 0\n",
-        );
-        let e = read_trajectory(&bad, 0, false).unwrap_err();
-        assert!(e.contains("bad.nav:2") && e.contains("lat"), "{e}");
-        let e = read_trajectory(Path::new("x.unknown"), 0, false).unwrap_err();
-        assert!(e.contains("unknown trajectory format"), "{e}");
-        let _ = std::fs::remove_file(good);
-        let _ = std::fs::remove_file(bad);
-    }
+    use navfuse_eval::files::WEEK_S;
+    use navfuse_eval::Evaluation;
+    use std::fmt::Write as _;
 
     #[test]
     fn command_end_to_end_on_synthetic_files() {
@@ -526,8 +254,12 @@ mod tests {
                 lon + deg_e(east)
             );
         }
-        let tp = temp_file("truth.nav", &truth);
-        let sp = temp_file("sol.nav", &sol);
+        let tmp = |name: &str| {
+            std::env::temp_dir().join(format!("navfuse-eval-{}-{name}", std::process::id()))
+        };
+        let (tp, sp) = (tmp("truth.nav"), tmp("sol.nav"));
+        std::fs::write(&tp, &truth).unwrap();
+        std::fs::write(&sp, &sol).unwrap();
         let jp = std::env::temp_dir().join(format!("navfuse-eval-{}-out.json", std::process::id()));
         let cp = std::env::temp_dir().join(format!("navfuse-eval-{}-out.csv", std::process::id()));
         let args = Args {
@@ -567,17 +299,6 @@ mod tests {
         for p in [tp, sp, jp, cp] {
             let _ = std::fs::remove_file(p);
         }
-    }
-
-    #[test]
-    fn tow_only_series_is_moved_into_the_other_week() {
-        let mut a = vec![NavSolution::unknown_at(100.0)];
-        let mut b = vec![NavSolution::unknown_at(2374.0 * WEEK_S + 99.0)];
-        let w = harmonise_weeks(&mut a, Path::new("a"), &mut b, Path::new("b"), None).unwrap();
-        assert_eq!(w, Some(2374.0));
-        assert_eq!(a[0].t, 2374.0 * WEEK_S + 100.0);
-        assert_eq!(b[0].t, 2374.0 * WEEK_S + 99.0);
-        assert_eq!(in_week(243262.0, w), 2374.0 * WEEK_S + 243262.0);
     }
 
     #[test]
@@ -651,7 +372,7 @@ mod tests {
         let (mut args, _) = data_args("kfgins_result_full_10hz.nav", false);
         args.at = At::Reference;
         let ev = eval_of(&args);
-        eprintln!("{}", render_table(&ev, &args, None));
+        eprintln!("{}", render_table(&ev, &args.solution, &args.truth, None));
         let h = ev.summary.horizontal.unwrap().rms;
         let v = ev.summary.down.unwrap().rms;
         // README: horizontal RMS 0.032 m, vertical 0.018 m (antenna vs truth),
@@ -668,7 +389,7 @@ mod tests {
         // only those at the truth epochs.
         args.at = At::Solution;
         let ev = eval_of(&args);
-        eprintln!("{}", render_table(&ev, &args, None));
+        eprintln!("{}", render_table(&ev, &args.solution, &args.truth, None));
         let h = ev.summary.horizontal.unwrap().rms;
         assert!((h - 0.032).abs() < 0.005, "horizontal RMS {h}");
         assert_eq!(ev.counts.in_gap, 22); // the 2.25 s truth gap after 243300.749
@@ -682,7 +403,10 @@ mod tests {
         args.at = At::Reference;
         let ev = eval_of(&args);
         let sched = parse_outages("120,90,30,243262", 0.0, Some(2374.0), None).unwrap();
-        eprintln!("{}", render_table(&ev, &args, Some(&sched)));
+        eprintln!(
+            "{}",
+            render_table(&ev, &args.solution, &args.truth, Some(&sched))
+        );
         let rep = ev.outages.unwrap();
         let readme = [15.7, 73.1, 51.8, 12.3, 40.4];
         assert_eq!(rep.outages.len(), 5);
@@ -704,7 +428,10 @@ mod tests {
         // larger maxima, same order.
         args.at = At::Solution;
         let ev = eval_of(&args);
-        eprintln!("{}", render_table(&ev, &args, Some(&sched)));
+        eprintln!(
+            "{}",
+            render_table(&ev, &args.solution, &args.truth, Some(&sched))
+        );
         let rep2 = ev.outages.unwrap();
         for (a, b) in rep2.outages.iter().zip(&rep.outages) {
             let (a, b) = (a.max_horizontal.unwrap(), b.max_horizontal.unwrap());

@@ -2,7 +2,8 @@
 //! device) with live IMU lines (stdin, a file being written, TCP) and write
 //! solutions at the IMU rate as JSON lines or NMEA.
 //!
-//! The estimator runs through the [`Estimator`] trait, fed by
+//! The estimator runs through the `Estimator` trait, driven by
+//! [`navfuse_pipeline::live::LiveDriver`] and fed by
 //! [`navfuse_io::live::Sequencer`], which reproduces the event order of a
 //! batch run (time order, IMU before GNSS at equal times), so live and batch
 //! solutions agree whenever no event had to be released by timeout (the
@@ -14,30 +15,19 @@
 //! thread sequencing, estimating and writing. Channels are bounded, so a
 //! slow consumer back-pressures the readers instead of growing memory.
 
-use clap::{Args as ClapArgs, ValueEnum};
-use navfuse_core::types::{Event, GnssFix, NavSolution};
-use navfuse_core::Estimator;
-use navfuse_io::live::{
-    FollowReader, GpsdAssembler, GpsdLine, ImuLineParser, LatencyHistogram, Sequencer,
-};
-use navfuse_io::nmea::{NmeaOptions, NmeaReader, NmeaWriter};
-use navfuse_io::time::week_tow;
-use navfuse_io::writers::TrajectoryWriter;
+use clap::Args as ClapArgs;
+use navfuse_core::types::{GnssFix, NavSolution};
+use navfuse_io::live::{FollowReader, GpsdAssembler, GpsdLine, ImuLineParser, Sequencer};
+use navfuse_io::nmea::{NmeaOptions, NmeaReader};
 use navfuse_io::RecordStats;
+use navfuse_pipeline::live::{
+    jnum, kfgins_eskf, make_estimator, stats_json, Format, LiveDriver, Out,
+};
 use std::io::{self, BufRead, BufReader, Read, Write};
 use std::net::TcpStream;
 use std::path::PathBuf;
 use std::sync::mpsc::{sync_channel, RecvTimeoutError, SyncSender};
 use std::time::{Duration, Instant};
-
-/// Output formats.
-#[derive(Clone, Copy, Debug, ValueEnum, PartialEq, Eq)]
-pub enum Format {
-    /// One JSON object per solution (full precision).
-    Json,
-    /// NMEA GGA + RMC (+ GST) per solution.
-    Nmea,
-}
 
 /// Fuse live GNSS (gpsd / NMEA) and IMU streams; solutions at the IMU rate.
 #[derive(ClapArgs, Debug)]
@@ -104,111 +94,6 @@ enum Msg {
     GnssNote(String),
     GnssEnd,
     Reconnect(&'static str),
-}
-
-/// Test estimator: the last GNSS position (and its σ) at every IMU sample.
-/// Its output depends on the event order, which makes it a sharp check of
-/// the sequencing; it is not a navigation filter.
-pub struct HoldLastFix {
-    last: Option<GnssFix>,
-}
-
-impl Estimator for HoldLastFix {
-    fn name(&self) -> &'static str {
-        "hold"
-    }
-    fn push(&mut self, ev: &Event) -> Option<NavSolution> {
-        match ev {
-            Event::Gnss(f) => {
-                self.last = Some(*f);
-                None
-            }
-            Event::Imu(s) => self.last.map(|f| {
-                let mut n = NavSolution::unknown_at(s.t);
-                n.lat = f.lat;
-                n.lon = f.lon;
-                n.h = f.h;
-                n.std_pos_ned = f.std_ned;
-                n.v_n = navfuse_core::types::Vec3::repeat(f64::NAN);
-                n
-            }),
-        }
-    }
-}
-
-/// The estimator named `name`.
-pub fn make_estimator(name: &str) -> Result<Box<dyn Estimator>, String> {
-    match name {
-        "hold" => Ok(Box::new(HoldLastFix { last: None })),
-        "eskf" => Err("--estimator eskf needs --kfgins-config YAML".into()),
-        other => Err(format!(
-            "unknown estimator {other:?} (available: hold, eskf)"
-        )),
-    }
-}
-
-/// How `navfuse kf-gins` presents events to its ESKF: times as time of week,
-/// IMU from `start` (inclusive), fixes after `start`, up to `end`; the first
-/// solution only initialises.
-#[derive(Clone, Copy, Debug)]
-struct KfGinsFrame {
-    week_s: f64,
-    start: f64,
-    end: f64,
-}
-
-/// The ESKF of `navfuse kf-gins` from a KF-GINS YAML.
-fn kfgins_eskf(
-    path: &std::path::Path,
-    enhanced: bool,
-    week: u32,
-) -> Result<(Box<dyn Estimator>, KfGinsFrame), String> {
-    use navfuse_core::estimators::eskf::Eskf;
-    let cfg = navfuse_io::kfgins_yaml::KfGinsConfig::load(path)?;
-    let mut ecfg = cfg.eskf_config();
-    if enhanced {
-        ecfg = navfuse_pipeline::kf_gins::enhanced(ecfg);
-    }
-    let eskf = Eskf::new(ecfg, cfg.init_nav(), cfg.init_errors(), &cfg.init_std());
-    let end = if cfg.endtime < 0.0 {
-        f64::INFINITY
-    } else {
-        cfg.endtime
-    };
-    Ok((
-        Box::new(eskf),
-        KfGinsFrame {
-            week_s: f64::from(week) * navfuse_io::time::SECONDS_PER_WEEK,
-            start: cfg.starttime,
-            end,
-        },
-    ))
-}
-
-impl KfGinsFrame {
-    /// The event as kf-gins hands it over, or the reason it does not.
-    fn map(&self, ev: &Event) -> Result<Event, &'static str> {
-        match *ev {
-            Event::Imu(mut s) => {
-                s.t -= self.week_s;
-                if s.t < self.start {
-                    Err("IMU before the configured start time")
-                } else if s.t > self.end {
-                    Err("IMU after the configured end time")
-                } else {
-                    Ok(Event::Imu(s))
-                }
-            }
-            Event::Gnss(mut f) => {
-                f.t -= self.week_s;
-                if f.t <= self.start {
-                    Err("GNSS at/before the configured start time")
-                } else {
-                    Ok(Event::Gnss(f))
-                }
-            }
-        }
-    }
 }
 
 fn connect(addr: &str) -> io::Result<TcpStream> {
@@ -379,70 +264,6 @@ fn spawn_gnss(spec: &str, reconnect_for: f64, tx: SyncSender<Msg>) -> Result<(),
     Ok(())
 }
 
-fn jnum(x: f64, d: usize) -> String {
-    if x.is_finite() {
-        format!("{x:.d$}")
-    } else {
-        "null".into()
-    }
-}
-
-fn json_line(s: &NavSolution) -> String {
-    let (w, tow) = week_tow(s.t);
-    format!(
-        "{{\"t\":{},\"week\":{w},\"tow\":{},\"lat\":{},\"lon\":{},\"h\":{},\"vn\":{},\"ve\":{},\"vd\":{},\"roll\":{},\"pitch\":{},\"yaw\":{},\"sn\":{},\"se\":{},\"sd\":{}}}\n",
-        jnum(s.t, 6),
-        jnum(tow, 6),
-        jnum(s.lat.to_degrees(), 11),
-        jnum(s.lon.to_degrees(), 11),
-        jnum(s.h, 5),
-        jnum(s.v_n.x, 5),
-        jnum(s.v_n.y, 5),
-        jnum(s.v_n.z, 5),
-        jnum(s.rpy.x.to_degrees(), 6),
-        jnum(s.rpy.y.to_degrees(), 6),
-        jnum(s.rpy.z.to_degrees(), 6),
-        jnum(s.std_pos_ned.x, 5),
-        jnum(s.std_pos_ned.y, 5),
-        jnum(s.std_pos_ned.z, 5),
-    )
-}
-
-enum Out {
-    Json(Box<dyn Write>),
-    Nmea(NmeaWriter<Box<dyn Write>>),
-}
-
-impl Out {
-    fn write(&mut self, s: &NavSolution) -> io::Result<()> {
-        match self {
-            Out::Json(w) => {
-                w.write_all(json_line(s).as_bytes())?;
-                w.flush()
-            }
-            Out::Nmea(w) => {
-                w.write(s)?;
-                w.finish()
-            }
-        }
-    }
-}
-
-fn stats_json(s: &RecordStats) -> String {
-    let rej: Vec<String> = s
-        .rejected
-        .iter()
-        .map(|(r, n)| format!("{}:{n}", serde_json::to_string(r).unwrap_or_default()))
-        .collect();
-    format!(
-        "{{\"lines\":{},\"used\":{},\"skipped\":{},\"rejected\":{{{}}}}}",
-        s.lines,
-        s.used,
-        s.skipped,
-        rej.join(",")
-    )
-}
-
 pub fn run(args: Args) -> Result<(), String> {
     if args.gnss == "nmea:-" && args.imu == "-" {
         return Err("--gnss nmea:- and --imu - cannot both read stdin".into());
@@ -450,7 +271,7 @@ pub fn run(args: Args) -> Result<(), String> {
     if !(args.max_wait.is_finite() && args.max_wait >= 0.0) {
         return Err(format!("--max-wait {}: must be ≥ 0", args.max_wait));
     }
-    let (mut est, frame) = match (&args.kfgins_config, args.estimator.as_str()) {
+    let (est, frame) = match (&args.kfgins_config, args.estimator.as_str()) {
         (Some(p), "eskf") => {
             let (e, f) = kfgins_eskf(p, args.enhanced, args.gps_week)?;
             (e, Some(f))
@@ -462,19 +283,15 @@ pub fn run(args: Args) -> Result<(), String> {
         }
         (None, name) => (make_estimator(name)?, None),
     };
-    let mut outside: Vec<(&'static str, u64)> = Vec::new();
-    let mut first_pending = frame.is_some();
     let sink: Box<dyn Write> = match &args.out {
         Some(p) => Box::new(io::BufWriter::new(
             std::fs::File::create(p).map_err(|e| format!("{}: cannot create: {e}", p.display()))?,
         )),
         None => Box::new(io::BufWriter::new(io::stdout())),
     };
-    let mut out = match args.format {
-        Format::Json => Out::Json(sink),
-        Format::Nmea => Out::Nmea(NmeaWriter::new(sink)),
-    };
+    let mut out = Out::new(args.format, sink);
 
+    let mut drv = LiveDriver::new(est, frame);
     let (tx, rx) = sync_channel::<Msg>(4096);
     spawn_gnss(&args.gnss, args.reconnect_for, tx.clone())?;
     spawn_imu(&args.imu, args.idle, args.reconnect_for, tx);
@@ -489,9 +306,7 @@ pub fn run(args: Args) -> Result<(), String> {
     let mut notes: Vec<String> = Vec::new();
     let mut imu_notes = 0u64;
     let mut reconnects: Vec<(&'static str, u64)> = Vec::new();
-    let mut lat = LatencyHistogram::default();
     let mut samples = Vec::with_capacity(2);
-    let (mut n_sol, mut n_imu_nosol, mut n_gnss_sol) = (0u64, 0u64, 0u64);
     let mut gnss_ended = false;
     let note = |notes: &mut Vec<String>, s: String| {
         if notes.len() < 20 {
@@ -579,59 +394,24 @@ pub fn run(args: Args) -> Result<(), String> {
         }
         // Release whatever may go now.
         let nows = secs(Instant::now());
-        while let Some((ev, arr)) = seq.pop(nows) {
-            let ev = match frame.map(|f| f.map(&ev)) {
-                None => ev,
-                Some(Ok(e)) => e,
-                Some(Err(why)) => {
-                    match outside.iter_mut().find(|o| o.0 == why) {
-                        Some(o) => o.1 += 1,
-                        None => outside.push((why, 1)),
-                    }
-                    continue;
-                }
-            };
-            let sol = est.push(&ev);
-            if sol.is_some() && first_pending && matches!(ev, Event::Imu(_)) {
-                // kf-gins: the first sample only initialises (not written).
-                first_pending = false;
-                n_imu_nosol += 1;
-                continue;
-            }
-            match sol {
-                Some(sol) => {
-                    out.write(&sol).map_err(|e| format!("output: {e}"))?;
-                    n_sol += 1;
-                    match ev {
-                        Event::Imu(_) => lat.add(secs(Instant::now()) - arr),
-                        Event::Gnss(_) => n_gnss_sol += 1,
-                    }
-                }
-                None => {
-                    if matches!(ev, Event::Imu(_)) {
-                        n_imu_nosol += 1;
-                    }
-                }
-            }
-        }
+        let mut write = |s: &NavSolution| out.write(s);
+        drv.release(&mut seq, nows, &|| secs(Instant::now()), &mut write)?;
         if seq.imu_ended() && seq.queued().0 == 0 {
             // Remaining GNSS fixes (if any) go to the estimator too, then stop.
-            seq.end_gnss();
-            while let Some((ev, _)) = seq.pop(f64::INFINITY) {
-                if frame.is_some() {
-                    // kf-gins hands no fix over after the last IMU sample.
-                    continue;
-                }
-                if let Some(sol) = est.push(&ev) {
-                    out.write(&sol).map_err(|e| format!("output: {e}"))?;
-                    n_sol += 1;
-                    n_gnss_sol += 1;
-                }
-            }
+            drv.finish(&mut seq, &mut write)?;
             break;
         }
     }
 
+    let LiveDriver {
+        est,
+        outside,
+        n_sol,
+        n_gnss_sol,
+        n_imu_nosol,
+        lat,
+        ..
+    } = drv;
     let q = &seq.stats;
     let gnss_stats = if nmea_stats.lines > 0 {
         &nmea_stats
@@ -711,29 +491,6 @@ pub fn run(args: Args) -> Result<(), String> {
 mod tests {
     use super::*;
 
-    #[test]
-    fn hold_estimator_follows_event_order() {
-        let mut e = make_estimator("hold").unwrap();
-        let imu = |t| {
-            Event::Imu(navfuse_core::types::ImuSample {
-                t,
-                dt: 0.01,
-                ..Default::default()
-            })
-        };
-        assert!(e.push(&imu(1.0)).is_none());
-        let f = GnssFix {
-            t: 1.0,
-            lat: 0.5,
-            h: 7.0,
-            ..Default::default()
-        };
-        assert!(e.push(&Event::Gnss(f)).is_none());
-        let s = e.push(&imu(1.01)).unwrap();
-        assert_eq!((s.t, s.lat, s.h), (1.01, 0.5, 7.0));
-        assert!(make_estimator("nope").is_err());
-    }
-
     /// File sources end to end: malformed lines and a gap survive, every
     /// line is accounted for, and the output is the batch-order result.
     #[test]
@@ -760,7 +517,7 @@ mod tests {
         // GNSS 4 Hz as NMEA, plus a corrupted sentence.
         let mut nmea = Vec::new();
         {
-            let mut w = NmeaWriter::new(&mut nmea);
+            let mut w = navfuse_io::nmea::NmeaWriter::new(&mut nmea);
             for k in 0..12 {
                 let f = GnssFix {
                     t: navfuse_io::time::gps_seconds(week, tow0 + 0.25 * k as f64 + 0.005),
@@ -821,13 +578,5 @@ mod tests {
         assert_eq!(sum["gnss_in"], 12);
         assert_eq!(sum["imu_released_by_timeout"], 0);
         let _ = std::fs::remove_dir_all(&dir);
-    }
-
-    #[test]
-    fn json_line_is_json() {
-        let s = NavSolution::unknown_at(1_435_000_000.25);
-        let v: serde_json::Value = serde_json::from_str(json_line(&s).trim()).unwrap();
-        assert_eq!(v["week"], 2372);
-        assert!(v["roll"].is_null());
     }
 }

@@ -6,16 +6,12 @@ use clap::{Parser, Subcommand};
 use std::process::ExitCode;
 
 mod allan;
-mod allan_noise;
-mod attitude;
 mod baseline;
 mod bench;
 mod convert;
 mod demo;
 mod eval;
 mod exp_platform;
-mod exp_seed002;
-mod exp_seed004;
 mod experiment;
 mod init;
 mod kf_gins;
@@ -56,7 +52,7 @@ enum Command {
     /// Simulate a drive, run every estimator on it, write outputs and a report.
     Demo(demo::Args),
     /// Carrier-phase multi-antenna attitude on a simulated scene (seed 003).
-    Attitude(attitude::Args),
+    Attitude(navfuse_pipeline::experiments::attitude::Options),
     /// Carrier-phase baseline between two RINEX observation files.
     Baseline(baseline::Args),
     /// Reproduce a seed paper's experiment and print its table beside ours.
@@ -81,7 +77,9 @@ fn main() -> ExitCode {
         Command::Sim(a) => sim::run(a),
         Command::Allan(a) => allan::run(a),
         Command::Demo(a) => demo::run(a),
-        Command::Attitude(a) => attitude::run(a),
+        Command::Attitude(a) => {
+            navfuse_pipeline::experiments::attitude::run(a).map_err(String::from)
+        }
         Command::Baseline(a) => baseline::run(a),
         Command::Experiment(a) => experiment::run(a),
         Command::SmoothGps(a) => smooth_gps::run(a),

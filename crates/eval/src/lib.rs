@@ -17,6 +17,7 @@
 //! `c_bn` from the solution attitude by `navfuse_core::attitude::dcm_from_euler`).
 //! NED offsets are exact (through ECEF, `navfuse_core::geodesy::ned_from_geodetic`).
 
+pub mod files;
 pub mod outage;
 pub mod stats;
 

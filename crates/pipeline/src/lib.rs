@@ -15,10 +15,12 @@
 //! for KF-GINS files); SI units inside, degrees only in files and configs.
 
 pub mod align;
+pub mod allan;
 pub mod check;
 pub mod config;
 pub mod csv_map;
 pub mod csv_sniff;
+pub mod demo;
 pub mod error;
 pub mod eskf_run;
 pub mod experiments;
@@ -28,6 +30,7 @@ pub mod kf_gins;
 pub mod kf_gins_align;
 mod kf_gins_out;
 pub mod kfgins_input;
+pub mod live;
 pub mod live_align;
 pub mod noise_cfg;
 mod other;
@@ -37,9 +40,11 @@ pub mod resolved;
 pub mod run;
 pub mod run_checks;
 pub mod sensors;
+pub mod smooth_gps;
 mod summary;
 pub mod template;
 pub mod time_offset;
+mod tool_error;
 
 #[cfg(test)]
 mod input_tests;
@@ -53,6 +58,7 @@ pub use error::PipelineError;
 pub use eskf_run::{run_eskf, EskfRun};
 pub use input::AuxSeries;
 pub use run::{run, RunOptions, RunOutcome};
+pub use tool_error::ToolError;
 
 /// A per-process scratch folder for a test, created:
 /// `navfuse-{name}-{pid}` in the system temp dir.

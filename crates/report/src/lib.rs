@@ -30,6 +30,7 @@
 //! `--outages`), the `outages` key of `summary.json`, else gaps in the GNSS
 //! fixes longer than 5 median fix intervals (and ≥ 3 s).
 
+pub mod build;
 pub mod fixture;
 mod page;
 pub mod svg;

@@ -12,8 +12,13 @@
 //! nothing here is tuned to make a cell pass.
 
 pub mod align_check;
+pub mod attitude;
+pub mod baseline;
 pub mod generalise;
 mod score;
+pub mod seed002;
+pub mod seed003;
+pub mod seed004;
 
 pub use score::{h_error_ne, motion_start};
 

@@ -2,7 +2,7 @@
 //! scene (seed 003, `SEEDS.md §3`): scenario → attitude time series CSV and
 //! error statistics.
 
-use clap::{Args as ClapArgs, ValueEnum};
+use crate::ToolError;
 use std::io::Write;
 use std::path::PathBuf;
 
@@ -15,7 +15,8 @@ use navfuse_sim::carrier_phase::{
     simulate, synthetic_constellation, Motion, SceneConfig, SceneEpoch,
 };
 
-#[derive(Clone, Copy, Debug, ValueEnum)]
+#[derive(Clone, Copy, Debug)]
+#[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
 pub enum MotionArg {
     /// The paper's sinusoid (ω = 0.02 rad/s).
     Paper,
@@ -25,57 +26,58 @@ pub enum MotionArg {
 }
 
 /// Carrier-phase multi-antenna attitude on a simulated scene (seed 003).
-#[derive(ClapArgs, Debug)]
-pub struct Args {
+#[derive(Debug, Clone)]
+#[cfg_attr(feature = "clap", derive(clap::Args))]
+pub struct Options {
     /// Vehicle motion.
-    #[arg(long, value_enum, default_value_t = MotionArg::Paper)]
+    #[cfg_attr(feature = "clap", arg(long, value_enum, default_value_t = MotionArg::Paper))]
     pub motion: MotionArg,
     /// Undifferenced phase noise σ [mm].
-    #[arg(long, default_value_t = 2.0)]
+    #[cfg_attr(feature = "clap", arg(long, default_value_t = 2.0))]
     pub noise_mm: f64,
     /// Epochs and interval [s].
-    #[arg(long, default_value_t = 500)]
+    #[cfg_attr(feature = "clap", arg(long, default_value_t = 500))]
     pub epochs: usize,
-    #[arg(long, default_value_t = 10.0)]
+    #[cfg_attr(feature = "clap", arg(long, default_value_t = 10.0))]
     pub dt: f64,
-    #[arg(long, default_value_t = 1)]
+    #[cfg_attr(feature = "clap", arg(long, default_value_t = 1))]
     pub seed: u64,
     /// Elevation-dependent noise σ/sin(el).
-    #[arg(long)]
+    #[cfg_attr(feature = "clap", arg(long))]
     pub elevation_noise: bool,
     /// Use the exact (correlated) DD covariance instead of the paper's diagonal R.
-    #[arg(long)]
+    #[cfg_attr(feature = "clap", arg(long))]
     pub exact_dd_cov: bool,
     /// Gauss–Markov multipath σ [mm] (correlation time 100 s).
-    #[arg(long, default_value_t = 0.0)]
+    #[cfg_attr(feature = "clap", arg(long, default_value_t = 0.0))]
     pub multipath_mm: f64,
     /// Cycle-slip probability per antenna, satellite and epoch.
-    #[arg(long, default_value_t = 0.0)]
+    #[cfg_attr(feature = "clap", arg(long, default_value_t = 0.0))]
     pub slip_prob: f64,
     /// Elevation mask [deg].
-    #[arg(long, default_value_t = 10.0)]
+    #[cfg_attr(feature = "clap", arg(long, default_value_t = 10.0))]
     pub mask_deg: f64,
     /// YUMA almanac; default the shared week-1011 almanac, or a synthetic
     /// 24-satellite constellation when `--synthetic-sky`.
-    #[arg(long)]
+    #[cfg_attr(feature = "clap", arg(long))]
     pub almanac: Option<PathBuf>,
-    #[arg(long)]
+    #[cfg_attr(feature = "clap", arg(long))]
     pub synthetic_sky: bool,
     /// Cycle-slip gate false-alarm probability for the float filter (0 = off, as the paper).
-    #[arg(long, default_value_t = 0.0)]
+    #[cfg_attr(feature = "clap", arg(long, default_value_t = 0.0))]
     pub slip_gate: f64,
     /// Process noise q of the fixed-baseline filter [m²/s³] (0: epoch-wise fixed baselines).
-    #[arg(long, default_value_t = FixConfig::default().q_fixed)]
+    #[cfg_attr(feature = "clap", arg(long, default_value_t = FixConfig::default().q_fixed))]
     pub q_fixed: f64,
     /// Kinematic order of the attitude filter on the fixed DDs (2: rate +
     /// angular acceleration, white jerk; 3: + jerk, white snap).
-    #[arg(long, default_value_t = 2)]
+    #[cfg_attr(feature = "clap", arg(long, default_value_t = 2))]
     pub att_order: usize,
     /// Statistics over epochs after this one.
-    #[arg(long, default_value_t = 150)]
+    #[cfg_attr(feature = "clap", arg(long, default_value_t = 150))]
     pub after: usize,
     /// Output CSV (time series); stdout gets the statistics.
-    #[arg(long, short)]
+    #[cfg_attr(feature = "clap", arg(long, short))]
     pub out: Option<PathBuf>,
 }
 
@@ -234,7 +236,9 @@ pub fn run_scene(
     }
 }
 
-pub fn run(args: Args) -> Result<(), String> {
+/// `navfuse attitude`: simulate the scene, run the estimator, print the
+/// error statistics and write the per-epoch CSV (`--out`).
+pub fn run(args: Options) -> Result<(), ToolError> {
     let motion = match args.motion {
         MotionArg::Paper => SceneConfig::default().motion,
         MotionArg::Car => Motion::Car,

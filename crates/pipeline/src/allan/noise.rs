@@ -1,5 +1,5 @@
 //! `navfuse allan`'s fit as a `[filter.imu_noise]` block in datasheet keys
-//! (`navfuse_pipeline::noise_cfg`) that a `navfuse run` configuration takes
+//! (`crate::noise_cfg`) that a `navfuse run` configuration takes
 //! as is.
 //!
 //! The ESKF models each bias as a first-order Gauss–Markov process (σ, T),
@@ -15,8 +15,8 @@
 //! the IEEE Std 952 reading min σ_A / 0.664 (an upper bound of the floor)
 //! and T the longest τ / 1.89, a guess.
 
-use crate::allan::{AllanResult, G0, R2D};
-use navfuse_pipeline::noise_cfg::gm_allan_deviation;
+use super::{AllanResult, G0, R2D};
+use crate::noise_cfg::gm_allan_deviation;
 use navfuse_sim::allan::{AdevPoint, MIN_CLUSTERS};
 
 /// τ_peak / T of a Gauss–Markov Allan curve.
@@ -192,7 +192,7 @@ impl AllanResult {
 #[cfg(test)]
 mod tests {
     use crate::allan::analyse_samples;
-    use navfuse_pipeline::noise_cfg::gm_allan_deviation;
+    use crate::noise_cfg::gm_allan_deviation;
 
     /// A static phone-grade IMU (navfuse-sim preset `phone`: Gauss–Markov
     /// bias σ 20 °/h and 100 µg, T = 100 s; noise 0.007 °/s/√Hz, 150 µg/√Hz)
@@ -215,14 +215,12 @@ mod tests {
         let r = analyse_samples(&run.imu).unwrap();
         let block = r.toml("sim");
         println!("{block}");
-        let cfg: navfuse_pipeline::RunConfig =
+        let cfg: crate::RunConfig =
             toml::from_str(&format!("[input]\nimu = \"i\"\ngnss = \"g\"\n{block}")).unwrap();
         let n = cfg.filter.imu_noise.unwrap();
         n.validate("allan", "filter.imu_noise").unwrap();
         let got = n.to_si();
-        let want = navfuse_pipeline::sensors::imu_noise_preset("phone")
-            .unwrap()
-            .noise;
+        let want = crate::sensors::imu_noise_preset("phone").unwrap().noise;
         for i in 0..3 {
             for (what, x, y, tol) in [
                 ("ARW", got.arw[i], want.arw[i], 0.05),

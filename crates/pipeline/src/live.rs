@@ -1,0 +1,350 @@
+//! The estimator side of a live session (`navfuse live`): the estimators it
+//! can run ([`make_estimator`], [`kfgins_eskf`]), the driver that hands the
+//! sequencer's released events to the estimator and counts what came out
+//! ([`LiveDriver`]), and the JSON of a solution and of reader counts.
+//! Sources, threads, sockets and the output sink stay with the caller.
+//!
+//! Times: GPS seconds (`t`), KF-GINS time of week inside a [`KfGinsFrame`];
+//! positions geodetic (radians, metres), NED velocity, FRD body.
+
+use crate::ToolError;
+use navfuse_core::types::{Event, GnssFix, NavSolution};
+use navfuse_core::Estimator;
+use navfuse_io::live::{LatencyHistogram, Sequencer};
+use navfuse_io::nmea::NmeaWriter;
+use navfuse_io::time::week_tow;
+use navfuse_io::writers::TrajectoryWriter;
+use navfuse_io::RecordStats;
+use std::io::{self, Write};
+
+/// Output formats.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
+pub enum Format {
+    /// One JSON object per solution (full precision).
+    Json,
+    /// NMEA GGA + RMC (+ GST) per solution.
+    Nmea,
+}
+
+/// The solution sink of a live session: JSON lines or NMEA, flushed after
+/// every solution.
+pub enum Out {
+    Json(Box<dyn Write>),
+    Nmea(NmeaWriter<Box<dyn Write>>),
+}
+
+impl Out {
+    /// The sink writing `format` to `sink`.
+    pub fn new(format: Format, sink: Box<dyn Write>) -> Self {
+        match format {
+            Format::Json => Out::Json(sink),
+            Format::Nmea => Out::Nmea(NmeaWriter::new(sink)),
+        }
+    }
+
+    /// Write one solution and flush.
+    pub fn write(&mut self, s: &NavSolution) -> io::Result<()> {
+        match self {
+            Out::Json(w) => {
+                w.write_all(json_line(s).as_bytes())?;
+                w.flush()
+            }
+            Out::Nmea(w) => {
+                w.write(s)?;
+                w.finish()
+            }
+        }
+    }
+}
+
+/// Test estimator: the last GNSS position (and its σ) at every IMU sample.
+/// Its output depends on the event order, which makes it a sharp check of
+/// the sequencing; it is not a navigation filter.
+pub struct HoldLastFix {
+    last: Option<GnssFix>,
+}
+
+impl Estimator for HoldLastFix {
+    fn name(&self) -> &'static str {
+        "hold"
+    }
+    fn push(&mut self, ev: &Event) -> Option<NavSolution> {
+        match ev {
+            Event::Gnss(f) => {
+                self.last = Some(*f);
+                None
+            }
+            Event::Imu(s) => self.last.map(|f| {
+                let mut n = NavSolution::unknown_at(s.t);
+                n.lat = f.lat;
+                n.lon = f.lon;
+                n.h = f.h;
+                n.std_pos_ned = f.std_ned;
+                n.v_n = navfuse_core::types::Vec3::repeat(f64::NAN);
+                n
+            }),
+        }
+    }
+}
+
+/// The estimator named `name`.
+pub fn make_estimator(name: &str) -> Result<Box<dyn Estimator>, ToolError> {
+    match name {
+        "hold" => Ok(Box::new(HoldLastFix { last: None })),
+        "eskf" => Err("--estimator eskf needs --kfgins-config YAML".into()),
+        other => Err(format!("unknown estimator {other:?} (available: hold, eskf)").into()),
+    }
+}
+
+/// How `navfuse kf-gins` presents events to its ESKF: times as time of week,
+/// IMU from `start` (inclusive), fixes after `start`, up to `end`; the first
+/// solution only initialises.
+#[derive(Clone, Copy, Debug)]
+pub struct KfGinsFrame {
+    week_s: f64,
+    start: f64,
+    end: f64,
+}
+
+/// The ESKF of `navfuse kf-gins` from a KF-GINS YAML.
+pub fn kfgins_eskf(
+    path: &std::path::Path,
+    enhanced: bool,
+    week: u32,
+) -> Result<(Box<dyn Estimator>, KfGinsFrame), ToolError> {
+    use navfuse_core::estimators::eskf::Eskf;
+    let cfg = navfuse_io::kfgins_yaml::KfGinsConfig::load(path)?;
+    let mut ecfg = cfg.eskf_config();
+    if enhanced {
+        ecfg = crate::kf_gins::enhanced(ecfg);
+    }
+    let eskf = Eskf::new(ecfg, cfg.init_nav(), cfg.init_errors(), &cfg.init_std());
+    let end = if cfg.endtime < 0.0 {
+        f64::INFINITY
+    } else {
+        cfg.endtime
+    };
+    Ok((
+        Box::new(eskf),
+        KfGinsFrame {
+            week_s: f64::from(week) * navfuse_io::time::SECONDS_PER_WEEK,
+            start: cfg.starttime,
+            end,
+        },
+    ))
+}
+
+impl KfGinsFrame {
+    /// The event as kf-gins hands it over, or the reason it does not.
+    pub fn map(&self, ev: &Event) -> Result<Event, &'static str> {
+        match *ev {
+            Event::Imu(mut s) => {
+                s.t -= self.week_s;
+                if s.t < self.start {
+                    Err("IMU before the configured start time")
+                } else if s.t > self.end {
+                    Err("IMU after the configured end time")
+                } else {
+                    Ok(Event::Imu(s))
+                }
+            }
+            Event::Gnss(mut f) => {
+                f.t -= self.week_s;
+                if f.t <= self.start {
+                    Err("GNSS at/before the configured start time")
+                } else {
+                    Ok(Event::Gnss(f))
+                }
+            }
+        }
+    }
+}
+
+/// Hands the events a [`Sequencer`] releases to the estimator (through the
+/// kf-gins time window when there is one) and counts the solutions.
+pub struct LiveDriver {
+    pub est: Box<dyn Estimator>,
+    frame: Option<KfGinsFrame>,
+    /// kf-gins: the first solution only initialises (not written).
+    first_pending: bool,
+    /// Events not handed to the estimator (kf-gins time window), by reason.
+    pub outside: Vec<(&'static str, u64)>,
+    /// Solutions written, of them at GNSS events, and IMU samples without one.
+    pub n_sol: u64,
+    pub n_gnss_sol: u64,
+    pub n_imu_nosol: u64,
+    /// IMU line read → solution written [s].
+    pub lat: LatencyHistogram,
+}
+
+impl LiveDriver {
+    /// A driver of `est`; `frame`: the kf-gins time window (None: every event).
+    pub fn new(est: Box<dyn Estimator>, frame: Option<KfGinsFrame>) -> Self {
+        LiveDriver {
+            est,
+            frame,
+            first_pending: frame.is_some(),
+            outside: Vec::new(),
+            n_sol: 0,
+            n_gnss_sol: 0,
+            n_imu_nosol: 0,
+            lat: LatencyHistogram::default(),
+        }
+    }
+
+    /// Release whatever may go at `nows` [s since the start]; `secs_now`
+    /// gives the current time on the same clock (for the latency), `write`
+    /// writes a solution.
+    pub fn release(
+        &mut self,
+        seq: &mut Sequencer,
+        nows: f64,
+        secs_now: &dyn Fn() -> f64,
+        write: &mut dyn FnMut(&NavSolution) -> io::Result<()>,
+    ) -> Result<(), ToolError> {
+        let (est, frame, outside) = (&mut self.est, self.frame, &mut self.outside);
+        while let Some((ev, arr)) = seq.pop(nows) {
+            let ev = match frame.map(|f| f.map(&ev)) {
+                None => ev,
+                Some(Ok(e)) => e,
+                Some(Err(why)) => {
+                    match outside.iter_mut().find(|o| o.0 == why) {
+                        Some(o) => o.1 += 1,
+                        None => outside.push((why, 1)),
+                    }
+                    continue;
+                }
+            };
+            let sol = est.push(&ev);
+            if sol.is_some() && self.first_pending && matches!(ev, Event::Imu(_)) {
+                // kf-gins: the first sample only initialises (not written).
+                self.first_pending = false;
+                self.n_imu_nosol += 1;
+                continue;
+            }
+            match sol {
+                Some(sol) => {
+                    write(&sol).map_err(|e| format!("output: {e}"))?;
+                    self.n_sol += 1;
+                    match ev {
+                        Event::Imu(_) => self.lat.add(secs_now() - arr),
+                        Event::Gnss(_) => self.n_gnss_sol += 1,
+                    }
+                }
+                None => {
+                    if matches!(ev, Event::Imu(_)) {
+                        self.n_imu_nosol += 1;
+                    }
+                }
+            }
+        }
+        Ok(())
+    }
+
+    /// After the IMU input ended and its queue emptied: the remaining GNSS
+    /// fixes (if any) go to the estimator too.
+    pub fn finish(
+        &mut self,
+        seq: &mut Sequencer,
+        write: &mut dyn FnMut(&NavSolution) -> io::Result<()>,
+    ) -> Result<(), ToolError> {
+        seq.end_gnss();
+        while let Some((ev, _)) = seq.pop(f64::INFINITY) {
+            if self.frame.is_some() {
+                // kf-gins hands no fix over after the last IMU sample.
+                continue;
+            }
+            if let Some(sol) = self.est.push(&ev) {
+                write(&sol).map_err(|e| format!("output: {e}"))?;
+                self.n_sol += 1;
+                self.n_gnss_sol += 1;
+            }
+        }
+        Ok(())
+    }
+}
+
+/// `x` with `d` decimals, `null` when not finite (JSON).
+pub fn jnum(x: f64, d: usize) -> String {
+    if x.is_finite() {
+        format!("{x:.d$}")
+    } else {
+        "null".into()
+    }
+}
+
+/// One solution as a JSON line: GPS time, week and time of week, position
+/// [deg, m], NED velocity [m/s], roll/pitch/yaw [deg], position σ NED [m].
+pub fn json_line(s: &NavSolution) -> String {
+    let (w, tow) = week_tow(s.t);
+    format!(
+        "{{\"t\":{},\"week\":{w},\"tow\":{},\"lat\":{},\"lon\":{},\"h\":{},\"vn\":{},\"ve\":{},\"vd\":{},\"roll\":{},\"pitch\":{},\"yaw\":{},\"sn\":{},\"se\":{},\"sd\":{}}}\n",
+        jnum(s.t, 6),
+        jnum(tow, 6),
+        jnum(s.lat.to_degrees(), 11),
+        jnum(s.lon.to_degrees(), 11),
+        jnum(s.h, 5),
+        jnum(s.v_n.x, 5),
+        jnum(s.v_n.y, 5),
+        jnum(s.v_n.z, 5),
+        jnum(s.rpy.x.to_degrees(), 6),
+        jnum(s.rpy.y.to_degrees(), 6),
+        jnum(s.rpy.z.to_degrees(), 6),
+        jnum(s.std_pos_ned.x, 5),
+        jnum(s.std_pos_ned.y, 5),
+        jnum(s.std_pos_ned.z, 5),
+    )
+}
+
+/// Reader counts as JSON: lines, used, skipped, rejected by reason.
+pub fn stats_json(s: &RecordStats) -> String {
+    let rej: Vec<String> = s
+        .rejected
+        .iter()
+        .map(|(r, n)| format!("{}:{n}", serde_json::to_string(r).unwrap_or_default()))
+        .collect();
+    format!(
+        "{{\"lines\":{},\"used\":{},\"skipped\":{},\"rejected\":{{{}}}}}",
+        s.lines,
+        s.used,
+        s.skipped,
+        rej.join(",")
+    )
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn hold_estimator_follows_event_order() {
+        let mut e = make_estimator("hold").unwrap();
+        let imu = |t| {
+            Event::Imu(navfuse_core::types::ImuSample {
+                t,
+                dt: 0.01,
+                ..Default::default()
+            })
+        };
+        assert!(e.push(&imu(1.0)).is_none());
+        let f = GnssFix {
+            t: 1.0,
+            lat: 0.5,
+            h: 7.0,
+            ..Default::default()
+        };
+        assert!(e.push(&Event::Gnss(f)).is_none());
+        let s = e.push(&imu(1.01)).unwrap();
+        assert_eq!((s.t, s.lat, s.h), (1.01, 0.5, 7.0));
+        assert!(make_estimator("nope").is_err());
+    }
+
+    #[test]
+    fn json_line_is_json() {
+        let s = NavSolution::unknown_at(1_435_000_000.25);
+        let v: serde_json::Value = serde_json::from_str(json_line(&s).trim()).unwrap();
+        assert_eq!(v["week"], 2372);
+        assert!(v["roll"].is_null());
+    }
+}
