@@ -18,6 +18,8 @@
 //! NED offsets are exact (through ECEF, `navfuse_core::geodesy::ned_from_geodetic`).
 
 pub mod outage;
+#[cfg(feature = "parquet")]
+pub mod parquet;
 pub mod stats;
 
 pub use outage::{outage_metric, Outage, OutageReport, OutageResult, OutageSchedule};
