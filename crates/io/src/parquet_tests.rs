@@ -69,19 +69,14 @@ fn solutions_round_trip_equal_to_the_nav_text() {
     let mut w = KfGinsNavWriter::new(&mut nav);
     sols.iter().for_each(|s| w.write(s).unwrap());
     w.finish().unwrap();
-    let names = [
-        "gps_week",
-        "gps_tow_s",
-        "lat_deg",
-        "lon_deg",
-        "h_m",
-        "v_n_mps",
-        "v_e_mps",
-        "v_d_mps",
-        "roll_deg",
-        "pitch_deg",
-        "yaw_deg",
-    ];
+    // The table's columns are the CSV's; the .nav's are gps_week … yaw_deg.
+    let csv: Vec<&str> = crate::writers::CSV_HEADER.split(',').collect();
+    assert!(t
+        .columns
+        .iter()
+        .map(|c| c.name.as_str())
+        .eq(csv.iter().copied()));
+    let names = &csv[1..12];
     let weeks = match t.column("gps_week") {
         Some(ColumnData::I32(v)) => v.clone(),
         other => panic!("{other:?}"),
