@@ -59,6 +59,9 @@ pub struct Args {
     /// Write the per-epoch error series as CSV to FILE.
     #[arg(long, value_name = "ERRORS.csv")]
     pub csv: Option<PathBuf>,
+    /// Write the per-epoch error series as Parquet to FILE (columns of `--csv`, time `t_gps_s`).
+    #[arg(long, value_name = "ERRORS.parquet")]
+    pub parquet: Option<PathBuf>,
     /// Also write the HTML report (index.html + plots/*.svg) into DIR.
     #[arg(long, value_name = "DIR")]
     pub report: Option<PathBuf>,
@@ -159,6 +162,9 @@ pub fn run(args: Args) -> Result<(), String> {
     }
     if let Some(p) = &args.csv {
         std::fs::write(p, errors_csv(&ev)).map_err(|e| format!("{}: {e}", p.display()))?;
+    }
+    if let Some(p) = &args.parquet {
+        navfuse_eval::parquet::write_errors(p, &ev.errors).map_err(|e| e.to_string())?;
     }
     if let Some(dir) = &args.report {
         let (sol, truth) = (
@@ -275,6 +281,7 @@ mod tests {
             json: Some(jp.clone()),
             json_errors: false,
             csv: Some(cp.clone()),
+            parquet: None,
             report: None,
         };
         run(args).unwrap();
@@ -335,6 +342,7 @@ mod tests {
                 json: None,
                 json_errors: false,
                 csv: None,
+                parquet: None,
                 report: None,
             },
             dir,

@@ -32,6 +32,9 @@ pub struct Args {
     /// Also run the RTS smoother and write `KF_GINS_Navresult_smoothed.nav`.
     #[arg(long)]
     pub smooth: bool,
+    /// Also write the solutions as Parquet (`KF_GINS_Navresult.parquet`).
+    #[arg(long)]
+    pub parquet: bool,
     /// χ² innovation gate probability for the KF-GINS model (e.g. 0.9999);
     /// `--enhanced` always gates at 0.9999.
     #[arg(long)]
@@ -142,6 +145,7 @@ pub fn run_config(args: &Args) -> Result<KfGinsRun, PipelineError> {
         time_offset: args.time_offset.clone(),
         verbose: args.verbose,
         align: args.align,
+        parquet: args.parquet,
     };
     run_kf_gins(&args.config, &opts)
 }

@@ -19,6 +19,8 @@
 
 pub mod files;
 pub mod outage;
+#[cfg(feature = "parquet")]
+pub mod parquet;
 pub mod stats;
 
 pub use outage::{outage_metric, Outage, OutageReport, OutageResult, OutageSchedule};

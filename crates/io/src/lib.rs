@@ -13,6 +13,7 @@
 //! - [`navcsv`]: navfuse trajectory CSV → `NavSolution`
 //! - [`imu`]: the rules turning stamped records into intervals (`dt`, integration)
 //! - [`writers`]: CSV, KF-GINS `.nav`, GeoJSON, KML, GPX
+//! - [`parquet_out`] (feature `parquet`, default): Parquet tables of solutions and the update journal
 //! - [`trajectory`]: formats by name/extension (used by `navfuse convert`)
 //! - [`time`]: GPS week/TOW ↔ GPS seconds ↔ GPST/UTC calendar
 
@@ -26,6 +27,8 @@ pub mod kfgins_yaml;
 pub mod live;
 pub mod navcsv;
 pub mod nmea;
+#[cfg(feature = "parquet")]
+pub mod parquet_out;
 pub mod pos;
 pub mod rinex;
 pub mod tag;

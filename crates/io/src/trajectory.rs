@@ -37,6 +37,8 @@ pub enum OutFormat {
     Gpx,
     /// NMEA 0183 GGA + RMC + GST ([`crate::nmea::NmeaWriter`]).
     Nmea,
+    /// Apache Parquet table (`crate::parquet_out`, feature `parquet`).
+    Parquet,
 }
 
 fn ext(path: &Path) -> String {
@@ -59,7 +61,8 @@ impl InFormat {
 }
 
 impl OutFormat {
-    /// From the extension: `.csv`, `.nav`, `.geojson`/`.json`, `.kml`, `.gpx`, `.nmea`.
+    /// From the extension: `.csv`, `.nav`, `.geojson`/`.json`, `.kml`, `.gpx`,
+    /// `.nmea`, `.parquet`.
     pub fn from_path(path: &Path) -> Option<Self> {
         match ext(path).as_str() {
             "csv" => Some(OutFormat::Csv),
@@ -68,6 +71,7 @@ impl OutFormat {
             "kml" => Some(OutFormat::Kml),
             "gpx" => Some(OutFormat::Gpx),
             "nmea" => Some(OutFormat::Nmea),
+            "parquet" => Some(OutFormat::Parquet),
             _ => None,
         }
     }
@@ -81,6 +85,7 @@ impl OutFormat {
             OutFormat::Kml => "kml",
             OutFormat::Gpx => "gpx",
             OutFormat::Nmea => "nmea",
+            OutFormat::Parquet => "parquet",
         }
     }
 }
@@ -168,11 +173,39 @@ pub fn writer<W: std::io::Write + 'static>(w: W, fmt: OutFormat) -> Box<dyn Traj
         OutFormat::Kml => Box::new(KmlWriter::new(w)),
         OutFormat::Gpx => Box::new(GpxWriter::new(w)),
         OutFormat::Nmea => Box::new(crate::nmea::NmeaWriter::new(w)),
+        #[cfg(feature = "parquet")]
+        OutFormat::Parquet => Box::new(crate::parquet_out::ParquetTrajectoryWriter::new(w)),
+        #[cfg(not(feature = "parquet"))]
+        OutFormat::Parquet => Box::new(NoParquet),
+    }
+}
+
+/// Stands in for the Parquet writer when the `parquet` feature is off.
+#[cfg(not(feature = "parquet"))]
+struct NoParquet;
+
+#[cfg(not(feature = "parquet"))]
+impl TrajectoryWriter for NoParquet {
+    fn write(&mut self, _: &NavSolution) -> std::io::Result<()> {
+        Err(std::io::Error::new(
+            std::io::ErrorKind::Unsupported,
+            "Parquet output needs navfuse-io's `parquet` feature",
+        ))
+    }
+    fn finish(&mut self) -> std::io::Result<()> {
+        self.write(&NavSolution::default())
     }
 }
 
 /// Create `path` and a buffered writer of `fmt` on it.
+/// Parquet is written whole at `finish` (via a temporary name and a rename).
 pub fn create_writer(path: &Path, fmt: OutFormat) -> std::io::Result<Box<dyn TrajectoryWriter>> {
+    #[cfg(feature = "parquet")]
+    if fmt == OutFormat::Parquet {
+        return Ok(Box::new(
+            crate::parquet_out::ParquetTrajectoryWriter::create(path),
+        ));
+    }
     let f = File::create(path)?;
     Ok(writer(BufWriter::with_capacity(1 << 16, f), fmt))
 }

@@ -64,7 +64,7 @@ fn check_pos(s: &NavSolution) -> io::Result<()> {
 }
 
 /// Longitude in degrees wrapped to [−180, 180).
-fn lon_deg(lon: f64) -> f64 {
+pub(crate) fn lon_deg(lon: f64) -> f64 {
     let d = lon.to_degrees();
     (d + 180.0).rem_euclid(360.0) - 180.0
 }

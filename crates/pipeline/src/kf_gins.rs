@@ -45,6 +45,10 @@ pub struct KfGinsOptions {
     /// Initial state source ([`AlignSource`]); default `Auto` with
     /// `enhanced` or a platform, else `Yaml` (KF-GINS's behaviour).
     pub align: Option<AlignSource>,
+    /// Also write `KF_GINS_Navresult.parquet` (and `_smoothed.parquet`):
+    /// [`navfuse_io::parquet_out::solutions_table`], with the real GPS week
+    /// and yaw in (−180°, 180°] where the `.nav` has week 0 and yaw in [0°, 360°).
+    pub parquet: bool,
 }
 
 /// Everything a run produced (for the tests and the summary).
@@ -180,6 +184,9 @@ pub fn run_kf_gins(yaml: &Path, args: &KfGinsOptions) -> Result<KfGinsRun> {
     if args.verbose {
         eprintln!("filter + write: {:.3} s", t_filter.elapsed().as_secs_f64());
     }
+    if args.parquet {
+        write_parquet(&out_dir, &r.0, &r.1)?;
+    }
     Ok(KfGinsRun {
         solutions: r.0,
         smoothed: r.1,
@@ -189,6 +196,19 @@ pub fn run_kf_gins(yaml: &Path, args: &KfGinsOptions) -> Result<KfGinsRun> {
         time_offset: applied,
         align: decision,
     })
+}
+
+fn write_parquet(dir: &Path, sols: &[NavSolution], smoothed: &[SmoothedEpoch]) -> Result<()> {
+    let write = |name: &str, s: &[NavSolution]| {
+        navfuse_io::parquet_out::write_solutions(&dir.join(name), s)
+            .map_err(|e| PipelineError::Output(e.to_string()))
+    };
+    write("KF_GINS_Navresult.parquet", sols)?;
+    if !smoothed.is_empty() {
+        let sm: Vec<NavSolution> = smoothed.iter().map(check::smoothed_solution).collect();
+        write("KF_GINS_Navresult_smoothed.parquet", &sm)?;
+    }
+    Ok(())
 }
 
 /// KF-GINS's event order: IMU from the first sample at/after `start`, GNSS

@@ -33,15 +33,24 @@ pub fn write_innovations(path: &Path, log: &[UpdateLog]) -> Result<String> {
     Ok(path.display().to_string())
 }
 
+/// The update journal as a Parquet table
+/// ([`navfuse_io::parquet_out::journal_table`]: `t_gps_s`, `kind`, `nis`,
+/// `dof`, `accepted`), written whole or not at all. Returns the path written.
+pub fn write_journal_parquet(path: &Path, log: &[UpdateLog]) -> Result<String> {
+    navfuse_io::parquet_out::write_journal(path, log)
+        .map_err(|e| PipelineError::Output(e.to_string()))?;
+    Ok(path.display().to_string())
+}
+
 /// The extra output formats named in the config (by extension: csv, nav,
-/// geojson, kml, gpx, nmea). An unknown name is a [`PipelineError::Options`].
+/// geojson, kml, gpx, nmea, parquet). An unknown name is a [`PipelineError::Options`].
 pub fn out_formats(names: &[String]) -> Result<Vec<OutFormat>> {
     names
         .iter()
         .map(|n| {
             OutFormat::from_path(Path::new(&format!("x.{n}"))).ok_or_else(|| {
                 PipelineError::Options(format!(
-                    "unknown format {n:?} (csv, nav, geojson, kml, gpx, nmea)"
+                    "unknown format {n:?} (csv, nav, geojson, kml, gpx, nmea, parquet)"
                 ))
             })
         })
@@ -80,9 +89,74 @@ mod tests {
 
     #[test]
     fn out_formats_by_extension_and_unknown_named() {
-        let f = out_formats(&["csv".into(), "geojson".into(), "gpx".into()]).unwrap();
-        assert_eq!(f, [OutFormat::Csv, OutFormat::GeoJson, OutFormat::Gpx]);
+        let f = out_formats(&["csv".into(), "geojson".into(), "parquet".into()]).unwrap();
+        assert_eq!(f, [OutFormat::Csv, OutFormat::GeoJson, OutFormat::Parquet]);
         let e = out_formats(&["shp".into()]).unwrap_err().to_string();
         assert!(e.contains("\"shp\""), "{e}");
+    }
+
+    /// `formats = ["parquet"]` with the smoother: `solution.parquet` and
+    /// `solution_smoothed.parquet` equal their `.nav` to the printed decimals,
+    /// `journal.parquet` holds the rows of `solution.innovations.csv`.
+    #[test]
+    fn parquet_outputs_equal_the_nav_and_the_innovations() {
+        use navfuse_io::parquet_out::{read_table, ColumnData};
+        let dir = crate::test_dir("run-parquet");
+        crate::run_tests::write_north_drive(&dir);
+        let toml = "formats = [\"parquet\"]\n[input]\nimu = \"imu.txt\"\ngnss = \"gnss.txt\"\n\
+                    [filter]\nsmooth = true\n";
+        std::fs::write(dir.join("run.toml"), toml).unwrap();
+        let out = dir.join("out");
+        crate::run_tests::run_to(&dir.join("run.toml"), &out).unwrap();
+        for stem in ["solution", "solution_smoothed"] {
+            let t = read_table(&out.join(format!("{stem}.parquet"))).unwrap();
+            let nav = std::fs::read_to_string(out.join(format!("{stem}.nav"))).unwrap();
+            assert_eq!(t.rows(), nav.lines().count(), "{stem}");
+            assert!(t.rows() > 300, "{stem}: {} rows", t.rows());
+            // .nav columns and their printed decimals (KfGinsNavWriter).
+            let cols = [
+                ("gps_tow_s", 6),
+                ("lat_deg", 10),
+                ("lon_deg", 10),
+                ("h_m", 4),
+                ("v_n_mps", 4),
+                ("v_e_mps", 4),
+                ("v_d_mps", 4),
+                ("roll_deg", 6),
+                ("pitch_deg", 6),
+                ("yaw_deg", 6),
+            ];
+            for (i, line) in nav.lines().enumerate() {
+                let v: Vec<f64> = line
+                    .split_whitespace()
+                    .map(|x| x.parse().unwrap())
+                    .collect();
+                match t.column("gps_week") {
+                    Some(ColumnData::I32(w)) => assert_eq!(w[i] as f64, v[0]),
+                    other => panic!("{other:?}"),
+                }
+                for (k, (name, dec)) in cols.iter().enumerate() {
+                    let Some(ColumnData::F64(c)) = t.column(name) else {
+                        panic!("{stem}: no column {name}")
+                    };
+                    let tol = 0.5 * 10f64.powi(-dec) * (1.0 + 1e-9);
+                    let ok = (c[i] - v[k + 1]).abs() <= tol || (c[i].is_nan() && v[k + 1].is_nan());
+                    assert!(ok, "{stem} row {i} {name}: {} vs .nav {}", c[i], v[k + 1]);
+                }
+            }
+        }
+        let j = read_table(&out.join("journal.parquet")).unwrap();
+        let csv = std::fs::read_to_string(out.join("solution.innovations.csv")).unwrap();
+        assert_eq!(j.rows(), csv.lines().count() - 1);
+        assert!(j.rows() >= 60, "{} updates", j.rows());
+        let Some(ColumnData::Str(kinds)) = j.column("kind") else {
+            panic!("no kind column")
+        };
+        for (k, line) in kinds.iter().zip(csv.lines().skip(1)) {
+            assert_eq!(Some(k.as_str()), line.split(',').nth(1));
+        }
+        let summary = std::fs::read_to_string(out.join("summary.json")).unwrap();
+        assert!(summary.contains("journal.parquet"), "outputs listed");
+        let _ = std::fs::remove_dir_all(&dir);
     }
 }

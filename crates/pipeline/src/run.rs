@@ -8,7 +8,7 @@ use crate::error::{PipelineError, Result};
 use crate::eskf_run::{run_eskf_span, select_span};
 use crate::input::{self, InputSpec};
 use crate::other::{run_other, OtherRun};
-use crate::outputs::{out_formats, write_innovations, write_solutions};
+use crate::outputs::{out_formats, write_innovations, write_journal_parquet, write_solutions};
 use crate::run_checks::time_keys_json;
 use crate::summary::Summary;
 use crate::time_offset::{default_mode, TimeOffset, TimeOffsetCfg};
@@ -135,6 +135,10 @@ pub fn run(cfg: &RunConfig, base_dir: &Path, opts: &RunOptions) -> Result<RunOut
         &out_dir.join("solution.innovations.csv"),
         &r.updates,
     )?);
+    if formats.contains(&navfuse_io::trajectory::OutFormat::Parquet) {
+        let p = out_dir.join("journal.parquet");
+        outputs.push(write_journal_parquet(&p, &r.updates)?);
+    }
     if cfg.filter.smooth {
         outputs.extend(write_solutions(
             &out_dir,

@@ -52,13 +52,9 @@ pub(super) fn run_and_read(
 }
 
 /// A 60 s drive north at 5 m/s in KF-GINS text (level, 100 Hz IMU with
-/// gravity only, 1 Hz fixes), run with `--estimator` pf-lc and gps-acc:
-/// every estimator writes its solutions in the extra formats and a
-/// summary naming it and accounting for every fix.
-#[test]
-fn run_other_estimators_write_solutions_and_summary() {
+/// gravity only, 1 Hz fixes): `imu.txt` and `gnss.txt` in `dir`.
+pub(super) fn write_north_drive(dir: &Path) {
     use std::fmt::Write as _;
-    let dir = crate::test_dir("run-other");
     let (lat0, lon0, h) = (40.0f64.to_radians(), -105.0f64.to_radians(), 1600.0);
     let (rm, _) = navfuse_core::earth::radii(lat0);
     let (t0, v, g) = (1000.0, 5.0, 9.8);
@@ -80,6 +76,15 @@ fn run_other_estimators_write_solutions_and_summary() {
     }
     std::fs::write(dir.join("imu.txt"), imu).unwrap();
     std::fs::write(dir.join("gnss.txt"), gnss).unwrap();
+}
+
+/// [`write_north_drive`] run with `--estimator` pf-lc and gps-acc:
+/// every estimator writes its solutions in the extra formats and a
+/// summary naming it and accounting for every fix.
+#[test]
+fn run_other_estimators_write_solutions_and_summary() {
+    let dir = crate::test_dir("run-other");
+    write_north_drive(&dir);
     std::fs::write(
         dir.join("run.toml"),
         "formats = [\"csv\", \"geojson\"]\n[input]\nimu = \"imu.txt\"\ngnss = \"gnss.txt\"\n",
