@@ -21,7 +21,7 @@ use navfuse_io::live::{FollowReader, GpsdAssembler, GpsdLine, ImuLineParser, Seq
 use navfuse_io::nmea::{NmeaOptions, NmeaReader};
 use navfuse_io::RecordStats;
 use navfuse_pipeline::live::{
-    jnum, kfgins_eskf, make_estimator, stats_json, Format, LiveDriver, Out,
+    aligning_eskf, jnum, kfgins_eskf, make_estimator, stats_json, Format, LiveDriver, Out,
 };
 use std::io::{self, BufRead, BufReader, Read, Write};
 use std::net::TcpStream;
@@ -49,7 +49,7 @@ pub struct Args {
     #[arg(long, default_value_t = 100.0)]
     pub imu_rate: f64,
     /// Estimator: `hold` (test estimator: last GNSS position at every IMU
-    /// sample; not a navigation filter) or `eskf` (needs `--kfgins-config`).
+    /// sample; not a navigation filter) or `eskf` (`--kfgins-config` or `--platform`).
     #[arg(long, default_value = "hold")]
     pub estimator: String,
     /// KF-GINS YAML configuration for `--estimator eskf`: the ESKF is built
@@ -62,6 +62,16 @@ pub struct Args {
     /// With `--kfgins-config`: navfuse's land-vehicle additions (as `kf-gins --enhanced`).
     #[arg(long)]
     pub enhanced: bool,
+    /// `--estimator eskf` without a YAML: the platform profile; the filter
+    /// aligns itself from the streams (static levelling, GNSS course or yaw GSF).
+    #[arg(long)]
+    pub platform: Option<navfuse_pipeline::profile::Platform>,
+    /// With `--platform`: IMU noise preset (sensor model, docs/config.md).
+    #[arg(long)]
+    pub imu_preset: Option<String>,
+    /// With `--platform`: GNSS antenna in the body frame FRD [m], `x,y,z`.
+    #[arg(long, value_delimiter = ',', num_args = 3, default_values_t = [0.0, 0.0, 0.0])]
+    pub lever_arm: Vec<f64>,
     /// Output file (default stdout).
     #[arg(long)]
     pub out: Option<PathBuf>,
@@ -280,6 +290,10 @@ pub fn run(args: Args) -> Result<(), String> {
             return Err(format!(
                 "--kfgins-config goes with --estimator eskf, not {other:?}"
             ))
+        }
+        (None, "eskf") if args.platform.is_some() => {
+            let e = aligning_eskf(args.platform, args.imu_preset.as_deref(), &args.lever_arm)?;
+            (e, None)
         }
         (None, name) => (make_estimator(name)?, None),
     };
@@ -543,6 +557,9 @@ mod tests {
             estimator: "hold".into(),
             kfgins_config: None,
             enhanced: false,
+            platform: None,
+            imu_preset: None,
+            lever_arm: vec![0.0; 3],
             out: Some(dir.join("out.jsonl")),
             format: Format::Json,
             max_wait: 1e9,

@@ -92,9 +92,57 @@ impl Estimator for HoldLastFix {
 pub fn make_estimator(name: &str) -> Result<Box<dyn Estimator>, ToolError> {
     match name {
         "hold" => Ok(Box::new(HoldLastFix { last: None })),
-        "eskf" => Err("--estimator eskf needs --kfgins-config YAML".into()),
+        "eskf" => {
+            Err("--estimator eskf needs --platform (self-aligning) or --kfgins-config YAML".into())
+        }
         other => Err(format!("unknown estimator {other:?} (available: hold, eskf)").into()),
     }
+}
+
+/// `--estimator eskf` without a KF-GINS YAML: the self-aligning ESKF
+/// ([`crate::live_align::AligningEskf`]) with the profile of `platform`, IMU
+/// noise from the sensor preset `imu_preset` (default: the conservative
+/// MEMS preset) and the GNSS antenna at `lever_arm_b` (body FRD) [m].
+pub fn aligning_eskf(
+    platform: Option<crate::profile::Platform>,
+    imu_preset: Option<&str>,
+    lever_arm_b: &[f64],
+) -> Result<Box<dyn Estimator>, ToolError> {
+    let lever_arm: [f64; 3] = lever_arm_b
+        .try_into()
+        .map_err(|_| ToolError("--lever-arm: expected x,y,z".into()))?;
+    if platform.is_none() {
+        return Err("the self-aligning ESKF needs --platform".into());
+    }
+    let cfg = crate::config::RunConfig {
+        input: crate::config::InputCfg {
+            imu: "-".into(),
+            imu_format: None,
+            imu_rate: 100.0,
+            csv: None,
+            gnss: "-".into(),
+            gnss_format: None,
+            start: None,
+            imu_time_offset: None,
+            imu_tag: None,
+            imu_time_base: None,
+            gnss_time_base: None,
+        },
+        init: Default::default(),
+        filter: crate::config::FilterCfg {
+            platform,
+            imu_preset: imu_preset.map(str::to_string),
+            lever_arm,
+            ..Default::default()
+        },
+        outage: None,
+        output: None,
+        formats: Vec::new(),
+        source: None,
+    };
+    let e = crate::live_align::AligningEskf::new(cfg, std::path::Path::new("."))
+        .map_err(|e| ToolError(e.to_string()))?;
+    Ok(Box::new(e))
 }
 
 /// How `navfuse kf-gins` presents events to its ESKF: times as time of week,
