@@ -100,7 +100,11 @@ pub fn augmented_states(cfg: &RunConfig, gnss: &[GnssFix]) -> Result<(AugmentedS
             )))
         }
     };
-    for (k, v) in [("tau_s", g.tau_s), ("sigma_m", g.sigma_m), ("sigma_v_m", g.sigma_v_m)] {
+    for (k, v) in [
+        ("tau_s", g.tau_s),
+        ("sigma_m", g.sigma_m),
+        ("sigma_v_m", g.sigma_v_m),
+    ] {
         if v.is_some_and(|x| !(x.is_finite() && x > 0.0)) {
             return Err(cfg.err(format!("[filter.gnss_error] {k} must be finite and > 0")));
         }
@@ -151,8 +155,10 @@ pub fn augmented_states(cfg: &RunConfig, gnss: &[GnssFix]) -> Result<(AugmentedS
         "false" => false,
         // On where the course-based offset estimate is off (the platform's
         // course does not follow its heading: uav, marine).
-        "auto" => crate::time_offset::default_mode(cfg) == crate::time_offset::TimeOffset::None
-            && cfg.filter.platform.is_some(),
+        "auto" => {
+            crate::time_offset::default_mode(cfg) == crate::time_offset::TimeOffset::None
+                && cfg.filter.platform.is_some()
+        }
         s => {
             return Err(cfg.err(format!(
                 "[filter] time_offset_state = {s:?}: expected true, false or \"auto\""
@@ -234,7 +240,7 @@ fn fit_span(fixes: &[&GnssFix]) -> Option<GmFit> {
     let n = fixes.len();
     let dts: Vec<f64> = fixes.windows(2).map(|w| w[1].t - w[0].t).collect();
     let dt = median(dts.iter().copied())?;
-    if !(dt > 0.0) {
+    if dt.is_nan() || dt <= 0.0 {
         return None;
     }
     let f0 = fixes[0];
@@ -250,7 +256,12 @@ fn fit_span(fixes: &[&GnssFix]) -> Option<GmFit> {
         })
         .collect();
     let v: Vec<Vec3> = fixes.iter().map(|f| f.v_n.unwrap_or_default()).collect();
-    let sv = median(fixes.iter().filter_map(|f| f.std_v_n).map(|s| s.norm() / 3f64.sqrt()))?;
+    let sv = median(
+        fixes
+            .iter()
+            .filter_map(|f| f.std_v_n)
+            .map(|s| s.norm() / 3f64.sqrt()),
+    )?;
     // Cumulative trapezoid integral of v; a gap breaks continuity.
     let mut cum = vec![Vec3::zeros(); n];
     let mut seg = vec![0usize; n];
@@ -264,7 +275,7 @@ fn fit_span(fixes: &[&GnssFix]) -> Option<GmFit> {
     for &lag in LAGS_S.iter().filter(|l| **l <= span / 3.0) {
         let l = (lag / dt).round().max(1.0) as usize;
         let (mut dh, mut dv) = (Vec::new(), Vec::new());
-        for k in (0..n.saturating_sub(l)).step_by(1) {
+        for k in 0..n.saturating_sub(l) {
             if seg[k + l] != seg[k] {
                 continue;
             }
@@ -313,7 +324,11 @@ fn fit_span(fixes: &[&GnssFix]) -> Option<GmFit> {
 
 /// Weighted least squares of `y = a + c (1 − e^{−L/τ})` with weights
 /// `1/y²`, `a, c ≥ 0`: (a, c, weighted SSR).
-fn wls(pts: &[(f64, f64, f64)], tau: f64, y: impl Fn(&(f64, f64, f64)) -> f64) -> Option<(f64, f64, f64)> {
+fn wls(
+    pts: &[(f64, f64, f64)],
+    tau: f64,
+    y: impl Fn(&(f64, f64, f64)) -> f64,
+) -> Option<(f64, f64, f64)> {
     let (mut s11, mut s12, mut s22, mut b1, mut b2) = (0.0, 0.0, 0.0, 0.0, 0.0);
     let w_of = |yv: f64| 1.0 / (yv * yv).max(1e-6);
     for p in pts {
@@ -377,14 +392,17 @@ mod tests {
             .map(|k| {
                 let t = k as f64;
                 let e = b + Vec3::new(normal(), normal(), normal()) * sw;
-                b = b * phi + Vec3::new(normal(), normal(), normal()) * (sg * (1.0 - phi * phi).sqrt());
+                b = b * phi
+                    + Vec3::new(normal(), normal(), normal()) * (sg * (1.0 - phi * phi).sqrt());
                 GnssFix {
                     t,
                     lat: 0.7 + (10.0 * t + e.x) / rm,
                     lon: 0.1 + e.y / (rn * 0.7f64.cos()),
                     h: -e.z,
                     std_ned: Vec3::repeat((sw * sw + sg * sg).sqrt()),
-                    v_n: Some(Vec3::new(10.0, 0.0, 0.0) + Vec3::new(normal(), normal(), normal()) * 0.1),
+                    v_n: Some(
+                        Vec3::new(10.0, 0.0, 0.0) + Vec3::new(normal(), normal(), normal()) * 0.1,
+                    ),
                     std_v_n: Some(Vec3::repeat(0.1)),
                     ..Default::default()
                 }
