@@ -226,8 +226,8 @@ pub struct FilterCfg {
     /// ([`crate::gnss_error`]).
     pub gnss_error: Option<crate::gnss_error::GnssErrorCfg>,
     /// Estimate the IMU–GNSS time offset as a filter state: `true`, `false`
-    /// or `"auto"` (default: on for platforms whose course does not follow
-    /// the heading, uav and marine).
+    /// or `"auto"` (on for platforms whose course does not follow the
+    /// heading, uav and marine); default false.
     pub time_offset_state: Option<crate::gnss_error::BoolOrAuto>,
 }
 
