@@ -222,6 +222,13 @@ pub struct FilterCfg {
     pub nhc: Option<NhcCfg>,
     /// `[filter.zupt]`: overrides of the profile's standstill updates.
     pub zupt: Option<ZuptCfg>,
+    /// `[filter.gnss_error]`: white or Gauss–Markov GNSS position error
+    /// ([`crate::gnss_error`]).
+    pub gnss_error: Option<crate::gnss_error::GnssErrorCfg>,
+    /// Estimate the IMU–GNSS time offset as a filter state: `true`, `false`
+    /// or `"auto"` (on for platforms whose course does not follow the
+    /// heading, uav and marine); default false.
+    pub time_offset_state: Option<crate::gnss_error::BoolOrAuto>,
 }
 
 impl Default for FilterCfg {
@@ -237,6 +244,8 @@ impl Default for FilterCfg {
             imu_preset: None,
             nhc: None,
             zupt: None,
+            gnss_error: None,
+            time_offset_state: None,
         }
     }
 }

@@ -298,6 +298,11 @@ pub struct EskfRun {
     pub platform: Option<Platform>,
     /// Where the IMU noise came from.
     pub noise_source: String,
+    /// Which augmented states ran and how their parameters were chosen
+    /// ([`crate::gnss_error`]).
+    pub augmented_states: String,
+    /// Their final estimates (`None`: none ran).
+    pub augmented: Option<navfuse_core::estimators::eskf::AugmentedEstimate>,
     /// Residual IMU–GNSS time offset estimated on the inputs (after any
     /// offset the loading applied), with its σ ([`auto_estimate`]); reported,
     /// not applied.
@@ -398,9 +403,12 @@ pub(crate) fn run_eskf_span(
         lever_arm_b: ecfg.lever_arm_b,
     };
     let a = align(cfg, imu, gnss, aux, &model)?;
+    let (aug, augmented_states) = crate::gnss_error::augmented_states(cfg, gnss)?;
     let mut eskf = Eskf::new(ecfg, a.nav, a.errors, &a.init_std)
         .with_adaptive_noise(setup.adaptive)
-        .map_err(|e| cfg.err(format!("[filter] adaptive constraint noise: {e:?}")))?;
+        .map_err(|e| cfg.err(format!("[filter] adaptive constraint noise: {e:?}")))?
+        .with_augmented_states(aug)
+        .map_err(|e| cfg.err(format!("[filter] augmented states: {e}")))?;
     let k_start = a.k_start;
     let t_filter = Instant::now();
     let mut g = gnss.partition_point(|x| x.t <= imu[k_start].t);
@@ -444,6 +452,8 @@ pub(crate) fn run_eskf_span(
         adapted: eskf.adapted_noise(),
         platform: setup.profile.map(|p| p.platform),
         noise_source: setup.noise_source,
+        augmented_states,
+        augmented: eskf.augmented(),
         time_offset_estimate: auto_estimate(imu, span.gnss_all),
         imu_samples_read: imu.len() + span.imu_before_start,
         imu_samples_before_start: span.imu_before_start,

@@ -24,6 +24,7 @@ pub mod demo;
 pub mod error;
 pub mod eskf_run;
 pub mod experiments;
+pub mod gnss_error;
 pub mod imu_clock;
 pub mod input;
 pub mod kf_gins;

@@ -96,6 +96,11 @@ fn filter_json(run: &EskfRun) -> serde_json::Value {
     serde_json::json!({
         "platform": run.platform.map(|p| p.to_string()),
         "imu_noise_source": run.noise_source,
+        "augmented_states": run.augmented_states,
+        "augmented_estimate": run.augmented.map(|a| serde_json::json!({
+            "gnss_error_ned_m": v(&a.gnss_error_n), "gnss_error_std_m": v(&a.gnss_error_std),
+            "time_offset_s": a.time_offset_s, "time_offset_std_s": a.time_offset_std_s,
+        })),
         "noise": {
             "arw_rad_per_sqrt_s": v(&c.noise.arw), "vrw_m_s_per_sqrt_s": v(&c.noise.vrw),
             "gyro_bias_gm_std_rad_s": v(&c.noise.bg_std), "accel_bias_gm_std_m_s2": v(&c.noise.ba_std),

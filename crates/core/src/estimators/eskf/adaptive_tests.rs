@@ -12,25 +12,25 @@ use crate::estimators::pf_lc::rng::SplitMix64;
 use crate::ins::mech::{mechanize, q_bn_from_rpy};
 use std::vec::Vec;
 
-const DT: f64 = 0.01;
+pub(super) const DT: f64 = 0.01;
 const LAT: f64 = 0.52;
 const LON: f64 = 2.0;
 const H: f64 = 30.0;
-const LEVER: Vec3 = Vec3::new(0.3, -0.2, -1.2);
+pub(super) const LEVER: Vec3 = Vec3::new(0.3, -0.2, -1.2);
 /// GNSS outage [s] (contains a 90° turn).
-const OUTAGE: (f64, f64) = (180.0, 210.0);
-const T_END: f64 = 240.0;
+pub(super) const OUTAGE: (f64, f64) = (180.0, 210.0);
+pub(super) const T_END: f64 = 240.0;
 
 /// Deterministic N(0, 1) stream with a 3-vector helper.
-struct Normal(SplitMix64);
+pub(super) struct Normal(SplitMix64);
 impl Normal {
-    fn new(seed: u64) -> Self {
+    pub(super) fn new(seed: u64) -> Self {
         Normal(SplitMix64::new(seed))
     }
     fn uniform(&mut self) -> f64 {
         self.0.uniform()
     }
-    fn next(&mut self) -> f64 {
+    pub(super) fn next(&mut self) -> f64 {
         self.0.normal()
     }
     fn vec(&mut self) -> Vec3 {
@@ -70,7 +70,7 @@ impl Wiggle {
 
 /// Simulated IMU errors: MEMS grade (ARW 0.5 °/√h, VRW 0.3 m/s/√h, biases of
 /// 20–25 °/h and 3–5 mg).
-fn imu_noise() -> ImuNoise {
+pub(super) fn imu_noise() -> ImuNoise {
     ImuNoise {
         arw: Vec3::repeat(0.5f64.to_radians() / 60.0),
         vrw: Vec3::repeat(0.3 / 60.0),
@@ -84,14 +84,14 @@ fn imu_noise() -> ImuNoise {
 const BG: Vec3 = Vec3::new(1.0e-4, -7.3e-5, 1.2e-4);
 const BA: Vec3 = Vec3::new(0.04, -0.03, 0.05);
 
-struct Drive {
-    imu: Vec<ImuSample>,
-    truth: Vec<NavState>,
-    fixes: Vec<GnssFix>,
+pub(super) struct Drive {
+    pub(super) imu: Vec<ImuSample>,
+    pub(super) truth: Vec<NavState>,
+    pub(super) fixes: Vec<GnssFix>,
 }
 
 /// Yaw rate: 9-s turns of ±10 °/s starting every 30 s at t ≡ 15 (mod 30).
-fn yaw_rate(t: f64) -> f64 {
+pub(super) fn yaw_rate(t: f64) -> f64 {
     let phase = t % 30.0;
     if (15.0..24.0).contains(&phase) {
         let sign = if ((t / 30.0) as u64).is_multiple_of(2) {
@@ -132,7 +132,7 @@ fn drive(sigma_lat: f64, sigma_down: f64, seed: u64) -> Drive {
 
 /// Truth, IMU increments with errors and fixes (none inside `outage`) for
 /// body velocity `v_b(t)` and yaw rate `yaw(t)` at level attitude.
-fn simulate(
+pub(super) fn simulate(
     mut rng: Normal,
     v_b: &dyn Fn(f64) -> Vec3,
     yaw: &dyn Fn(f64) -> f64,
@@ -201,7 +201,7 @@ fn simulate(
     d
 }
 
-fn filter_config(nhc_std: f64) -> EskfConfig {
+pub(super) fn filter_config(nhc_std: f64) -> EskfConfig {
     EskfConfig {
         noise: imu_noise(),
         lever_arm_b: LEVER,
@@ -234,7 +234,7 @@ struct Outcome {
 }
 
 /// Initial σ of the runs; the start has a 0.3° heading error.
-fn init_std() -> InitStd {
+pub(super) fn init_std() -> InitStd {
     InitStd {
         att: Vec3::new(0.5, 0.5, 1.0).map(f64::to_radians),
         ba: Vec3::repeat(0.1),
@@ -242,7 +242,7 @@ fn init_std() -> InitStd {
     }
 }
 
-fn start_state(d: &Drive) -> NavState {
+pub(super) fn start_state(d: &Drive) -> NavState {
     let mut nav0 = d.truth[0];
     nav0.q_bn = quat_from_rotvec(&Vec3::new(0.0, 0.0, 0.3f64.to_radians())) * nav0.q_bn;
     nav0
@@ -250,7 +250,7 @@ fn start_state(d: &Drive) -> NavState {
 
 /// Push the drive's events in time order into `f`, calling `each` after
 /// every IMU sample with the solution and the truth.
-fn replay(
+pub(super) fn replay(
     f: &mut Eskf,
     d: &Drive,
     mut each: impl FnMut(&Eskf, &ImuSample, &NavSolution, &NavState),
