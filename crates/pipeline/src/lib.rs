@@ -38,6 +38,7 @@ pub mod sensors;
 mod summary;
 pub mod template;
 pub mod time_offset;
+mod yaw_bank;
 
 #[cfg(test)]
 mod input_tests;
