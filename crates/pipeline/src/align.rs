@@ -354,7 +354,8 @@ pub fn align(
         model.profile.is_none_or(|p| p.course_is_heading) && matches!(source, "auto" | "course");
     let use_gsf = matches!(source, "auto" | "gsf");
     // Where the course does not give the heading, the ESKF bank over the
-    // GSF's hypotheses starts as soon as the tilt is known (see
+    // GSF's hypotheses starts once the tilt is known and the GNSS has seen
+    // a significant horizontal acceleration (see
     // [`crate::yaw_bank`]); NHC platforms keep course-or-converged-GSF.
     let use_bank = use_gsf && !use_course && cfg.init.attitude.is_none();
     // Heading change between two times from the z gyro (a straightness test
@@ -407,7 +408,11 @@ pub fn align(
                 break;
             }
         }
-        if use_bank {
+        // Not before a significant horizontal acceleration: before it every
+        // yaw explains the data (a cruise at constant velocity), and the
+        // members' biases absorb a wrong yaw (seen: a multirotor cruising
+        // 50 s at 12 m/s, a 150°-off member kept).
+        if use_bank && e.horizontal_accel_seen > 0.0 {
             chosen = Some((j, e.yaw, e.std, "gsf-bank"));
             break;
         }
