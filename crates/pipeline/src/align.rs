@@ -17,7 +17,11 @@
 //!      IMU and the GNSS velocity, for any platform, once its yaw σ is below
 //!      [`GSF_HANDOVER_STD`]. The GSF also carries roll and pitch through
 //!      the motion (centripetal-compensated tilt), so nothing is levelled
-//!      while moving.
+//!      while moving;
+//!    - where the course is not the heading (pedestrian, uav, marine): a
+//!      bank of full ESKFs over a yaw grid weighted by the GSF
+//!      ([`crate::yaw_bank`]), started once the tilt is known and the GNSS
+//!      has seen a significant horizontal acceleration.
 //!
 //!    The filter starts at the first GNSS epoch where the heading is known,
 //!    at that fix's velocity, with σ from the sources. Before that there is no
