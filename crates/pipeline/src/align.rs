@@ -17,7 +17,11 @@
 //!      IMU and the GNSS velocity, for any platform, once its yaw σ is below
 //!      [`GSF_HANDOVER_STD`]. The GSF also carries roll and pitch through
 //!      the motion (centripetal-compensated tilt), so nothing is levelled
-//!      while moving.
+//!      while moving;
+//!    - where the course is not the heading (pedestrian, uav, marine): a
+//!      bank of full ESKFs over a yaw grid weighted by the GSF
+//!      ([`crate::yaw_bank`]), started once the tilt is known and the GNSS
+//!      has seen a significant horizontal acceleration.
 //!
 //!    The filter starts at the first GNSS epoch where the heading is known,
 //!    at that fix's velocity, with σ from the sources. Before that there is no
@@ -82,7 +86,8 @@ pub struct Alignment {
     pub init_std: InitStd,
     /// What was done (the summary's `alignment`).
     pub description: String,
-    /// `static`, `static+course`, `static+gsf`, `course`, `gsf`, `given`, `gsf-unconverged`.
+    /// `static`, `static+course`, `static+gsf`, `static+gsf-bank`, `course`,
+    /// `gsf`, `gsf-bank`, `given`, `gsf-unconverged`.
     pub method: &'static str,
     /// Length of the static window used [s] (0: none).
     pub static_s: f64,
@@ -92,6 +97,10 @@ pub struct Alignment {
     pub wait_s: f64,
     /// Warnings for the summary.
     pub warnings: Vec<String>,
+    /// More than one: start a bank of ESKFs ([`crate::yaw_bank`]), one per
+    /// yaw hypothesis (initial state, σ and −ln of its prior weight relative
+    /// to the most likely); `nav`/`init_std` are then the GSF's composite.
+    pub hypotheses: Vec<(NavState, InitStd, f64)>,
 }
 
 /// The sensor- and platform-dependent inputs of [`align`].
@@ -277,6 +286,7 @@ pub fn align(
             yaw_std: att.z,
             wait_s: 0.0,
             warnings,
+            hypotheses: Vec::new(),
         });
     }
 
@@ -326,6 +336,7 @@ pub fn align(
             yaw_std: att.z,
             wait_s: 0.0,
             warnings,
+            hypotheses: Vec::new(),
         });
     }
 
@@ -346,6 +357,11 @@ pub fn align(
     let use_course =
         model.profile.is_none_or(|p| p.course_is_heading) && matches!(source, "auto" | "course");
     let use_gsf = matches!(source, "auto" | "gsf");
+    // Where the course does not give the heading, the ESKF bank over the
+    // GSF's hypotheses starts once the tilt is known and the GNSS has seen
+    // a significant horizontal acceleration (see
+    // [`crate::yaw_bank`]); NHC platforms keep course-or-converged-GSF.
+    let use_bank = use_gsf && !use_course && cfg.init.attitude.is_none();
     // Heading change between two times from the z gyro (a straightness test
     // for course chords; tilt ignored: cos 10° = 0.985).
     let mut cum_z = Vec::with_capacity(imu.len() + 1);
@@ -396,6 +412,14 @@ pub fn align(
                 break;
             }
         }
+        // Not before a significant horizontal acceleration: before it every
+        // yaw explains the data (a cruise at constant velocity), and the
+        // members' biases absorb a wrong yaw (seen: a multirotor cruising
+        // 50 s at 12 m/s, a 150°-off member kept).
+        if use_bank && e.horizontal_accel_seen > 0.0 {
+            chosen = Some((j, e.yaw, e.std, "gsf-bank"));
+            break;
+        }
         if use_gsf && e.converged {
             chosen = Some((j, e.yaw, e.std, "gsf"));
             break;
@@ -420,6 +444,8 @@ pub fn align(
                 })
             })?;
             let e = rerun_gsf_to(gcfg, imu, gnss, j)
+                .as_ref()
+                .and_then(YawGsf::estimate)
                 .ok_or_else(|| PipelineError::Alignment("heading: GSF failed".into()))?;
             warnings.push(format!(
                 "heading never became observable (no turns or accelerations, no usable course): \
@@ -430,36 +456,59 @@ pub fn align(
         }
     };
     let g = gnss[j];
+    let gsf_at_j = rerun_gsf_to(gcfg, imu, gnss, j);
     let (roll, pitch) = match (cfg.init.attitude, method) {
         (Some(a), _) => (a[0].to_radians(), a[1].to_radians()),
         _ => {
-            let e = rerun_gsf_to(gcfg, imu, gnss, j)
+            let e = gsf_at_j
+                .as_ref()
+                .and_then(YawGsf::estimate)
                 .ok_or_else(|| PipelineError::Alignment("tilt: GSF failed".into()))?;
             (e.roll, e.pitch)
         }
     };
     let (v, sv) = gnss_velocity(gnss, j).unwrap_or((Vec3::zeros(), Vec3::repeat(1.0)));
     let k_start = imu.partition_point(|s| s.t < g.t).min(imu.len() - 1);
-    let mut nav = NavState {
-        q_bn: q_bn_from_rpy(&Vec3::new(roll, pitch, yaw)),
-        ..Default::default()
-    };
-    // Move the fix to the IMU and on to the start sample's time (≤ one IMU interval).
-    place(&mut nav, g.lat, g.lon, g.h, &model.lever_arm_b, true);
     let v0 = cfg.init.velocity.map_or(v, Vec3::from);
-    let dt = imu[k_start].t - g.t;
-    let (rm, rn) = earth::radii(nav.lat);
-    nav.lat += v0.x * dt / (rm + nav.h);
-    nav.lon += v0.y * dt / ((rn + nav.h) * nav.lat.cos());
-    nav.h -= v0.z * dt;
-    nav.v_n = v0;
     let tilt_std = if cal.is_some() {
         GSF_TILT_STD.min(1.0f64.to_radians())
     } else {
         GSF_TILT_STD
     };
-    let att = att_std_given.map_or(Vec3::new(tilt_std, tilt_std, yaw_std), Vec3::from);
-    let init_std = init_std(cfg, model, g.std_ned, sv, att, bg_std);
+    // The state at the start sample for a yaw and its σ.
+    let start_state = |yaw: f64, yaw_std: f64| {
+        let mut nav = NavState {
+            q_bn: q_bn_from_rpy(&Vec3::new(roll, pitch, yaw)),
+            ..Default::default()
+        };
+        // Move the fix to the IMU and on to the start sample's time (≤ one IMU interval).
+        place(&mut nav, g.lat, g.lon, g.h, &model.lever_arm_b, true);
+        let dt = imu[k_start].t - g.t;
+        let (rm, rn) = earth::radii(nav.lat);
+        nav.lat += v0.x * dt / (rm + nav.h);
+        nav.lon += v0.y * dt / ((rn + nav.h) * nav.lat.cos());
+        nav.h -= v0.z * dt;
+        nav.v_n = v0;
+        let att = att_std_given.map_or(Vec3::new(tilt_std, tilt_std, yaw_std), Vec3::from);
+        (nav, init_std(cfg, model, g.std_ned, sv, att, bg_std))
+    };
+    let (nav, init_std) = start_state(yaw, yaw_std);
+    let att = init_std.att;
+    // The bank: a grid of yaws, each within the ESKF's small-angle region
+    // (σ = GSF_HANDOVER_STD, spacing 2σ so the sum of the members is flat
+    // over the circle), weighted by the GSF's mixture density there; points
+    // below 1/PRUNE_RATIO of the densest are left out (the bank would drop
+    // them at once).
+    let hypotheses: Vec<(NavState, InitStd, f64)> = match (method, &gsf_at_j) {
+        ("gsf-bank", Some(gsf)) => yaw_grid(&gsf.models(), GSF_HANDOVER_STD)
+            .into_iter()
+            .map(|(y, prior)| {
+                let (n, s) = start_state(y, GSF_HANDOVER_STD);
+                (n, s, prior)
+            })
+            .collect(),
+        _ => Vec::new(),
+    };
     let wait_s = g.t - t_imu0;
     let how = match method {
         "course" => format!(
@@ -498,12 +547,14 @@ pub fn align(
         method: match (is_static, method) {
             (true, "course") => "static+course",
             (true, "gsf") => "static+gsf",
+            (true, "gsf-bank") => "static+gsf-bank",
             (_, m) => m,
         },
         static_s: if is_static { static_s } else { 0.0 },
         yaw_std: att.z,
         wait_s,
         warnings,
+        hypotheses,
     })
 }
 
@@ -588,7 +639,7 @@ fn rerun_gsf_to(
     imu: &[ImuSample],
     gnss: &[GnssFix],
     j_end: usize,
-) -> Option<navfuse_core::ins::yaw_gsf::YawEstimate> {
+) -> Option<YawGsf> {
     let mut gsf = YawGsf::new(gcfg);
     let mut k = 0;
     let t_imu0 = imu[0].t - imu[0].dt;
@@ -605,7 +656,37 @@ fn rerun_gsf_to(
             let _ = gsf.push_gnss_velocity(g.t, &v, &sv);
         }
     }
-    gsf.estimate()
+    gsf.estimate().map(|_| gsf)
+}
+
+/// Yaws [rad] spaced 2σ over the circle with −ln of the GSF mixture density
+/// there relative to the densest point; points below 1/[`PRUNE_RATIO`] of
+/// it left out. `models`: (yaw, σ, weight) of the GSF's models.
+///
+/// [`PRUNE_RATIO`]: crate::yaw_bank::PRUNE_RATIO
+fn yaw_grid(models: &[(f64, f64, f64)], std: f64) -> Vec<(f64, f64)> {
+    let n = (core::f64::consts::TAU / (2.0 * std)).ceil().max(1.0) as usize;
+    let density = |y: f64| -> f64 {
+        models
+            .iter()
+            .map(|&(m, s, w)| {
+                let s = s.max(1e-6);
+                let d = navfuse_core::attitude::wrap_pi(y - m) / s;
+                w * (-0.5 * d * d).exp() / s
+            })
+            .sum()
+    };
+    let pts: Vec<(f64, f64)> = (0..n)
+        .map(|i| {
+            let y = navfuse_core::attitude::wrap_pi(i as f64 * core::f64::consts::TAU / n as f64);
+            (y, density(y))
+        })
+        .collect();
+    let best = pts.iter().map(|p| p.1).fold(0.0, f64::max);
+    pts.into_iter()
+        .filter(|p| p.1 > 0.0 && p.1 * crate::yaw_bank::PRUNE_RATIO >= best)
+        .map(|(y, d)| (y, (best / d).ln()))
+        .collect()
 }
 
 /// Put `nav` at the antenna position (lat, lon, h) moved to the IMU by the

@@ -13,11 +13,12 @@ use crate::sensors::{imu_noise_preset, measured_white_noise, SensorNoise, DEFAUL
 use crate::time_offset::{
     auto_estimate, default_mode, time_offset_note, AutoOffset, TimeOffset, TimeOffsetCfg,
 };
+use crate::yaw_bank::{run_bank, Member};
 use navfuse_core::estimators::adaptive::{AdaptedNoise, AdaptiveConstraints};
 use navfuse_core::estimators::eskf::{
-    rts_smooth, Eskf, EskfConfig, EskfStats, NhcConfig, UpdateLog,
+    rts_smooth, Eskf, EskfConfig, EskfStats, InitStd, NhcConfig, UpdateLog,
 };
-use navfuse_core::types::{Estimator, Event, GnssFix, ImuSample, NavSolution};
+use navfuse_core::types::{GnssFix, ImuSample, NavSolution};
 use navfuse_core::Vec3;
 use navfuse_io::kfgins_yaml::KfGinsConfig;
 use std::path::Path;
@@ -402,35 +403,56 @@ pub(crate) fn run_eskf_span(
         profile: setup.profile.as_ref(),
         lever_arm_b: ecfg.lever_arm_b,
     };
-    let a = align(cfg, imu, gnss, aux, &model)?;
+    let mut a = align(cfg, imu, gnss, aux, &model)?;
     let (aug, augmented_states) = crate::gnss_error::augmented_states(cfg, gnss)?;
-    let mut eskf = Eskf::new(ecfg, a.nav, a.errors, &a.init_std)
-        .with_adaptive_noise(setup.adaptive)
-        .map_err(|e| cfg.err(format!("[filter] adaptive constraint noise: {e:?}")))?
-        .with_augmented_states(aug)
-        .map_err(|e| cfg.err(format!("[filter] augmented states: {e}")))?;
+    let new_eskf = |nav, std: &InitStd| {
+        Eskf::new(ecfg, nav, a.errors, std)
+            .with_adaptive_noise(setup.adaptive)
+            .map_err(|e| cfg.err(format!("[filter] adaptive constraint noise: {e:?}")))?
+            .with_augmented_states(aug)
+            .map_err(|e| cfg.err(format!("[filter] augmented states: {e}")))
+    };
     let k_start = a.k_start;
     let t_filter = Instant::now();
-    let mut g = gnss.partition_point(|x| x.t <= imu[k_start].t);
-    let mut sols = Vec::with_capacity(imu.len());
-    let mut records = Vec::new();
-    let mut innovations = Vec::new();
-    let mut gnss_fed = 0usize;
-    for s in &imu[k_start..] {
+    let g0 = gnss.partition_point(|x| x.t <= imu[k_start].t);
+    let cap = imu.len() - k_start;
+    let (mut m, k_next, mut g, mut gnss_fed) = if a.hypotheses.len() > 1 {
+        // Members reserve 10 s of solutions (most are dropped within seconds).
+        let dt = imu[k_start].dt.max(1e-4);
+        let cap = cap.min((10.0 / dt) as usize + 1);
+        let members = a
+            .hypotheses
+            .iter()
+            .map(|(nav, std, prior)| {
+                let mut m = Member::new(new_eskf(*nav, std)?, cap);
+                m.score = *prior;
+                Ok(m)
+            })
+            .collect::<Result<Vec<_>>>()?;
+        let b = run_bank(members, imu, gnss, k_start, g0);
+        a.description += &format!("; {}", b.description);
+        // The initial yaw σ of the member that won, not the mixture's.
+        if let Some(s) = b.winner.sols.first() {
+            a.yaw_std = s.std_rpy.z;
+        }
+        (b.winner, b.k_next, b.g_next, b.gnss_fed)
+    } else {
+        (
+            Member::new(new_eskf(a.nav, &a.init_std)?, cap),
+            k_start,
+            g0,
+            0,
+        )
+    };
+    for s in &imu[k_next..] {
+        let g1 = g;
         while g < gnss.len() && gnss[g].t <= s.t + 1e-3 {
-            eskf.push(&Event::Gnss(gnss[g]));
-            innovations.extend_from_slice(eskf.updates());
             g += 1;
-            gnss_fed += 1;
         }
-        if let Some(sol) = eskf.push(&Event::Imu(*s)) {
-            sols.push(sol);
-        }
-        innovations.extend_from_slice(eskf.updates());
-        if let Some(r) = eskf.take_record() {
-            records.push(r);
-        }
+        gnss_fed += g - g1;
+        m.step(&gnss[g1..g], s);
     }
+    let (eskf, sols, records, innovations) = (m.eskf, m.sols, m.records, m.innovations);
     let seconds_filter = t_filter.elapsed().as_secs_f64();
     let mut smoothed = Vec::new();
     if cfg.filter.smooth {

@@ -46,6 +46,7 @@ mod summary;
 pub mod template;
 pub mod time_offset;
 mod tool_error;
+mod yaw_bank;
 
 #[cfg(test)]
 mod input_tests;

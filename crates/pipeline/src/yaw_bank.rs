@@ -1,0 +1,261 @@
+//! A bank of ESKFs over yaw hypotheses: in-motion alignment when the heading
+//! is unknown and the platform's course is not its heading (pedestrian,
+//! multirotor, boat).
+//!
+//! The yaw Gaussian-sum filter ([`navfuse_core::ins::yaw_gsf`]) narrows the
+//! heading slowly on its own: it has no position states and no gyro-bias
+//! state, so a walker at 1 m/s waits tens of seconds before its mixture σ is
+//! small. A full ESKF started within its small-angle region of the truth
+//! (≲ 15°) pulls the yaw in within seconds of the first turn, because the
+//! GNSS positions (cm with RTK) see the velocity error `δψ × Δv` integrate.
+//! So the hand-over starts a full ESKF ([`Member`]) at every point of a yaw
+//! grid inside the ESKF's small-angle region of its neighbours (σ 5°,
+//! spacing 10°) where the GSF's mixture density is still significant, its
+//! prior weight that density (Gaussian-sum filtering with
+//! full filters, Groves 2nd ed. §3.4.5; the same multiple-model idea as PX4's
+//! EKF-GSF, one level up). All members see the same events; each member's
+//! log-likelihood is `−½ Σ NIS` of its GNSS updates (the `ln |S|` term is
+//! left out: the members share R, which dominates S after the first epochs).
+//!
+//! A member is dropped when its likelihood is below [`PRUNE_RATIO`]⁻¹ of the
+//! best, or when its yaw is within the larger of the two yaw σ of a better
+//! member (the same hypothesis twice). The bank is resolved when one member
+//! is left; its whole history from the bank start becomes the run's output
+//! (post-processing: the choice is made with hindsight, nothing is output
+//! twice). At most [`MAX_BANK_S`] after the start the best member continues
+//! alone, its covariance unchanged.
+//!
+//! Frames: body FRD, nav NED; angles in rad.
+
+use navfuse_core::attitude::wrap_pi;
+use navfuse_core::estimators::eskf::{Eskf, SmootherRecord, UpdateKind, UpdateLog};
+use navfuse_core::types::{Estimator, Event, GnssFix, ImuSample, NavSolution};
+
+/// Likelihood ratio at which a member is dropped: posterior odds of 1000:1
+/// against it with equal priors (a 3.7σ-equivalent decision; a wrong drop
+/// costs the run its heading, so the evidence asked for is strong).
+pub const PRUNE_RATIO: f64 = 1000.0;
+/// Longest the bank runs [s]: a cost bound (≤ 12 filters in parallel), not
+/// a tuning; a heading still ambiguous after 2 min of data is one the motion
+/// does not reveal, and the best member goes on with its honest covariance.
+pub const MAX_BANK_S: f64 = 120.0;
+
+/// One filter of the bank and everything it has output.
+pub(crate) struct Member {
+    pub eskf: Eskf,
+    pub sols: Vec<NavSolution>,
+    pub records: Vec<SmootherRecord>,
+    pub innovations: Vec<UpdateLog>,
+    /// ½ Σ NIS of the GNSS updates so far (the negative log-likelihood up to
+    /// a constant shared by the members).
+    pub score: f64,
+}
+
+impl Member {
+    /// A member around `eskf`, with `cap` solutions reserved.
+    pub fn new(eskf: Eskf, cap: usize) -> Self {
+        Member {
+            eskf,
+            sols: Vec::with_capacity(cap),
+            records: Vec::new(),
+            innovations: Vec::new(),
+            score: 0.0,
+        }
+    }
+
+    fn take_updates(&mut self) {
+        for u in self.eskf.updates() {
+            if matches!(
+                u.kind,
+                UpdateKind::GnssPosition | UpdateKind::GnssVelocity | UpdateKind::Height
+            ) && u.nis.is_finite()
+            {
+                self.score += 0.5 * u.nis;
+            }
+        }
+        self.innovations.extend_from_slice(self.eskf.updates());
+    }
+
+    /// Feed the fixes `fixes` (all at or before `s.t`) and then the IMU sample `s`.
+    pub fn step(&mut self, fixes: &[GnssFix], s: &ImuSample) {
+        for f in fixes {
+            self.eskf.push(&Event::Gnss(*f));
+            self.take_updates();
+        }
+        if let Some(sol) = self.eskf.push(&Event::Imu(*s)) {
+            self.sols.push(sol);
+        }
+        self.take_updates();
+        if let Some(r) = self.eskf.take_record() {
+            self.records.push(r);
+        }
+    }
+
+    fn yaw(&self) -> (f64, f64) {
+        self.sols
+            .last()
+            .map_or((f64::NAN, f64::NAN), |s| (s.rpy.z, s.std_rpy.z))
+    }
+}
+
+/// What the bank did (the summary's alignment text).
+pub(crate) struct BankOutcome {
+    /// The member left (or the best at [`MAX_BANK_S`]).
+    pub winner: Member,
+    /// Index of the next IMU sample and of the next fix to feed.
+    pub k_next: usize,
+    pub g_next: usize,
+    /// Fixes fed during the bank.
+    pub gnss_fed: usize,
+    pub description: String,
+}
+
+/// Run the bank `members` over `imu[k_start..]` and the fixes from
+/// `gnss[g_start..]` until it is resolved (see the module doc).
+pub(crate) fn run_bank(
+    mut members: Vec<Member>,
+    imu: &[ImuSample],
+    gnss: &[GnssFix],
+    k_start: usize,
+    g_start: usize,
+) -> BankOutcome {
+    let n0 = members.len();
+    let t0 = imu[k_start].t;
+    let (mut k, mut g, mut fed) = (k_start, g_start, 0usize);
+    let ln_prune = PRUNE_RATIO.ln();
+    let mut why = "the data ended";
+    while k < imu.len() && members.len() > 1 {
+        let s = &imu[k];
+        let g0 = g;
+        while g < gnss.len() && gnss[g].t <= s.t + 1e-3 {
+            g += 1;
+        }
+        fed += g - g0;
+        for m in members.iter_mut() {
+            m.step(&gnss[g0..g], s);
+        }
+        k += 1;
+        if g > g0 {
+            prune(&mut members, ln_prune);
+        }
+        if s.t - t0 >= MAX_BANK_S {
+            why = "the time limit";
+            break;
+        }
+    }
+    let resolved = members.len() == 1;
+    let best = members
+        .iter()
+        .enumerate()
+        .min_by(|a, b| a.1.score.total_cmp(&b.1.score))
+        .map_or(0, |(i, _)| i);
+    let winner = members.swap_remove(best);
+    let (yaw, std) = winner.yaw();
+    let t_end = imu[k.min(imu.len() - 1)].t;
+    let description = if resolved {
+        format!(
+            "bank of {n0} ESKFs over yaw hypotheses resolved {:.1} s after its start: \
+             yaw {:.1}° ± {:.1}°",
+            t_end - t0,
+            yaw.to_degrees(),
+            std.to_degrees()
+        )
+    } else {
+        format!(
+            "bank of {n0} ESKFs over yaw hypotheses not resolved ({why}, {} left): \
+             best kept, yaw {:.1}° ± {:.1}°",
+            members.len() + 1,
+            yaw.to_degrees(),
+            std.to_degrees()
+        )
+    };
+    BankOutcome {
+        winner,
+        k_next: k,
+        g_next: g,
+        gnss_fed: fed,
+        description,
+    }
+}
+
+/// Drop members whose likelihood is below 1/[`PRUNE_RATIO`] of the best,
+/// and members that repeat a better member's yaw (within the smaller σ).
+fn prune(members: &mut Vec<Member>, ln_prune: f64) {
+    let best = members
+        .iter()
+        .map(|m| m.score)
+        .fold(f64::INFINITY, f64::min);
+    members.retain(|m| m.score - best <= ln_prune);
+    members.sort_by(|a, b| a.score.total_cmp(&b.score));
+    let mut i = 1;
+    while i < members.len() {
+        let (yi, si) = members[i].yaw();
+        let dup = members[..i].iter().any(|b| {
+            let (yb, sb) = b.yaw();
+            wrap_pi(yi - yb).abs() < si.min(sb)
+        });
+        if dup {
+            members.remove(i);
+        } else {
+            i += 1;
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use navfuse_core::estimators::eskf::{EskfConfig, ImuErrors, InitStd};
+    use navfuse_core::ins::mech::{q_bn_from_rpy, NavState};
+    use navfuse_core::Vec3;
+
+    /// A member at yaw `yaw_deg` with yaw σ `std_deg`, score `score`, after
+    /// two level IMU samples at rest (so it has a solution).
+    fn member(yaw_deg: f64, std_deg: f64, score: f64) -> Member {
+        let nav = NavState {
+            q_bn: q_bn_from_rpy(&Vec3::new(0.0, 0.0, yaw_deg.to_radians())),
+            lat: 0.7,
+            ..Default::default()
+        };
+        let std = InitStd {
+            pos: Vec3::repeat(0.1),
+            vel: Vec3::repeat(0.1),
+            att: Vec3::new(0.01, 0.01, std_deg.to_radians()),
+            bg: Vec3::repeat(1e-4),
+            ba: Vec3::repeat(0.01),
+            sg: Vec3::zeros(),
+            sa: Vec3::zeros(),
+        };
+        let eskf = Eskf::new(EskfConfig::seed001(), nav, ImuErrors::default(), &std);
+        let mut m = Member::new(eskf, 4);
+        for k in 1..=3 {
+            let s = ImuSample {
+                t: k as f64 * 0.01,
+                dt: 0.01,
+                dtheta_b: Vec3::zeros(),
+                dvel_b: Vec3::new(0.0, 0.0, -9.8 * 0.01),
+            };
+            m.step(&[], &s);
+        }
+        m.score = score;
+        m
+    }
+
+    /// Pruning keeps the best, drops a member 1000:1 less likely and a
+    /// member repeating a better one's yaw within σ, and keeps a distinct
+    /// hypothesis whose evidence is not yet decisive.
+    #[test]
+    fn prune_drops_unlikely_and_repeated_members_only() {
+        let mut ms = vec![
+            member(10.0, 3.0, 5.0),                           // best
+            member(11.0, 2.0, 6.0),                           // same yaw within both σ: repeat
+            member(13.0, 2.0, 6.0),                           // 3° away, σ 2°: distinct
+            member(40.0, 3.0, 5.0 + PRUNE_RATIO.ln() - 0.1),  // distinct, not decisive
+            member(-80.0, 3.0, 5.0 + PRUNE_RATIO.ln() + 0.1), // 1000:1 against
+        ];
+        assert!(ms.iter().all(|m| m.yaw().0.is_finite()));
+        prune(&mut ms, PRUNE_RATIO.ln());
+        let yaws: Vec<f64> = ms.iter().map(|m| m.yaw().0.to_degrees().round()).collect();
+        assert_eq!(yaws, vec![10.0, 13.0, 40.0]);
+    }
+}
