@@ -28,6 +28,7 @@ pub mod navcsv;
 pub mod nmea;
 pub mod pos;
 pub mod rinex;
+pub mod stdfile;
 pub mod tag;
 pub mod text;
 pub mod time;

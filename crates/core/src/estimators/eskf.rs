@@ -268,6 +268,10 @@ pub struct SmootherRecord {
     pub gain_prev: Cov,
     /// Covariance after the updates (for the smoothed uncertainty).
     pub p_post_diag: StateVec,
+    /// What the updates at this checkpoint removed from the covariance,
+    /// `P⁻_k − P⁺_k` (zero without an update): the smoothed covariance's
+    /// recursion needs it ([`rts_smooth`]).
+    pub p_drop: Cov,
 }
 
 /// Output of the RTS backward pass at one checkpoint.
@@ -276,10 +280,21 @@ pub struct SmoothedEpoch {
     pub t: f64,
     pub nav: NavState,
     pub errors: ImuErrors,
+    /// Diagonal of the smoothed error-state covariance `P^s_k` (never above
+    /// the forward `P⁺_k` diagonal).
+    pub p_diag: StateVec,
 }
 
 /// Backward RTS pass over the forward filter's checkpoints (oldest first).
 /// `δs_k = A_{k+1} (δx_fb,k+1 + δs_{k+1})`, smoothed state = filtered ⊕ δs_k.
+///
+/// Smoothed covariance (Rauch, Tung & Striebel 1965; Groves 2nd ed. eq.
+/// 3.78): `P^s_k = P⁺_k − A_{k+1} (P⁻_{k+1} − P^s_{k+1}) A_{k+1}ᵀ`, carried as
+/// the reduction `D_k = P⁺_k − P^s_k`:
+/// `D_k = A_{k+1} (P⁻_{k+1} − P⁺_{k+1} + D_{k+1}) A_{k+1}ᵀ`, `D_last = 0`
+/// (only the update drops `P⁻ − P⁺` and the gains are stored). The diagonal
+/// of `D` is ≥ 0 in exact arithmetic; it is clamped at 0 against rounding,
+/// so the smoothed σ never exceeds the forward σ.
 /// Calls `out` newest first (no allocation).
 pub fn rts_smooth(records: &[SmootherRecord], mut out: impl FnMut(&SmoothedEpoch)) {
     let n = records.len();
@@ -287,23 +302,31 @@ pub fn rts_smooth(records: &[SmootherRecord], mut out: impl FnMut(&SmoothedEpoch
         return;
     }
     let mut ds = StateVec::zeros();
+    let mut d = Cov::zeros();
     let last = &records[n - 1];
     out(&SmoothedEpoch {
         t: last.t,
         nav: last.nav,
         errors: last.errors,
+        p_diag: last.p_post_diag,
     });
     for k in (0..n - 1).rev() {
         let next = &records[k + 1];
         let e = next.dx_fed_back + ds;
         ds = next.gain_prev * e;
+        let m = next.p_drop + d;
+        d = next.gain_prev * m * next.gain_prev.transpose();
         let mut nav = records[k].nav;
         let mut errors = records[k].errors;
         apply_correction(&mut nav, &mut errors, &ds);
+        let p_diag = records[k]
+            .p_post_diag
+            .zip_map(&d.diagonal(), |p, dd| (p - dd.max(0.0)).max(0.0));
         out(&SmoothedEpoch {
             t: records[k].t,
             nav,
             errors,
+            p_diag,
         });
     }
 }
@@ -1418,6 +1441,7 @@ impl Eskf {
             dx_fed_back: self.rec_dx,
             gain_prev: gain,
             p_post_diag: self.p.diagonal(),
+            p_drop: p_prior - self.p,
         });
         self.rec_have_prev = true;
         self.rec_p_post = self.p;
@@ -1893,11 +1917,34 @@ mod tests {
         }
         let recs: std::vec::Vec<SmootherRecord> = records.into_iter().flatten().collect();
         let mut sm_err_max: f64 = 0.0;
+        // Smoothed σ ≤ forward σ at every checkpoint, strictly smaller in
+        // the middle of the outage (where both sides of fixes bound it).
+        let (mut k, mut mid) = (recs.len(), None);
         rts_smooth(&recs, |e| {
+            k -= 1;
+            let fwd = recs[k].p_post_diag;
+            assert_eq!(recs[k].t, e.t);
+            for i in 0..NX {
+                assert!(
+                    e.p_diag[i] <= fwd[i] && e.p_diag[i] >= 0.0,
+                    "state {i} at {}: smoothed {} forward {}",
+                    e.t,
+                    e.p_diag[i],
+                    fwd[i]
+                );
+            }
             if (100.0..160.0).contains(&e.t) {
                 sm_err_max = sm_err_max.max(err(e.nav.lat, e.nav.lon));
             }
+            if (e.t - 150.0).abs() < 0.05 {
+                mid = Some((e.p_diag[I_POS].sqrt(), fwd[I_POS].sqrt()));
+            }
         });
+        let (sm_mid, fwd_mid) = mid.expect("a checkpoint at 150 s");
+        assert!(
+            sm_mid < 0.7 * fwd_mid,
+            "σN at 150 s: smoothed {sm_mid} forward {fwd_mid}"
+        );
         assert!(fwd_err_max > 0.2, "forward drift {fwd_err_max}");
         assert!(
             sm_err_max < 0.5 * fwd_err_max,
