@@ -14,12 +14,14 @@ use crate::time_offset::{
     auto_estimate, default_mode, time_offset_note, AutoOffset, TimeOffset, TimeOffsetCfg,
 };
 use navfuse_core::estimators::adaptive::{AdaptedNoise, AdaptiveConstraints};
+use navfuse_core::estimators::consistency::{AidTracker, NisMonitor};
 use navfuse_core::estimators::eskf::{
     rts_smooth, Eskf, EskfConfig, EskfStats, NhcConfig, UpdateLog,
 };
 use navfuse_core::types::{Estimator, Event, GnssFix, ImuSample, NavSolution};
 use navfuse_core::Vec3;
 use navfuse_io::kfgins_yaml::KfGinsConfig;
+use navfuse_io::stdfile::StdRow;
 use std::path::Path;
 use std::time::Instant;
 
@@ -277,6 +279,15 @@ pub struct EskfRun {
     pub solutions: Vec<NavSolution>,
     /// RTS-smoothed solutions in time order (empty unless `[filter] smooth`).
     pub smoothed: Vec<NavSolution>,
+    /// 1-σ and aiding status of every forward solution, row for row
+    /// (empty when the caller turned σ off, [`run_eskf_span`]).
+    pub std: Vec<StdRow>,
+    /// 1-σ of every smoothed solution (smoothed covariance; no status).
+    pub smoothed_std: Vec<StdRow>,
+    /// NIS sums per measurement type (the summary's `nis_check`).
+    pub nis: NisMonitor,
+    /// Seconds without an update after which an epoch is coasting.
+    pub coast_after_s: f64,
     /// Every measurement update tried, in order (the innovation journal).
     pub updates: Vec<UpdateLog>,
     /// Update counters.
@@ -357,17 +368,19 @@ pub fn run_eskf(
         None => imu,
     };
     let span = select_span(cfg, imu, gnss)?;
-    let mut r = run_eskf_span(cfg, base_dir, &span, aux)?;
+    let mut r = run_eskf_span(cfg, base_dir, &span, aux, true)?;
     r.time_offset_applied = applied;
     Ok(r)
 }
 
-/// [`run_eskf`] on a selected span.
+/// [`run_eskf`] on a selected span; `with_std`: keep the σ rows of every
+/// solution ([`EskfRun::std`]).
 pub(crate) fn run_eskf_span(
     cfg: &RunConfig,
     base_dir: &Path,
     span: &Span,
     aux: Option<&AuxSeries>,
+    with_std: bool,
 ) -> Result<EskfRun> {
     let mut setup = filter_setup(cfg, base_dir)?;
     // Noise from a sensor preset (datasheet, quiet bench) is raised to the
@@ -408,14 +421,31 @@ pub(crate) fn run_eskf_span(
     let mut records = Vec::new();
     let mut innovations = Vec::new();
     let mut gnss_fed = 0usize;
+    let coast_after_s = crate::sigma::coast_after_s(gnss);
+    let mut aid = AidTracker::new(imu[k_start].t, coast_after_s);
+    let mut nis = NisMonitor::default();
+    let mut std = Vec::with_capacity(if with_std { imu.len() } else { 0 });
     for s in &imu[k_start..] {
         while g < gnss.len() && gnss[g].t <= s.t + 1e-3 {
             eskf.push(&Event::Gnss(gnss[g]));
+            for u in eskf.updates() {
+                aid.observe(u);
+                nis.observe(u);
+            }
             innovations.extend_from_slice(eskf.updates());
             g += 1;
             gnss_fed += 1;
         }
-        if let Some(sol) = eskf.push(&Event::Imu(*s)) {
+        let sol = eskf.push(&Event::Imu(*s));
+        for u in eskf.updates() {
+            aid.observe(u);
+            nis.observe(u);
+        }
+        if let Some(sol) = sol {
+            if with_std {
+                let p = eskf.covariance().diagonal();
+                std.push(crate::sigma::std_row(sol.t, &p, Some(aid.status(sol.t))));
+            }
             sols.push(sol);
         }
         innovations.extend_from_slice(eskf.updates());
@@ -425,14 +455,28 @@ pub(crate) fn run_eskf_span(
     }
     let seconds_filter = t_filter.elapsed().as_secs_f64();
     let mut smoothed = Vec::new();
+    let mut smoothed_std = Vec::new();
     if cfg.filter.smooth {
         smoothed.reserve(records.len());
-        rts_smooth(&records, |e| smoothed.push(smoothed_solution(e)));
+        rts_smooth(&records, |e| {
+            let mut sol = smoothed_solution(e);
+            if with_std {
+                let row = crate::sigma::std_row(e.t, &e.p_diag, None);
+                crate::sigma::set_solution_std(&mut sol, &row);
+                smoothed_std.push(row);
+            }
+            smoothed.push(sol);
+        });
         smoothed.reverse();
+        smoothed_std.reverse();
     }
     Ok(EskfRun {
         solutions: sols,
         smoothed,
+        std,
+        smoothed_std,
+        nis,
+        coast_after_s,
         updates: innovations,
         stats: *eskf.stats(),
         config: *eskf.config(),

@@ -35,6 +35,7 @@ pub mod resolved;
 pub mod run;
 pub mod run_checks;
 pub mod sensors;
+pub mod sigma;
 mod summary;
 pub mod template;
 pub mod time_offset;
