@@ -17,9 +17,11 @@
 //! `c_bn` from the solution attitude by `navfuse_core::attitude::dcm_from_euler`).
 //! NED offsets are exact (through ECEF, `navfuse_core::geodesy::ned_from_geodetic`).
 
+pub mod consistency;
 pub mod outage;
 pub mod stats;
 
+pub use consistency::{consistency, consistency_of, Consistency, NeesStats};
 pub use outage::{outage_metric, Outage, OutageReport, OutageResult, OutageSchedule};
 pub use stats::Stats;
 

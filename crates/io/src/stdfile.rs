@@ -17,13 +17,14 @@
 //! | 26 | updates gated in the last 10 s | – |
 //!
 //! Columns 3–23 are KF-GINS's `KF_GINS_STD.txt` columns 2–22 (same order
-//! and units); a file without the status columns (24–26) reads too.
+//! and units); a file without the status columns (24–26) reads too, and so
+//! does KF-GINS's own STD file (22 columns: time of week, then the σ).
 
 use crate::error::ReadError;
 use crate::time::{gps_seconds, week_tow};
 use navfuse_core::estimators::consistency::{EpochStatus, KINDS};
 use navfuse_core::estimators::eskf::UpdateKind;
-use navfuse_core::types::Vec3;
+use navfuse_core::types::{NavSolution, Vec3};
 use std::io::{self, BufRead, Write};
 use std::sync::Arc;
 
@@ -107,14 +108,16 @@ pub fn read_std<R: BufRead>(rdr: R, name: &str) -> Result<Vec<StdRow>, ReadError
             continue;
         }
         let tok: Vec<&str> = line.split_ascii_whitespace().collect();
-        if tok.len() != 23 && tok.len() != 26 {
+        if ![22, 23, 26].contains(&tok.len()) {
             return Err(ReadError::new(
                 &file,
                 ln,
                 "<line>",
-                format!("expected 23 or 26 columns, got {}", tok.len()),
+                format!("expected 22 (KF-GINS), 23 or 26 columns, got {}", tok.len()),
             ));
         }
+        // KF-GINS's own STD file: time of week only (week 0 = unknown).
+        let o = usize::from(tok.len() == 22);
         let num = |c: usize| -> Result<f64, ReadError> {
             tok[c].parse::<f64>().map_err(|_| {
                 ReadError::new(
@@ -125,7 +128,7 @@ pub fn read_std<R: BufRead>(rdr: R, name: &str) -> Result<Vec<StdRow>, ReadError
                 )
             })
         };
-        let week = num(0)?;
+        let week = if o == 1 { 0.0 } else { num(0)? };
         if !(week >= 0.0 && week.fract() == 0.0) {
             return Err(ReadError::new(
                 &file,
@@ -137,7 +140,7 @@ pub fn read_std<R: BufRead>(rdr: R, name: &str) -> Result<Vec<StdRow>, ReadError
         let mut v = [Vec3::zeros(); 7];
         for (k, t) in v.iter_mut().enumerate() {
             for a in 0..3 {
-                t[a] = num(2 + 3 * k + a)? / SCALE[k];
+                t[a] = num(2 - o + 3 * k + a)? / SCALE[k];
             }
         }
         let status = if tok.len() == 26 {
@@ -161,7 +164,7 @@ pub fn read_std<R: BufRead>(rdr: R, name: &str) -> Result<Vec<StdRow>, ReadError
             None
         };
         out.push(StdRow {
-            t: gps_seconds(week as u32, num(1)?),
+            t: gps_seconds(week as u32, num(1 - o)?),
             pos_ned: v[0],
             vel_ned: v[1],
             att_rpy: v[2],
@@ -179,6 +182,30 @@ pub fn read_std<R: BufRead>(rdr: R, name: &str) -> Result<Vec<StdRow>, ReadError
 pub fn read_std_file(path: &std::path::Path) -> Result<Vec<StdRow>, ReadError> {
     let (rdr, name) = crate::open(path)?;
     read_std(rdr, &name)
+}
+
+/// Put the position, velocity and attitude σ of `rows` into `sols`: row
+/// for row when both have the same length (a `.std` beside its `.nav`),
+/// else by equal time (within 1 µs). Returns how many solutions got a σ.
+pub fn attach_std(sols: &mut [NavSolution], rows: &[StdRow]) -> usize {
+    let set = |s: &mut NavSolution, r: &StdRow| {
+        s.std_pos_ned = r.pos_ned;
+        s.std_v_n = r.vel_ned;
+        s.std_rpy = r.att_rpy;
+    };
+    if sols.len() == rows.len() {
+        sols.iter_mut().zip(rows).for_each(|(s, r)| set(s, r));
+        return rows.len();
+    }
+    let mut n = 0;
+    for s in sols.iter_mut() {
+        let i = rows.partition_point(|r| r.t < s.t - 1e-6);
+        if i < rows.len() && (rows[i].t - s.t).abs() <= 1e-6 {
+            set(s, &rows[i]);
+            n += 1;
+        }
+    }
+    n
 }
 
 #[cfg(test)]
@@ -237,8 +264,19 @@ mod tests {
         let e = read_std(&b"2374 1.0 2.0\n"[..], "x.std").unwrap_err();
         assert_eq!(
             e.to_string(),
-            "x.std:1: field `<line>`: expected 23 or 26 columns, got 3"
+            "x.std:1: field `<line>`: expected 22 (KF-GINS), 23 or 26 columns, got 3"
         );
+        // KF-GINS's STD layout (no week) reads as week 0.
+        let first = text.lines().next().unwrap();
+        let kf: Vec<&str> = first.split(' ').skip(1).take(22).collect();
+        let k = read_std(kf.join(" ").as_bytes(), "KF_GINS_STD.txt").unwrap();
+        assert!((k[0].t - 243_262.01).abs() < 1e-6 && k[0].status.is_none());
+        assert!((k[0].sa - back[0].sa).abs().max() < 1e-12);
+        let mut sols: Vec<NavSolution> =
+            rows.iter().map(|r| NavSolution::unknown_at(r.t)).collect();
+        assert_eq!(attach_std(&mut sols, &back), 3);
+        assert_eq!(sols[1].std_pos_ned, back[1].pos_ned);
+        assert_eq!(attach_std(&mut sols[..2], &back[1..]), 1, "by time");
         let bad = text.lines().next().unwrap().replace(" nhc ", " bus ");
         let e = read_std(bad.as_bytes(), "x.std").unwrap_err();
         assert!(e.to_string().contains("column 24"), "{e}");

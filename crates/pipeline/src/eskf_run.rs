@@ -458,7 +458,7 @@ pub(crate) fn run_eskf_span(
     let mut smoothed_std = Vec::new();
     if cfg.filter.smooth {
         smoothed.reserve(records.len());
-        rts_smooth(&records, |e| {
+        rts_smooth(&records, eskf.last_record_covariance(), |e| {
             let mut sol = smoothed_solution(e);
             if with_std {
                 let row = crate::sigma::std_row(e.t, &e.p_diag, None);

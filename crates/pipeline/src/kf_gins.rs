@@ -255,7 +255,9 @@ fn filter(
     let mut smoothed = Vec::new();
     if smooth {
         smoothed.reserve(records.len());
-        rts_smooth(&records, |e| smoothed.push(*e));
+        rts_smooth(&records, eskf.last_record_covariance(), |e| {
+            smoothed.push(*e)
+        });
         smoothed.reverse();
         let mut buf = Vec::with_capacity(smoothed.len() * 180);
         for e in &smoothed {

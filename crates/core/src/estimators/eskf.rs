@@ -268,10 +268,10 @@ pub struct SmootherRecord {
     pub gain_prev: Cov,
     /// Covariance after the updates (for the smoothed uncertainty).
     pub p_post_diag: StateVec,
-    /// What the updates at this checkpoint removed from the covariance,
-    /// `P⁻_k − P⁺_k` (zero without an update): the smoothed covariance's
-    /// recursion needs it ([`rts_smooth`]).
-    pub p_drop: Cov,
+    /// The part of the previous checkpoint's smoothed covariance that does
+    /// not come from this one: `B_{k−1} = P⁺_{k−1} − A_k P⁻_k A_kᵀ` in
+    /// Joseph form ([`rts_smooth`]); zero for the first record.
+    pub p_base_prev: Cov,
 }
 
 /// Output of the RTS backward pass at one checkpoint.
@@ -289,20 +289,22 @@ pub struct SmoothedEpoch {
 /// `δs_k = A_{k+1} (δx_fb,k+1 + δs_{k+1})`, smoothed state = filtered ⊕ δs_k.
 ///
 /// Smoothed covariance (Rauch, Tung & Striebel 1965; Groves 2nd ed. eq.
-/// 3.78): `P^s_k = P⁺_k − A_{k+1} (P⁻_{k+1} − P^s_{k+1}) A_{k+1}ᵀ`, carried as
-/// the reduction `D_k = P⁺_k − P^s_k`:
-/// `D_k = A_{k+1} (P⁻_{k+1} − P⁺_{k+1} + D_{k+1}) A_{k+1}ᵀ`, `D_last = 0`
-/// (only the update drops `P⁻ − P⁺` and the gains are stored). The diagonal
-/// of `D` is ≥ 0 in exact arithmetic; it is clamped at 0 against rounding,
-/// so the smoothed σ never exceeds the forward σ.
+/// 3.78): `P^s_k = B_k + A_{k+1} P^s_{k+1} A_{k+1}ᵀ`, `P^s_last = p_last`
+/// (the last record's filtered covariance, [`Eskf::last_record_covariance`]),
+/// with `B_k = P⁺_k − A P⁻ Aᵀ` stored by the forward pass in the Joseph form
+/// `(I − AΦ) P⁺ (I − AΦ)ᵀ + A Q Aᵀ` (a sum of positive semi-definite terms;
+/// the plain difference loses all precision when an update after an outage
+/// shrinks metres² to centimetres²). The smoothed variance never exceeds the
+/// filtered one in exact arithmetic; the diagonal written is clamped to
+/// `[0, P⁺_kk]` against rounding.
 /// Calls `out` newest first (no allocation).
-pub fn rts_smooth(records: &[SmootherRecord], mut out: impl FnMut(&SmoothedEpoch)) {
+pub fn rts_smooth(records: &[SmootherRecord], p_last: &Cov, mut out: impl FnMut(&SmoothedEpoch)) {
     let n = records.len();
     if n == 0 {
         return;
     }
     let mut ds = StateVec::zeros();
-    let mut d = Cov::zeros();
+    let mut ps = *p_last;
     let last = &records[n - 1];
     out(&SmoothedEpoch {
         t: last.t,
@@ -314,14 +316,13 @@ pub fn rts_smooth(records: &[SmootherRecord], mut out: impl FnMut(&SmoothedEpoch
         let next = &records[k + 1];
         let e = next.dx_fed_back + ds;
         ds = next.gain_prev * e;
-        let m = next.p_drop + d;
-        d = next.gain_prev * m * next.gain_prev.transpose();
+        ps = next.p_base_prev + next.gain_prev * ps * next.gain_prev.transpose();
         let mut nav = records[k].nav;
         let mut errors = records[k].errors;
         apply_correction(&mut nav, &mut errors, &ds);
         let p_diag = records[k]
             .p_post_diag
-            .zip_map(&d.diagonal(), |p, dd| (p - dd.max(0.0)).max(0.0));
+            .zip_map(&ps.diagonal(), |p, q| q.clamp(0.0, p.max(0.0)));
         out(&SmoothedEpoch {
             t: records[k].t,
             nav,
@@ -912,6 +913,11 @@ impl Eskf {
     pub fn is_standstill(&self) -> bool {
         self.standstill
     }
+    /// The filtered covariance at the last smoother checkpoint made (the
+    /// start of [`rts_smooth`]'s backward covariance recursion).
+    pub fn last_record_covariance(&self) -> &Cov {
+        &self.rec_p_post
+    }
     /// The smoother checkpoint made by the last `push`, if any.
     pub fn take_record(&mut self) -> Option<SmootherRecord> {
         self.record.take()
@@ -1425,14 +1431,31 @@ impl Eskf {
         // A = P⁺_{k−1} Φᵀ (P⁻_k)⁻¹, via Cholesky of the symmetric P⁻ (the
         // covariance before the first update since the last checkpoint).
         let p_prior = self.rec_p_prior.take().unwrap_or(self.p);
-        let gain = if self.rec_have_prev {
-            let b = self.rec_phi_t.transpose() * self.rec_p_post; // (P⁺Φᵀ)ᵀ = Φ P⁺
+        let (gain, base) = if self.rec_have_prev {
+            let phi = self.rec_phi_t.transpose();
+            let b = phi * self.rec_p_post; // (P⁺Φᵀ)ᵀ = Φ P⁺
             match p_prior.cholesky() {
-                Some(ch) => ch.solve(&b).transpose(),
-                None => Cov::zeros(),
+                Some(ch) => {
+                    let a = ch.solve(&b).transpose();
+                    // Joseph form of B = P⁺ − A P⁻ Aᵀ with Q = P⁻ − Φ P⁺ Φᵀ.
+                    // P⁻ is taken before the first update, which may sit a
+                    // fraction of an IMU interval before this checkpoint
+                    // while Φ spans the whole interval: that Q can have
+                    // negative diagonal terms (measured on drive_0708: −3 %
+                    // of the position variance), which would drive smoothed
+                    // variances below zero. The process noise added between
+                    // checkpoints is (per axis) white: keep the diagonal
+                    // of Q, floored at 0, which makes B positive semi-definite.
+                    let q_full = p_prior - b * self.rec_phi_t;
+                    let q = Cov::from_diagonal(&q_full.diagonal().map(|x| x.max(0.0)));
+                    let i_a = Cov::identity() - a * phi;
+                    let base = i_a * self.rec_p_post * i_a.transpose() + a * q * a.transpose();
+                    (a, base)
+                }
+                None => (Cov::zeros(), self.rec_p_post),
             }
         } else {
-            Cov::zeros()
+            (Cov::zeros(), Cov::zeros())
         };
         self.record = Some(SmootherRecord {
             t: self.t,
@@ -1441,7 +1464,7 @@ impl Eskf {
             dx_fed_back: self.rec_dx,
             gain_prev: gain,
             p_post_diag: self.p.diagonal(),
-            p_drop: p_prior - self.p,
+            p_base_prev: base,
         });
         self.rec_have_prev = true;
         self.rec_p_post = self.p;
@@ -1920,7 +1943,7 @@ mod tests {
         // Smoothed σ ≤ forward σ at every checkpoint, strictly smaller in
         // the middle of the outage (where both sides of fixes bound it).
         let (mut k, mut mid) = (recs.len(), None);
-        rts_smooth(&recs, |e| {
+        rts_smooth(&recs, f.last_record_covariance(), |e| {
             k -= 1;
             let fwd = recs[k].p_post_diag;
             assert_eq!(recs[k].t, e.t);
