@@ -276,7 +276,7 @@ mod tests {
             rows.iter().map(|r| NavSolution::unknown_at(r.t)).collect();
         assert_eq!(attach_std(&mut sols, &back), 3);
         assert_eq!(sols[1].std_pos_ned, back[1].pos_ned);
-        assert_eq!(attach_std(&mut sols[..2], &back[1..]), 1, "by time");
+        assert_eq!(attach_std(&mut sols[1..2], &back), 1, "by time");
         let bad = text.lines().next().unwrap().replace(" nhc ", " bus ");
         let e = read_std(bad.as_bytes(), "x.std").unwrap_err();
         assert!(e.to_string().contains("column 24"), "{e}");
