@@ -132,3 +132,77 @@ pub fn nis_json(m: &NisMonitor) -> (serde_json::Value, Vec<String>) {
         warnings,
     )
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::config::RunConfig;
+    use crate::eskf_run::run_eskf;
+    use navfuse_core::types::ImuSample;
+
+    /// A 300 s level drive north at 5 m/s (100 Hz IMU, gravity only), 1 Hz
+    /// fixes with white N(0, 0.5² m²) horizontal and N(0, 1 m²) vertical
+    /// noise, run in the KF-GINS model. The oracle declares the true σ; the
+    /// other run declares σ × 0.1 (the noise it has is unchanged).
+    fn drive(declared_scale: f64) -> crate::eskf_run::EskfRun {
+        let (lat0, lon0, h) = (40.0f64.to_radians(), -105.0f64.to_radians(), 1600.0);
+        let (rm, rn) = navfuse_core::earth::radii(lat0);
+        let (t0, v, g, dt) = (1000.0, 5.0, 9.8, 0.01);
+        let imu: Vec<ImuSample> = (1..=30_000)
+            .map(|k| ImuSample {
+                t: t0 + k as f64 * dt,
+                dt,
+                dtheta_b: Vec3::zeros(),
+                dvel_b: Vec3::new(0.0, 0.0, -g * dt),
+            })
+            .collect();
+        let mut s = 0x9e37_79b9_7f4a_7c15u64;
+        let mut u = move || {
+            s ^= s << 13;
+            s ^= s >> 7;
+            s ^= s << 17;
+            ((s >> 11) as f64 + 0.5) / (1u64 << 53) as f64
+        };
+        let mut z = move || (-2.0 * u().ln()).sqrt() * (std::f64::consts::TAU * u()).cos();
+        let sd = Vec3::new(0.5, 0.5, 1.0);
+        let gnss: Vec<GnssFix> = (0..=300)
+            .map(|k| GnssFix {
+                t: t0 + k as f64,
+                lat: lat0 + (v * k as f64 + sd.x * z()) / (rm + h),
+                lon: lon0 + sd.y * z() / ((rn + h) * lat0.cos()),
+                h: h - sd.z * z(),
+                std_ned: sd * declared_scale,
+                ..Default::default()
+            })
+            .collect();
+        let cfg: RunConfig = toml::from_str(
+            "[input]\nimu = \"mem\"\ngnss = \"mem\"\nimu_time_offset = \"none\"\n\
+             [filter]\npreset = \"kf-gins\"\n",
+        )
+        .unwrap();
+        run_eskf(&cfg, Path::new("."), &imu, &gnss, None).unwrap()
+    }
+
+    #[test]
+    fn nis_check_flags_gnss_sigma_times_0_1_and_passes_the_oracle() {
+        let oracle = drive(1.0);
+        let (j, w) = nis_json(&oracle.nis);
+        let pos = &j["types"]["gnss_pos"];
+        assert_eq!(pos["overconfident"], false, "{j}");
+        let m = pos["mean_nis_per_dof"].as_f64().unwrap();
+        assert!((0.6..1.5).contains(&m), "oracle mean NIS/dof {m}");
+        assert!(w.is_empty(), "{w:?}");
+        let bad = drive(0.1);
+        let (j, w) = nis_json(&bad.nis);
+        assert_eq!(j["types"]["gnss_pos"]["overconfident"], true, "{j}");
+        assert!(w.iter().any(|x| x.starts_with("gnss_pos: the filter is overconfident")), "{w:?}");
+        // σ rows: one per solution, status filled, position σ from the covariance.
+        assert_eq!(oracle.std.len(), oracle.solutions.len());
+        let last = oracle.std.last().unwrap();
+        assert!(last.pos_ned.x > 0.05 && last.pos_ned.x < 0.5, "{last:?}");
+        assert_eq!(last.status.unwrap().aid_name(), "gnss_pos");
+        let c = coasting_json(&oracle.std, oracle.coast_after_s);
+        assert_eq!(c["coast_after_s"], 2.5);
+        assert!(c["longest_s"].as_f64().unwrap() < 1.1, "{c}");
+    }
+}
