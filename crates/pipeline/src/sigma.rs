@@ -195,7 +195,11 @@ mod tests {
         let bad = drive(0.1);
         let (j, w) = nis_json(&bad.nis);
         assert_eq!(j["types"]["gnss_pos"]["overconfident"], true, "{j}");
-        assert!(w.iter().any(|x| x.starts_with("gnss_pos: the filter is overconfident")), "{w:?}");
+        assert!(
+            w.iter()
+                .any(|x| x.starts_with("gnss_pos: the filter is overconfident")),
+            "{w:?}"
+        );
         // σ rows: one per solution, status filled, position σ from the covariance.
         assert_eq!(oracle.std.len(), oracle.solutions.len());
         let last = oracle.std.last().unwrap();
