@@ -129,16 +129,7 @@ pub fn consistency_of(
     {
         return None;
     }
-    let list = schedule.map(|sched| {
-        let (lo, hi) = solution
-            .iter()
-            .map(|s| s.t)
-            .filter(|t| t.is_finite())
-            .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), t| {
-                (lo.min(t), hi.max(t))
-            });
-        sched.intervals(lo, hi)
-    });
+    let list = schedule.map(|sched| crate::outages_in_span(solution, sched));
     Some(consistency(
         solution,
         &ev.errors,

@@ -392,6 +392,18 @@ fn finish(
     }
 }
 
+/// The outages of `sched` lying completely inside the time span of `solution`.
+pub fn outages_in_span(solution: &[NavSolution], sched: &OutageSchedule) -> Vec<Outage> {
+    let (lo, hi) = solution
+        .iter()
+        .map(|s| s.t)
+        .filter(|t| t.is_finite())
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), t| {
+            (lo.min(t), hi.max(t))
+        });
+    sched.intervals(lo, hi)
+}
+
 /// Evaluate a solution series against a reference series (see the crate doc
 /// and [`Align`]).
 ///
@@ -404,16 +416,7 @@ pub fn evaluate(
     outages: Option<&OutageSchedule>,
     fix_times: Option<&[f64]>,
 ) -> Result<Evaluation, EvalError> {
-    let list = outages.map(|sched| {
-        let (lo, hi) = solution
-            .iter()
-            .map(|s| s.t)
-            .filter(|t| t.is_finite())
-            .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), t| {
-                (lo.min(t), hi.max(t))
-            });
-        sched.intervals(lo, hi)
-    });
+    let list = outages.map(|sched| outages_in_span(solution, sched));
     match cfg.align {
         Align::AtSolution => {
             let mut ev = Evaluator::new(reference, *cfg)?;
