@@ -62,6 +62,11 @@ pub struct Args {
     /// Write the per-epoch error series as Parquet to FILE (columns of `--csv`, time `t_gps_s`).
     #[arg(long, value_name = "ERRORS.parquet")]
     pub parquet: Option<PathBuf>,
+    /// σ file of the solution (navfuse .std, row for row or by time): report
+    /// the NEES and the share of epochs inside the 68/95/99 % regions.
+    /// Without it the σ of a .csv solution is used when present.
+    #[arg(long, value_name = "FILE")]
+    pub std: Option<PathBuf>,
     /// Also write the HTML report (index.html + plots/*.svg) into DIR.
     #[arg(long, value_name = "DIR")]
     pub report: Option<PathBuf>,
@@ -89,6 +94,12 @@ pub fn run(args: Args) -> Result<(), String> {
     let (mut reference, ref_stats) = read_trajectory(&args.truth, week_arg, true)?;
     if solution.is_empty() {
         return Err(format!("{}: no solution epochs", args.solution.display()));
+    }
+    if let Some(p) = &args.std {
+        let rows = navfuse_io::stdfile::read_std_file(p).map_err(|e| e.to_string())?;
+        if navfuse_io::stdfile::attach_std(&mut solution, &rows) == 0 {
+            return Err(format!("{}: no row matches a solution epoch", p.display()));
+        }
     }
     let week = harmonise_weeks(
         &mut solution,
@@ -140,6 +151,10 @@ pub fn run(args: Args) -> Result<(), String> {
     let table = render_table(&ev, &args.solution, &args.truth, schedule.as_ref());
     let (title, rest) = table.split_once('\n').unwrap_or((&table, ""));
     print!("{title}\n  read: solution {sol_stats}\n        reference {ref_stats}\n{rest}");
+    let cons = navfuse_eval::consistency_of(&solution, &ev, schedule.as_ref());
+    if let Some(c) = &cons {
+        print!("{}", navfuse_eval::consistency::render(c));
+    }
 
     if let Some(p) = &args.json {
         let mut v = serde_json::to_value(&ev).map_err(|e| format!("JSON: {e}"))?;
@@ -152,6 +167,15 @@ pub fn run(args: Args) -> Result<(), String> {
                 args.solution.display().to_string().into(),
             );
             o.insert("truth".into(), args.truth.display().to_string().into());
+            if let Some(c) = &cons {
+                let mut c = serde_json::to_value(c).map_err(|e| format!("JSON: {e}"))?;
+                if !args.json_errors {
+                    if let Some(m) = c.as_object_mut() {
+                        m.remove("series");
+                    }
+                }
+                o.insert("consistency".into(), c);
+            }
             o.insert(
                 "outage_schedule".into(),
                 serde_json::to_value(&schedule).map_err(|e| format!("JSON: {e}"))?,
@@ -283,6 +307,7 @@ mod tests {
             csv: Some(cp.clone()),
             parquet: None,
             report: None,
+            std: None,
         };
         run(args).unwrap();
         let js: serde_json::Value =
@@ -344,6 +369,7 @@ mod tests {
                 csv: None,
                 parquet: None,
                 report: None,
+                std: None,
             },
             dir,
         )

@@ -24,6 +24,9 @@ pub struct Args {
     /// Reference trajectory for the report's errors (.nav, .pos, .csv).
     #[arg(long)]
     pub truth: Option<PathBuf>,
+    /// Do not write the σ files (solution.std, solution_smoothed.std).
+    #[arg(long)]
+    pub no_std: bool,
 }
 
 pub fn run(args: Args) -> Result<(), String> {
@@ -36,6 +39,7 @@ pub fn run(args: Args) -> Result<(), String> {
     let opts = RunOptions {
         output: args.output.clone(),
         estimator: args.estimator.clone(),
+        no_std: args.no_std,
     };
     let out = navfuse_pipeline::run(&cfg, &base, &opts).map_err(|e| e.to_string())?;
     eprintln!("{}", out.message);

@@ -17,12 +17,14 @@
 //! `c_bn` from the solution attitude by `navfuse_core::attitude::dcm_from_euler`).
 //! NED offsets are exact (through ECEF, `navfuse_core::geodesy::ned_from_geodetic`).
 
+pub mod consistency;
 pub mod files;
 pub mod outage;
 #[cfg(feature = "parquet")]
 pub mod parquet;
 pub mod stats;
 
+pub use consistency::{consistency, consistency_of, Consistency, NeesStats};
 pub use outage::{outage_metric, Outage, OutageReport, OutageResult, OutageSchedule};
 pub use stats::Stats;
 
@@ -393,6 +395,18 @@ fn finish(
     }
 }
 
+/// The outages of `sched` lying completely inside the time span of `solution`.
+pub fn outages_in_span(solution: &[NavSolution], sched: &OutageSchedule) -> Vec<Outage> {
+    let (lo, hi) = solution
+        .iter()
+        .map(|s| s.t)
+        .filter(|t| t.is_finite())
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), t| {
+            (lo.min(t), hi.max(t))
+        });
+    sched.intervals(lo, hi)
+}
+
 /// Evaluate a solution series against a reference series (see the crate doc
 /// and [`Align`]).
 ///
@@ -405,16 +419,7 @@ pub fn evaluate(
     outages: Option<&OutageSchedule>,
     fix_times: Option<&[f64]>,
 ) -> Result<Evaluation, EvalError> {
-    let list = outages.map(|sched| {
-        let (lo, hi) = solution
-            .iter()
-            .map(|s| s.t)
-            .filter(|t| t.is_finite())
-            .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), t| {
-                (lo.min(t), hi.max(t))
-            });
-        sched.intervals(lo, hi)
-    });
+    let list = outages.map(|sched| outages_in_span(solution, sched));
     match cfg.align {
         Align::AtSolution => {
             let mut ev = Evaluator::new(reference, *cfg)?;

@@ -31,6 +31,7 @@ pub mod nmea;
 pub mod parquet_out;
 pub mod pos;
 pub mod rinex;
+pub mod stdfile;
 pub mod tag;
 pub mod text;
 pub mod time;

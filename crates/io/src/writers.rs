@@ -69,6 +69,11 @@ pub(crate) fn lon_deg(lon: f64) -> f64 {
     (d + 180.0).rem_euclid(360.0) - 180.0
 }
 
+/// Horizontal 1-σ √(σN² + σE²) [m] (NaN when unknown).
+pub fn sigma_h(s: &NavSolution) -> f64 {
+    s.std_pos_ned.x.hypot(s.std_pos_ned.y)
+}
+
 /// Column header of [`CsvWriter`] (units in the names).
 pub const CSV_HEADER: &str =
     "t_gps_s,gps_week,gps_tow_s,lat_deg,lon_deg,h_m,v_n_mps,v_e_mps,v_d_mps,\
@@ -210,7 +215,8 @@ impl<W: Write> TrajectoryWriter for GeoJsonWriter<W> {
             self.w,
             "{{\"type\":\"Feature\",\"geometry\":{{\"type\":\"Point\",\"coordinates\":[{},{},{}]}},\
 \"properties\":{{\"t\":{},\"gps_week\":{},\"gps_tow\":{},\"h\":{},\"v_ned\":[{},{},{}],\
-\"rpy_deg\":[{},{},{}],\"std_pos_ned\":[{},{},{}],\"std_v_ned\":[{},{},{}],\"std_rpy_deg\":[{},{},{}]}}}}",
+\"rpy_deg\":[{},{},{}],\"std_pos_ned\":[{},{},{}],\"std_v_ned\":[{},{},{}],\"std_rpy_deg\":[{},{},{}],\
+\"sigma_h_m\":{},\"sigma_v_m\":{}}}}}",
             j(lon, 10),
             j(lat, 10),
             j(s.h, 4),
@@ -233,6 +239,8 @@ impl<W: Write> TrajectoryWriter for GeoJsonWriter<W> {
             j(sr.x, 6),
             j(sr.y, 6),
             j(sr.z, 6),
+            j(sigma_h(s), 4),
+            j(s.std_pos_ned.z, 4),
         )
     }
 
@@ -305,6 +313,7 @@ impl<W: Write> TrajectoryWriter for KmlWriter<W> {
 }
 
 /// GPX 1.1: one `trk`/`trkseg` with a `trkpt` per epoch (`ele` = height,
+/// 1-σ horizontal/vertical [m] in `extensions` as `navfuse:sigma_h`/`sigma_v`,
 /// `time` in UTC ISO-8601 with ms). `time` is left out when the GPS week is
 /// unknown (t < one week, i.e. time of week only).
 pub struct GpxWriter<W: Write> {
@@ -321,7 +330,8 @@ impl<W: Write> GpxWriter<W> {
             self.started = true;
             self.w.write_all(
                 b"<?xml version=\"1.0\" encoding=\"UTF-8\"?>\n\
-<gpx version=\"1.1\" creator=\"navfuse\" xmlns=\"http://www.topografix.com/GPX/1/1\">\n\
+<gpx version=\"1.1\" creator=\"navfuse\" xmlns=\"http://www.topografix.com/GPX/1/1\" \
+xmlns:navfuse=\"https://navfuse.invalid/gpx/1\">\n\
 <trk>\n<name>navfuse trajectory</name>\n<trkseg>\n",
             )?;
         }
@@ -342,6 +352,17 @@ impl<W: Write> TrajectoryWriter for GpxWriter<W> {
         )?;
         if s.t.is_finite() && s.t >= SECONDS_PER_WEEK {
             write!(self.w, "<time>{}</time>", iso8601_utc(s.t))?;
+        }
+        // 1-σ horizontal and vertical [m] (GPX 1.1 has no field for them:
+        // an extension, ignored by viewers that do not know it).
+        let (sh, sv) = (sigma_h(s), s.std_pos_ned.z);
+        if sh.is_finite() || sv.is_finite() {
+            write!(
+                self.w,
+                "<extensions><navfuse:sigma_h>{}</navfuse:sigma_h><navfuse:sigma_v>{}</navfuse:sigma_v></extensions>",
+                t(sh, 4),
+                t(sv, 4)
+            )?;
         }
         self.w.write_all(b"</trkpt>\n")
     }
@@ -543,6 +564,30 @@ mod tests {
         assert_eq!(times[3], "2025-07-08T19:34:01.250Z");
         let (_, _, eles) = xml(&text, "", "ele");
         assert_eq!(eles[1].parse::<f64>().unwrap(), 1602.474);
+    }
+
+    #[test]
+    fn geojson_and_gpx_carry_horizontal_and_vertical_sigma() {
+        let sols = track();
+        let g: serde_json::Value =
+            serde_json::from_str(&render(crate::trajectory::OutFormat::GeoJson, &sols)).unwrap();
+        let p = |k: usize, key: &str| g["features"][k]["properties"][key].clone();
+        assert!(p(0, "sigma_h_m").is_null(), "unknown σ is null");
+        assert_eq!(p(1, "sigma_h_m").as_f64(), Some(0.0224));
+        assert_eq!(p(1, "sigma_v_m").as_f64(), Some(0.03));
+        let x = render(crate::trajectory::OutFormat::Gpx, &sols);
+        assert_eq!(
+            x.matches("<navfuse:sigma_h>0.0224</navfuse:sigma_h>")
+                .count(),
+            3,
+            "{x}"
+        );
+        assert_eq!(
+            x.matches("<navfuse:sigma_v>0.0300</navfuse:sigma_v>")
+                .count(),
+            3
+        );
+        assert!(x.contains("xmlns:navfuse="));
     }
 
     #[test]

@@ -15,12 +15,14 @@ use crate::time_offset::{
 };
 use crate::yaw_bank::{run_bank, Member};
 use navfuse_core::estimators::adaptive::{AdaptedNoise, AdaptiveConstraints};
+use navfuse_core::estimators::consistency::NisMonitor;
 use navfuse_core::estimators::eskf::{
     rts_smooth, Eskf, EskfConfig, EskfStats, InitStd, NhcConfig, UpdateLog,
 };
 use navfuse_core::types::{GnssFix, ImuSample, NavSolution};
 use navfuse_core::Vec3;
 use navfuse_io::kfgins_yaml::KfGinsConfig;
+use navfuse_io::stdfile::StdRow;
 use std::path::Path;
 use std::time::Instant;
 
@@ -278,6 +280,15 @@ pub struct EskfRun {
     pub solutions: Vec<NavSolution>,
     /// RTS-smoothed solutions in time order (empty unless `[filter] smooth`).
     pub smoothed: Vec<NavSolution>,
+    /// 1-σ and aiding status of every forward solution, row for row
+    /// (empty when the caller turned σ off, [`run_eskf_span`]).
+    pub std: Vec<StdRow>,
+    /// 1-σ of every smoothed solution (smoothed covariance; no status).
+    pub smoothed_std: Vec<StdRow>,
+    /// NIS sums per measurement type (the summary's `nis_check`).
+    pub nis: NisMonitor,
+    /// Seconds without an update after which an epoch is coasting.
+    pub coast_after_s: f64,
     /// Every measurement update tried, in order (the innovation journal).
     pub updates: Vec<UpdateLog>,
     /// Update counters.
@@ -363,17 +374,19 @@ pub fn run_eskf(
         None => imu,
     };
     let span = select_span(cfg, imu, gnss)?;
-    let mut r = run_eskf_span(cfg, base_dir, &span, aux)?;
+    let mut r = run_eskf_span(cfg, base_dir, &span, aux, true)?;
     r.time_offset_applied = applied;
     Ok(r)
 }
 
-/// [`run_eskf`] on a selected span.
+/// [`run_eskf`] on a selected span; `with_std`: keep the σ rows of every
+/// solution ([`EskfRun::std`]).
 pub(crate) fn run_eskf_span(
     cfg: &RunConfig,
     base_dir: &Path,
     span: &Span,
     aux: Option<&AuxSeries>,
+    with_std: bool,
 ) -> Result<EskfRun> {
     let mut setup = filter_setup(cfg, base_dir)?;
     // Noise from a sensor preset (datasheet, quiet bench) is raised to the
@@ -414,6 +427,8 @@ pub(crate) fn run_eskf_span(
     };
     let k_start = a.k_start;
     let t_filter = Instant::now();
+    let coast_after_s = crate::sigma::coast_after_s(gnss);
+    let t_track = imu[k_start].t;
     let g0 = gnss.partition_point(|x| x.t <= imu[k_start].t);
     let cap = imu.len() - k_start;
     let (mut m, k_next, mut g, mut gnss_fed) = if a.hypotheses.len() > 1 {
@@ -424,7 +439,11 @@ pub(crate) fn run_eskf_span(
             .hypotheses
             .iter()
             .map(|(nav, std, prior)| {
-                let mut m = Member::new(new_eskf(*nav, std)?, cap);
+                let mut m = Member::new(new_eskf(*nav, std)?, cap).tracking(
+                    t_track,
+                    coast_after_s,
+                    with_std,
+                );
                 m.score = *prior;
                 Ok(m)
             })
@@ -438,7 +457,11 @@ pub(crate) fn run_eskf_span(
         (b.winner, b.k_next, b.g_next, b.gnss_fed)
     } else {
         (
-            Member::new(new_eskf(a.nav, &a.init_std)?, cap),
+            Member::new(new_eskf(a.nav, &a.init_std)?, cap).tracking(
+                t_track,
+                coast_after_s,
+                with_std,
+            ),
             k_start,
             g0,
             0,
@@ -453,16 +476,31 @@ pub(crate) fn run_eskf_span(
         m.step(&gnss[g1..g], s);
     }
     let (eskf, sols, records, innovations) = (m.eskf, m.sols, m.records, m.innovations);
+    let (std, nis) = (m.std, m.nis);
     let seconds_filter = t_filter.elapsed().as_secs_f64();
     let mut smoothed = Vec::new();
+    let mut smoothed_std = Vec::new();
     if cfg.filter.smooth {
         smoothed.reserve(records.len());
-        rts_smooth(&records, |e| smoothed.push(smoothed_solution(e)));
+        rts_smooth(&records, eskf.last_record_covariance(), |e| {
+            let mut sol = smoothed_solution(e);
+            if with_std {
+                let row = crate::sigma::std_row(e.t, &e.p_diag, None);
+                crate::sigma::set_solution_std(&mut sol, &row);
+                smoothed_std.push(row);
+            }
+            smoothed.push(sol);
+        });
         smoothed.reverse();
+        smoothed_std.reverse();
     }
     Ok(EskfRun {
         solutions: sols,
         smoothed,
+        std,
+        smoothed_std,
+        nis,
+        coast_after_s,
         updates: innovations,
         stats: *eskf.stats(),
         config: *eskf.config(),

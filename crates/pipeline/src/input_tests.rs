@@ -290,9 +290,21 @@ fn raw_counter_log_with_tag_runs_like_the_gpst_copy() {
         clock["latency_median_ms"].as_f64().unwrap(),
         clock["latency_p99_ms"].as_f64().unwrap(),
     );
-    // Stated mounting: no warnings either way.
-    assert_eq!(sr["warnings"], serde_json::json!([]), "{}", sr["warnings"]);
-    assert_eq!(sc["warnings"], serde_json::json!([]), "{}", sc["warnings"]);
+    // Stated mounting: no warnings either way, except the NIS self-check's
+    // verdict on the receiver's σ (measured: gnss_vel mean NIS/dof 3.4 — the
+    // receiver's velocity σ is too small; a finding about the data).
+    let other = |s: &serde_json::Value| -> Vec<String> {
+        s["warnings"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .filter_map(|w| w.as_str())
+            .filter(|w| !w.contains("the filter is overconfident"))
+            .map(str::to_string)
+            .collect()
+    };
+    assert!(other(&sr).is_empty(), "{}", sr["warnings"]);
+    assert!(other(&sc).is_empty(), "{}", sc["warnings"]);
     assert_eq!(sr["resolved_input"]["imu"]["time_base"], "counter_tag");
     // Physics: a crystal-driven counter is within ±100 ppm of nominal (the
     // README's "0.029 % slow" is the copy's two-point stretch, not the counter).

@@ -4,7 +4,8 @@
 //! output files.
 //!
 //! `enhanced` adds navfuse's land-vehicle aiding (NHC, ZUPT/ZARU, χ² gating);
-//! `smooth` adds an RTS smoother pass (`KF_GINS_Navresult_smoothed.nav`).
+//! `smooth` adds an RTS smoother pass (`KF_GINS_Navresult_smoothed.nav` and
+//! its σ, `KF_GINS_STD_smoothed.txt`).
 
 pub use crate::check;
 use crate::error::{PipelineError, Result};
@@ -312,13 +313,23 @@ fn filter(
     let mut smoothed = Vec::new();
     if smooth {
         smoothed.reserve(records.len());
-        rts_smooth(&records, |e| smoothed.push(*e));
+        rts_smooth(&records, eskf.last_record_covariance(), |e| {
+            smoothed.push(*e)
+        });
         smoothed.reverse();
         let mut buf = Vec::with_capacity(smoothed.len() * 180);
         for e in &smoothed {
             write_nav_line(&mut buf, &check::smoothed_solution(e));
         }
         write("KF_GINS_Navresult_smoothed.nav", &buf)?;
+        // The smoothed covariance in KF-GINS's STD layout.
+        buf.clear();
+        for e in &smoothed {
+            let mut d = [0.0; navfuse_core::estimators::eskf::NX];
+            d.copy_from_slice(e.p_diag.as_slice());
+            write_std_line(&mut buf, e.t, &d);
+        }
+        write("KF_GINS_STD_smoothed.txt", &buf)?;
     }
     Ok((sols, smoothed))
 }

@@ -41,6 +41,7 @@ pub mod resolved;
 pub mod run;
 pub mod run_checks;
 pub mod sensors;
+pub mod sigma;
 pub mod smooth_gps;
 mod summary;
 pub mod template;

@@ -10,6 +10,7 @@ use crate::input::{self, InputSpec};
 use crate::other::{run_other, OtherRun};
 use crate::outputs::{out_formats, write_innovations, write_journal_parquet, write_solutions};
 use crate::run_checks::time_keys_json;
+use crate::sigma::write_std;
 use crate::summary::Summary;
 use crate::time_offset::{default_mode, TimeOffset, TimeOffsetCfg};
 use navfuse_core::estimators::eskf::EskfStats;
@@ -25,6 +26,9 @@ pub struct RunOptions {
     pub output: Option<PathBuf>,
     /// Estimator overriding `[filter] estimator`: `eskf`, `pf-lc`, `gps-acc`.
     pub estimator: Option<String>,
+    /// Do not write the σ files (`solution.std`, `solution_smoothed.std`);
+    /// for measuring what they cost.
+    pub no_std: bool,
 }
 
 /// What [`run`] wrote.
@@ -122,7 +126,7 @@ pub fn run(cfg: &RunConfig, base_dir: &Path, opts: &RunOptions) -> Result<RunOut
             },
         );
     }
-    let r = run_eskf_span(cfg, base_dir, &span, loaded.aux.as_ref())?;
+    let r = run_eskf_span(cfg, base_dir, &span, loaded.aux.as_ref(), !opts.no_std)?;
     std::fs::create_dir_all(&out_dir).map_err(PipelineError::io(&out_dir, ""))?;
     let mut outputs = Vec::new();
     outputs.extend(write_solutions(
@@ -131,6 +135,9 @@ pub fn run(cfg: &RunConfig, base_dir: &Path, opts: &RunOptions) -> Result<RunOut
         &r.solutions,
         &formats,
     )?);
+    if !opts.no_std {
+        outputs.push(write_std(&out_dir.join("solution.std"), &r.std)?);
+    }
     outputs.push(write_innovations(
         &out_dir.join("solution.innovations.csv"),
         &r.updates,
@@ -146,6 +153,12 @@ pub fn run(cfg: &RunConfig, base_dir: &Path, opts: &RunOptions) -> Result<RunOut
             &r.smoothed,
             &formats,
         )?);
+        if !opts.no_std {
+            outputs.push(write_std(
+                &out_dir.join("solution_smoothed.std"),
+                &r.smoothed_std,
+            )?);
+        }
     }
     let time_offset = r.time_offset_text(loaded.imu_time_offset.as_ref());
     let mut summary = Summary::new(cfg, &r, inputs, time_offset, seconds_read, outputs.clone());

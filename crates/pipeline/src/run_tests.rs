@@ -17,6 +17,7 @@ pub(super) fn run_with(config: &Path, out: &Path, estimator: Option<&str>) -> Re
     let opts = RunOptions {
         output: Some(out.to_path_buf()),
         estimator: estimator.map(str::to_string),
+        ..Default::default()
     };
     run(&cfg, &base, &opts)
         .map(|_| ())

@@ -32,6 +32,10 @@ pub(crate) struct Summary<'a> {
     pub time_offset: String,
     pub seconds_read: f64,
     pub seconds_filter: f64,
+    /// Share of epochs coasting and the longest time without a position update.
+    pub coasting: serde_json::Value,
+    /// NIS self-check per measurement type ([`crate::sigma::nis_json`]).
+    pub nis_check: serde_json::Value,
     pub outputs: Vec<String>,
 }
 
@@ -46,6 +50,9 @@ impl<'a> Summary<'a> {
         outputs: Vec<String>,
     ) -> Self {
         let st = &run.stats;
+        let (nis_check, nis_warnings) = crate::sigma::nis_json(&run.nis);
+        let mut warnings = run.warnings.clone();
+        warnings.extend(nis_warnings);
         Summary {
             config,
             filter: filter_json(run),
@@ -55,7 +62,7 @@ impl<'a> Summary<'a> {
                 "seconds_after_first_imu_sample": run.align_wait_s,
                 "initial_yaw_std_deg": run.align_yaw_std_deg,
             }),
-            warnings: run.warnings.clone(),
+            warnings,
             inputs,
             resolved_input: &serde_json::Value::Null,
             imu_samples_read: run.imu_samples_read,
@@ -81,6 +88,8 @@ impl<'a> Summary<'a> {
             time_offset,
             seconds_read,
             seconds_filter: run.seconds_filter,
+            coasting: crate::sigma::coasting_json(&run.std, run.coast_after_s),
+            nis_check,
             outputs,
         }
     }

@@ -28,8 +28,10 @@
 //! Frames: body FRD, nav NED; angles in rad.
 
 use navfuse_core::attitude::wrap_pi;
+use navfuse_core::estimators::consistency::{AidTracker, NisMonitor};
 use navfuse_core::estimators::eskf::{Eskf, SmootherRecord, UpdateKind, UpdateLog};
 use navfuse_core::types::{Estimator, Event, GnssFix, ImuSample, NavSolution};
+use navfuse_io::stdfile::StdRow;
 
 /// Likelihood ratio at which a member is dropped: posterior odds of 1000:1
 /// against it with equal priors (a 3.7σ-equivalent decision; a wrong drop
@@ -49,6 +51,12 @@ pub(crate) struct Member {
     /// ½ Σ NIS of the GNSS updates so far (the negative log-likelihood up to
     /// a constant shared by the members).
     pub score: f64,
+    /// Aiding status of each epoch (for the σ rows) and the NIS self-check.
+    pub aid: AidTracker,
+    pub nis: NisMonitor,
+    /// σ rows of every solution ([`Member::tracking`] with `with_std`).
+    pub std: Vec<StdRow>,
+    with_std: bool,
 }
 
 impl Member {
@@ -60,11 +68,29 @@ impl Member {
             records: Vec::new(),
             innovations: Vec::new(),
             score: 0.0,
+            aid: AidTracker::new(f64::NAN, f64::INFINITY),
+            nis: NisMonitor::default(),
+            std: Vec::new(),
+            with_std: false,
         }
+    }
+
+    /// Track the aiding status from `t0` (coasting after `coast_after_s`
+    /// without a position update) and, with `with_std`, keep a σ row per
+    /// solution.
+    pub fn tracking(mut self, t0: f64, coast_after_s: f64, with_std: bool) -> Self {
+        self.aid = AidTracker::new(t0, coast_after_s);
+        self.with_std = with_std;
+        if with_std {
+            self.std.reserve(self.sols.capacity());
+        }
+        self
     }
 
     fn take_updates(&mut self) {
         for u in self.eskf.updates() {
+            self.aid.observe(u);
+            self.nis.observe(u);
             if matches!(
                 u.kind,
                 UpdateKind::GnssPosition | UpdateKind::GnssVelocity | UpdateKind::Height
@@ -82,10 +108,16 @@ impl Member {
             self.eskf.push(&Event::Gnss(*f));
             self.take_updates();
         }
-        if let Some(sol) = self.eskf.push(&Event::Imu(*s)) {
+        let sol = self.eskf.push(&Event::Imu(*s));
+        self.take_updates();
+        if let Some(sol) = sol {
+            if self.with_std {
+                let p = self.eskf.covariance().diagonal();
+                let row = crate::sigma::std_row(sol.t, &p, Some(self.aid.status(sol.t)));
+                self.std.push(row);
+            }
             self.sols.push(sol);
         }
-        self.take_updates();
         if let Some(r) = self.eskf.take_record() {
             self.records.push(r);
         }

@@ -111,7 +111,16 @@ fn run_file<'py>(
 ) -> PyResult<Bound<'py, PyDict>> {
     let cfg = RunConfig::from_toml_file(&path).map_err(err)?;
     let base = path.parent().unwrap_or(Path::new(".")).to_path_buf();
-    run_cfg(py, &cfg, &base, RunOptions { output, estimator })
+    run_cfg(
+        py,
+        &cfg,
+        &base,
+        RunOptions {
+            output,
+            estimator,
+            no_std: false,
+        },
+    )
 }
 
 fn run_cfg<'py>(
@@ -149,7 +158,18 @@ fn run_json<'py>(
 ) -> PyResult<Bound<'py, PyDict>> {
     let cfg: RunConfig = serde_json::from_str(json).map_err(|e| err(format!("run config: {e}")))?;
     let (imu, gnss) = match (imu, gnss) {
-        (None, None) => return run_cfg(py, &cfg, &base_dir, RunOptions { output, estimator }),
+        (None, None) => {
+            return run_cfg(
+                py,
+                &cfg,
+                &base_dir,
+                RunOptions {
+                    output,
+                    estimator,
+                    no_std: false,
+                },
+            )
+        }
         (Some(i), Some(g)) => (i, g),
         _ => return Err(err("run config: give both imu and gnss arrays, or neither")),
     };

@@ -2,6 +2,7 @@
 
 pub mod accel_dr;
 pub mod adaptive;
+pub mod consistency;
 pub mod cp_attitude;
 pub mod eskf;
 pub mod pf_lc;

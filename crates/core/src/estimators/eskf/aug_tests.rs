@@ -94,7 +94,7 @@ fn off_is_bit_identical_forward_and_smoothed() {
         }
         let (sols, recs) = run_records(&mut f, &d);
         let mut sm = Vec::new();
-        rts_smooth(&recs, |e| {
+        rts_smooth(&recs, f.last_record_covariance(), |e| {
             sm.push((e.t, e.nav.lat, e.nav.lon, e.nav.h, e.nav.v_n))
         });
         (sols, sm, *f.covariance(), f.augmented())
@@ -276,7 +276,7 @@ fn smoother_handles_augmented_states() {
         .collect();
     assert_eq!(fwd.len(), recs.len());
     let mut sm = Vec::new();
-    rts_smooth(&recs, |e| sm.push(e.nav));
+    rts_smooth(&recs, f.last_record_covariance(), |e| sm.push(e.nav));
     sm.reverse();
     // Largest horizontal error inside the outage, forward vs smoothed.
     let (mut ef, mut es) = (0.0f64, 0.0f64);
