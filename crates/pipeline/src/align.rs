@@ -20,8 +20,8 @@
 //!      while moving;
 //!    - where the course is not the heading (pedestrian, uav, marine): a
 //!      bank of full ESKFs over a yaw grid weighted by the GSF
-//!      ([`crate::yaw_bank`]), started once the tilt is known and the GNSS
-//!      has seen a significant horizontal acceleration.
+//!      ([`crate::yaw_bank`]), started once the tilt is known; it decides
+//!      only once the GSF has seen a significant horizontal acceleration.
 //!
 //!    The filter starts at the first GNSS epoch where the heading is known,
 //!    at that fix's velocity, with σ from the sources. Before that there is no
@@ -101,7 +101,15 @@ pub struct Alignment {
     /// yaw hypothesis (initial state, σ and −ln of its prior weight relative
     /// to the most likely); `nav`/`init_std` are then the GSF's composite.
     pub hypotheses: Vec<(NavState, InitStd, f64)>,
+    /// When the bank may decide (meaningful with `hypotheses`).
+    pub bank_gate: crate::yaw_bank::BankGate,
 }
+
+/// No bank: no gate.
+const NO_GATE: crate::yaw_bank::BankGate = crate::yaw_bank::BankGate {
+    t_observable: f64::NEG_INFINITY,
+    fallback_yaw: f64::NAN,
+};
 
 /// The sensor- and platform-dependent inputs of [`align`].
 #[derive(Clone, Copy, Debug)]
@@ -287,6 +295,7 @@ pub fn align(
             wait_s: 0.0,
             warnings,
             hypotheses: Vec::new(),
+            bank_gate: NO_GATE,
         });
     }
 
@@ -337,6 +346,7 @@ pub fn align(
             wait_s: 0.0,
             warnings,
             hypotheses: Vec::new(),
+            bank_gate: NO_GATE,
         });
     }
 
@@ -358,8 +368,8 @@ pub fn align(
         model.profile.is_none_or(|p| p.course_is_heading) && matches!(source, "auto" | "course");
     let use_gsf = matches!(source, "auto" | "gsf");
     // Where the course does not give the heading, the ESKF bank over the
-    // GSF's hypotheses starts once the tilt is known and the GNSS has seen
-    // a significant horizontal acceleration (see
+    // GSF's hypotheses starts once the tilt is known and decides once the
+    // GNSS has seen a significant horizontal acceleration (see
     // [`crate::yaw_bank`]); NHC platforms keep course-or-converged-GSF.
     let use_bank = use_gsf && !use_course && cfg.init.attitude.is_none();
     // Heading change between two times from the z gyro (a straightness test
@@ -378,6 +388,8 @@ pub fn align(
     let mut best: Option<(usize, f64)> = None; // (fix index, yaw σ)
     let mut chosen: Option<(usize, f64, f64, &'static str)> = None; // (j, yaw, σ, method)
     let t_imu0 = imu[0].t - imu[0].dt;
+    // The bank's gate (see [`crate::yaw_bank::BankGate`]).
+    let (mut bank_t_obs, mut bank_fallback) = (f64::INFINITY, f64::NAN);
     for j in 0..gnss.len() {
         let g = &gnss[j];
         if g.t < t_imu0 {
@@ -412,13 +424,31 @@ pub fn align(
                 break;
             }
         }
-        // Not before a significant horizontal acceleration: before it every
-        // yaw explains the data (a cruise at constant velocity), and the
-        // members' biases absorb a wrong yaw (seen: a multirotor cruising
-        // 50 s at 12 m/s, a 150°-off member kept).
-        if use_bank && e.horizontal_accel_seen > 0.0 {
+        // The bank starts as soon as the tilt is known; it decides only once
+        // the GSF has seen a significant horizontal acceleration (before it
+        // every yaw explains the data, a cruise at constant velocity, and
+        // the members' biases absorb a wrong yaw). So the scan goes on to
+        // that epoch, or to the bank's time bound (the GSF's mixture yaw
+        // there picks the member that goes on).
+        if let Some((jc, ..)) = chosen {
+            bank_fallback = e.yaw;
+            if e.horizontal_accel_seen > 0.0 {
+                bank_t_obs = g.t;
+                break;
+            }
+            if g.t - gnss[jc].t >= crate::yaw_bank::MAX_BANK_S {
+                break;
+            }
+            continue;
+        }
+        if use_bank {
             chosen = Some((j, e.yaw, e.std, "gsf-bank"));
-            break;
+            bank_fallback = e.yaw;
+            if e.horizontal_accel_seen > 0.0 {
+                bank_t_obs = g.t;
+                break;
+            }
+            continue;
         }
         if use_gsf && e.converged {
             chosen = Some((j, e.yaw, e.std, "gsf"));
@@ -555,6 +585,10 @@ pub fn align(
         wait_s,
         warnings,
         hypotheses,
+        bank_gate: crate::yaw_bank::BankGate {
+            t_observable: bank_t_obs,
+            fallback_yaw: bank_fallback,
+        },
     })
 }
 

@@ -448,7 +448,7 @@ pub(crate) fn run_eskf_span(
                 Ok(m)
             })
             .collect::<Result<Vec<_>>>()?;
-        let b = run_bank(members, imu, gnss, k_start, g0);
+        let b = run_bank(members, imu, gnss, k_start, g0, a.bank_gate);
         a.description += &format!("; {}", b.description);
         // The initial yaw σ of the member that won, not the mixture's.
         if let Some(s) = b.winner.sols.first() {

@@ -17,13 +17,25 @@
 //! log-likelihood is `−½ Σ NIS` of its GNSS updates (the `ln |S|` term is
 //! left out: the members share R, which dominates S after the first epochs).
 //!
-//! A member is dropped when its likelihood is below [`PRUNE_RATIO`]⁻¹ of the
-//! best, or when its yaw is within the larger of the two yaw σ of a better
-//! member (the same hypothesis twice). The bank is resolved when one member
+//! The bank starts at the first epoch the tilt is known. A member is
+//! dropped when its yaw is within the smaller of the two yaw σ of a better
+//! member (the same hypothesis twice), and — only once the yaw is
+//! observable ([`BankGate::t_observable`]: the GSF's test for a significant
+//! horizontal acceleration has passed) — when its likelihood, counted from
+//! that epoch on (times its prior), is below [`PRUNE_RATIO`]⁻¹ of the best.
+//! Before that every yaw explains a constant velocity, and the likelihood
+//! spread is model error (the members' biases absorb a wrong yaw), not
+//! evidence: seen on a multirotor with a consumer IMU cruising at 12 m/s,
+//! where the spread gathered before the first acceleration picked a member
+//! 150° off, or decided within 2 s of it for one that doubled the position
+//! error. The bank is resolved when one member
 //! is left; its whole history from the bank start becomes the run's output
 //! (post-processing: the choice is made with hindsight, nothing is output
-//! twice). At most [`MAX_BANK_S`] after the start the best member continues
-//! alone, its covariance unchanged.
+//! twice). At most [`MAX_BANK_S`] after the start one member continues
+//! alone, its covariance unchanged: the best if the yaw was observable by
+//! then, else the one closest to the GSF's mixture mean
+//! ([`BankGate::fallback_yaw`]) — the score of an unobservable contest
+//! is no evidence.
 //!
 //! Frames: body FRD, nav NED; angles in rad.
 
@@ -42,6 +54,17 @@ pub const PRUNE_RATIO: f64 = 1000.0;
 /// does not reveal, and the best member goes on with its honest covariance.
 pub const MAX_BANK_S: f64 = 120.0;
 
+/// When the bank may decide, from the GSF run over the same data.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct BankGate {
+    /// GPS time [s] of the first GNSS epoch at which the GSF saw a
+    /// significant horizontal acceleration (+∞: none within [`MAX_BANK_S`]).
+    pub t_observable: f64,
+    /// GSF mixture yaw [rad] at the end of the bank's time bound (used only
+    /// when the yaw never became observable).
+    pub fallback_yaw: f64,
+}
+
 /// One filter of the bank and everything it has output.
 pub(crate) struct Member {
     pub eskf: Eskf,
@@ -57,6 +80,9 @@ pub(crate) struct Member {
     /// σ rows of every solution ([`Member::tracking`] with `with_std`).
     pub std: Vec<StdRow>,
     with_std: bool,
+    /// −ln of the prior weight (the score at the bank's start; the score is
+    /// reset to it when the yaw becomes observable).
+    prior: f64,
 }
 
 impl Member {
@@ -72,6 +98,7 @@ impl Member {
             nis: NisMonitor::default(),
             std: Vec::new(),
             with_std: false,
+            prior: 0.0,
         }
     }
 
@@ -150,11 +177,16 @@ pub(crate) fn run_bank(
     gnss: &[GnssFix],
     k_start: usize,
     g_start: usize,
+    gate: BankGate,
 ) -> BankOutcome {
     let n0 = members.len();
     let t0 = imu[k_start].t;
     let (mut k, mut g, mut fed) = (k_start, g_start, 0usize);
     let ln_prune = PRUNE_RATIO.ln();
+    for m in members.iter_mut() {
+        m.prior = m.score;
+    }
+    let mut was_obs = imu[k_start].t >= gate.t_observable;
     let mut why = "the data ended";
     while k < imu.len() && members.len() > 1 {
         let s = &imu[k];
@@ -167,8 +199,22 @@ pub(crate) fn run_bank(
             m.step(&gnss[g0..g], s);
         }
         k += 1;
+        // The likelihood counts from the epoch the yaw became observable:
+        // the spread gathered before it is the members' model error (their
+        // biases absorbing a wrong yaw at constant velocity), not evidence.
+        if !was_obs && s.t >= gate.t_observable {
+            was_obs = true;
+            for m in members.iter_mut() {
+                m.score = m.prior;
+            }
+        }
         if g > g0 {
-            prune(&mut members, ln_prune);
+            let ln = if s.t >= gate.t_observable {
+                ln_prune
+            } else {
+                f64::INFINITY
+            };
+            prune(&mut members, ln);
         }
         if s.t - t0 >= MAX_BANK_S {
             why = "the time limit";
@@ -176,11 +222,19 @@ pub(crate) fn run_bank(
         }
     }
     let resolved = members.len() == 1;
-    let best = members
-        .iter()
-        .enumerate()
-        .min_by(|a, b| a.1.score.total_cmp(&b.1.score))
-        .map_or(0, |(i, _)| i);
+    let t_last = imu[k.saturating_sub(1).min(imu.len() - 1)].t;
+    let observable = t_last >= gate.t_observable;
+    let mut kept = "best";
+    let best = if observable || !gate.fallback_yaw.is_finite() {
+        members
+            .iter()
+            .enumerate()
+            .min_by(|a, b| a.1.score.total_cmp(&b.1.score))
+            .map_or(0, |(i, _)| i)
+    } else {
+        kept = "yaw unobservable: the one closest to the GSF's yaw";
+        closest(&members, gate.fallback_yaw)
+    };
     let winner = members.swap_remove(best);
     let (yaw, std) = winner.yaw();
     let t_end = imu[k.min(imu.len() - 1)].t;
@@ -195,7 +249,7 @@ pub(crate) fn run_bank(
     } else {
         format!(
             "bank of {n0} ESKFs over yaw hypotheses not resolved ({why}, {} left): \
-             best kept, yaw {:.1}° ± {:.1}°",
+             {kept} kept, yaw {:.1}° ± {:.1}°",
             members.len() + 1,
             yaw.to_degrees(),
             std.to_degrees()
@@ -210,8 +264,22 @@ pub(crate) fn run_bank(
     }
 }
 
+/// Index of the member whose yaw is closest to `yaw` [rad].
+fn closest(members: &[Member], yaw: f64) -> usize {
+    members
+        .iter()
+        .enumerate()
+        .min_by(|a, b| {
+            let da = wrap_pi(a.1.yaw().0 - yaw).abs();
+            let db = wrap_pi(b.1.yaw().0 - yaw).abs();
+            da.total_cmp(&db)
+        })
+        .map_or(0, |(i, _)| i)
+}
+
 /// Drop members whose likelihood is below 1/[`PRUNE_RATIO`] of the best,
 /// and members that repeat a better member's yaw (within the smaller σ).
+/// `ln_prune = ∞` drops repeats only (the yaw not yet observable).
 fn prune(members: &mut Vec<Member>, ln_prune: f64) {
     let best = members
         .iter()
@@ -289,5 +357,33 @@ mod tests {
         prune(&mut ms, PRUNE_RATIO.ln());
         let yaws: Vec<f64> = ms.iter().map(|m| m.yaw().0.to_degrees().round()).collect();
         assert_eq!(yaws, vec![10.0, 13.0, 40.0]);
+    }
+
+    /// Before the yaw is observable (ln ratio ∞) only repeats are dropped,
+    /// however large the likelihood spread.
+    #[test]
+    fn prune_keeps_unlikely_members_while_unobservable() {
+        let mut ms = vec![
+            member(10.0, 3.0, 5.0),
+            member(11.0, 2.0, 6.0),    // repeat of the best
+            member(-80.0, 3.0, 500.0), // far less likely, kept
+        ];
+        prune(&mut ms, f64::INFINITY);
+        let yaws: Vec<f64> = ms.iter().map(|m| m.yaw().0.to_degrees().round()).collect();
+        assert_eq!(yaws, vec![10.0, -80.0]);
+    }
+
+    /// The fallback member is the one nearest the GSF's yaw across ±180°,
+    /// whatever the scores.
+    #[test]
+    fn closest_wraps_around_pi() {
+        let ms = vec![
+            member(170.0, 5.0, 0.0),
+            member(-175.0, 5.0, 50.0),
+            member(0.0, 5.0, 1.0),
+        ];
+        assert_eq!(closest(&ms, (-179.0f64).to_radians()), 1);
+        assert_eq!(closest(&ms, (176.0f64).to_radians()), 0);
+        assert_eq!(closest(&ms, (20.0f64).to_radians()), 2);
     }
 }
