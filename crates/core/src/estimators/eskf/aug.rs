@@ -34,6 +34,8 @@
 //! Error signs follow the position state: `δa = â − a`, feedback `â ← â − δa`.
 
 use super::{FSparse, UpdateReject, NX};
+#[allow(unused_imports)]
+use crate::prelude::*;
 use crate::Vec3;
 use nalgebra::{SMatrix, SVector};
 
