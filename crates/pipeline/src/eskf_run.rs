@@ -539,14 +539,7 @@ mod tests {
         let (lat0, lon0, h) = (40.0f64.to_radians(), -105.0f64.to_radians(), 1600.0);
         let (rm, _) = navfuse_core::earth::radii(lat0);
         let (t0, v, g, dt) = (1000.0, 5.0, 9.8, 0.01);
-        let imu: Vec<ImuSample> = (1..=6000)
-            .map(|k| ImuSample {
-                t: t0 + k as f64 * dt,
-                dt,
-                dtheta_b: Vec3::zeros(),
-                dvel_b: Vec3::new(0.0, 0.0, -g * dt),
-            })
-            .collect();
+        let imu = crate::level_imu(t0, 6000, dt, g);
         let gnss: Vec<GnssFix> = (0..=60)
             .map(|k| GnssFix {
                 t: t0 + k as f64,

@@ -63,6 +63,20 @@ pub use input::AuxSeries;
 pub use run::{run, RunOptions, RunOutcome};
 pub use tool_error::ToolError;
 
+/// `n` IMU samples from `t0 + dt` on of a level, unaccelerated body (no
+/// rotation, specific force `−g` down): the synthetic drives of the tests.
+#[cfg(test)]
+pub(crate) fn level_imu(t0: f64, n: usize, dt: f64, g: f64) -> Vec<navfuse_core::types::ImuSample> {
+    (1..=n)
+        .map(|k| navfuse_core::types::ImuSample {
+            t: t0 + k as f64 * dt,
+            dt,
+            dtheta_b: navfuse_core::Vec3::zeros(),
+            dvel_b: navfuse_core::Vec3::new(0.0, 0.0, -g * dt),
+        })
+        .collect()
+}
+
 /// A per-process scratch folder for a test, created:
 /// `navfuse-{name}-{pid}` in the system temp dir.
 #[cfg(test)]

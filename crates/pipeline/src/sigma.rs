@@ -168,7 +168,6 @@ mod tests {
     use super::*;
     use crate::config::RunConfig;
     use crate::eskf_run::run_eskf;
-    use navfuse_core::types::ImuSample;
 
     /// A 300 s level drive north at 5 m/s (100 Hz IMU, gravity only), 1 Hz
     /// fixes with white N(0, 0.5² m²) horizontal and N(0, 1 m²) vertical
@@ -178,14 +177,7 @@ mod tests {
         let (lat0, lon0, h) = (40.0f64.to_radians(), -105.0f64.to_radians(), 1600.0);
         let (rm, rn) = navfuse_core::earth::radii(lat0);
         let (t0, v, g, dt) = (1000.0, 5.0, 9.8, 0.01);
-        let imu: Vec<ImuSample> = (1..=30_000)
-            .map(|k| ImuSample {
-                t: t0 + k as f64 * dt,
-                dt,
-                dtheta_b: Vec3::zeros(),
-                dvel_b: Vec3::new(0.0, 0.0, -g * dt),
-            })
-            .collect();
+        let imu = crate::level_imu(t0, 30_000, dt, g);
         let mut s = 0x9e37_79b9_7f4a_7c15u64;
         let mut u = move || {
             s ^= s << 13;
