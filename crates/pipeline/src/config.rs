@@ -85,6 +85,33 @@ pub struct RunConfig {
 }
 
 impl RunConfig {
+    /// A configuration for IMU/GNSS streams handed over in memory (the
+    /// live ESKF, `kf-gins --align`): no files, no `[init]`, `filter` as
+    /// given; `source` names it in error messages.
+    pub fn for_streams(filter: FilterCfg, source: Option<PathBuf>) -> RunConfig {
+        RunConfig {
+            input: InputCfg {
+                imu: "-".into(),
+                imu_format: None,
+                imu_rate: default_rate(),
+                csv: None,
+                gnss: "-".into(),
+                gnss_format: None,
+                start: None,
+                imu_time_offset: None,
+                imu_tag: None,
+                imu_time_base: None,
+                gnss_time_base: None,
+            },
+            init: InitCfg::default(),
+            filter,
+            outage: None,
+            output: None,
+            formats: Vec::new(),
+            source,
+        }
+    }
+
     /// Read and parse a TOML run configuration. Errors: `FILE: cannot read: …`
     /// ([`PipelineError::Io`]) or `FILE: <TOML error naming the key>`
     /// ([`PipelineError::Config`]).

@@ -19,19 +19,21 @@
 //! unchanged (outputs identical to `--align yaml`).
 
 use crate::align::{align, AlignModel, Alignment};
-use crate::config::{FilterCfg, InitCfg, InputCfg, RunConfig};
+use crate::config::{FilterCfg, RunConfig};
 use crate::error::{PipelineError, Result};
 use crate::profile::Profile;
 use navfuse_core::attitude::{dcm_from_quat, dcm_from_rotvec, rotvec_from_dcm};
 use navfuse_core::earth::OMEGA_IE;
 use navfuse_core::estimators::eskf::EskfConfig;
+use navfuse_core::kalman::chi2_quantile;
 use navfuse_core::types::{GnssFix, ImuSample};
 use navfuse_core::Vec3;
 use navfuse_io::kfgins_yaml::KfGinsConfig;
 use std::path::Path;
 
-/// 0.9999 quantile of χ² with 3 degrees of freedom.
-const CHI2_3_9999: f64 = 21.108;
+/// Probability of the χ²(3) attitude test (the gate `--enhanced` uses for
+/// measurements): its quantile is ≈ 21.1.
+const TEST_PROBABILITY: f64 = 0.9999;
 
 /// Where `kf-gins` takes its initial state from.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
@@ -97,27 +99,7 @@ pub fn decide(
             yaml.display()
         )));
     }
-    let run_cfg = RunConfig {
-        input: InputCfg {
-            imu: cfg.imupath.clone(),
-            imu_format: Some("kf-gins".into()),
-            imu_rate: cfg.imudatarate,
-            csv: None,
-            gnss: cfg.gnsspath.clone(),
-            gnss_format: Some("kf-gins".into()),
-            start: None,
-            imu_time_offset: None,
-            imu_tag: None,
-            imu_time_base: None,
-            gnss_time_base: None,
-        },
-        init: InitCfg::default(),
-        filter: FilterCfg::default(),
-        outage: None,
-        output: None,
-        formats: Vec::new(),
-        source: Some(yaml.to_path_buf()),
-    };
+    let run_cfg = RunConfig::for_streams(FilterCfg::default(), Some(yaml.to_path_buf()));
     let model = AlignModel {
         noise: &ecfg.noise,
         sensor: None,
@@ -157,9 +139,10 @@ pub fn decide(
         "attitude difference data − YAML [{:.1}, {:.1}, {:.1}]° (N, E, D), χ² {chi2:.1}",
         deg.x, deg.y, deg.z
     );
-    if chi2 > CHI2_3_9999 {
+    let limit = chi2_quantile(3, TEST_PROBABILITY);
+    if chi2 > limit {
         let note = format!(
-            "the YAML's initial attitude disagrees with the data ({diff} > {CHI2_3_9999}): \
+            "the YAML's initial attitude disagrees with the data ({diff} > {limit:.3}): \
              started from the data's alignment instead ({}); use --align yaml to keep the YAML's",
             a.description
         );
@@ -264,7 +247,7 @@ mod tests {
         let (yaml, truth) = sim_yaml("kfalign-guess", 90.0);
         let auto = run(&yaml, None);
         assert!(auto.align.alignment.is_some(), "{}", auto.align.note);
-        assert!(auto.align.chi2.unwrap() > CHI2_3_9999);
+        assert!(auto.align.chi2.unwrap() > chi2_quantile(3, TEST_PROBABILITY));
         let e_auto = end_error(&auto, truth);
         let kept = run(&yaml, Some(AlignSource::Yaml));
         let e_kept = end_error(&kept, truth);
@@ -280,7 +263,7 @@ mod tests {
         let (yaml, _) = sim_yaml("kfalign-true", 0.0);
         let auto = run(&yaml, None);
         assert!(auto.align.alignment.is_none(), "{}", auto.align.note);
-        assert!(auto.align.chi2.unwrap() < CHI2_3_9999);
+        assert!(auto.align.chi2.unwrap() < chi2_quantile(3, TEST_PROBABILITY));
         let kept = run(&yaml, Some(AlignSource::Yaml));
         assert_eq!(auto.solutions.len(), kept.solutions.len());
         let same = auto

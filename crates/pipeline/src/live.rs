@@ -114,32 +114,13 @@ pub fn aligning_eskf(
     if platform.is_none() {
         return Err("the self-aligning ESKF needs --platform".into());
     }
-    let cfg = crate::config::RunConfig {
-        input: crate::config::InputCfg {
-            imu: "-".into(),
-            imu_format: None,
-            imu_rate: 100.0,
-            csv: None,
-            gnss: "-".into(),
-            gnss_format: None,
-            start: None,
-            imu_time_offset: None,
-            imu_tag: None,
-            imu_time_base: None,
-            gnss_time_base: None,
-        },
-        init: Default::default(),
-        filter: crate::config::FilterCfg {
-            platform,
-            imu_preset: imu_preset.map(str::to_string),
-            lever_arm,
-            ..Default::default()
-        },
-        outage: None,
-        output: None,
-        formats: Vec::new(),
-        source: None,
+    let filter = crate::config::FilterCfg {
+        platform,
+        imu_preset: imu_preset.map(str::to_string),
+        lever_arm,
+        ..Default::default()
     };
+    let cfg = crate::config::RunConfig::for_streams(filter, None);
     let e = crate::live_align::AligningEskf::new(cfg, std::path::Path::new("."))
         .map_err(|e| ToolError(e.to_string()))?;
     Ok(Box::new(e))

@@ -37,7 +37,6 @@ pub mod svg;
 
 use navfuse_core::NavSolution;
 use navfuse_eval::{EvalConfig, Evaluation, Outage};
-use navfuse_io::trajectory::{open_nav_source, InFormat};
 use serde::Serialize;
 use std::path::{Path, PathBuf};
 
@@ -271,21 +270,8 @@ fn stem(p: &Path) -> String {
 /// Read a trajectory: `.nav` KF-GINS, `.pos` RTKLIB, `.csv` navfuse
 /// trajectory CSV, `.txt` KF-GINS GNSS (only when `txt_is_gnss`).
 pub fn read_trajectory(path: &Path, name: &str, txt_is_gnss: bool) -> Result<Trajectory, String> {
-    let fmt = match InFormat::from_path(path) {
-        Some(f) => f,
-        None if txt_is_gnss => InFormat::KfGinsGnss,
-        None => {
-            return Err(format!(
-                "{}: unknown trajectory format (expected .nav, .pos or .csv)",
-                path.display()
-            ))
-        }
-    };
-    let mut src = open_nav_source(path, fmt, 0).map_err(|e| e.to_string())?;
-    let mut epochs = Vec::new();
-    for r in src.by_ref() {
-        epochs.push(r.map_err(|e| e.to_string())?);
-    }
+    let (mut epochs, stats) =
+        navfuse_eval::files::read_trajectory(path, 0, txt_is_gnss).map_err(|e| e.to_string())?;
     if epochs.is_empty() {
         return Err(format!("{}: no epochs", path.display()));
     }
@@ -295,7 +281,7 @@ pub fn read_trajectory(path: &Path, name: &str, txt_is_gnss: bool) -> Result<Tra
         name: name.to_string(),
         path: Some(path.to_path_buf()),
         epochs,
-        records: Some(src.stats().to_string()),
+        records: Some(stats.to_string()),
     })
 }
 
