@@ -487,26 +487,46 @@ pub fn align(
     };
     let g = gnss[j];
     let gsf_at_j = rerun_gsf_to(gcfg, imu, gnss, j);
-    let (roll, pitch) = match (cfg.init.attitude, method) {
-        (Some(a), _) => (a[0].to_radians(), a[1].to_radians()),
-        _ => {
-            let e = gsf_at_j
-                .as_ref()
-                .and_then(YawGsf::estimate)
-                .ok_or_else(|| PipelineError::Alignment("tilt: GSF failed".into()))?;
-            (e.roll, e.pitch)
-        }
+    let gsf_tilt = || -> Result<(f64, f64)> {
+        let e = gsf_at_j
+            .as_ref()
+            .and_then(YawGsf::estimate)
+            .ok_or_else(|| PipelineError::Alignment("tilt: GSF failed".into()))?;
+        Ok((e.roll, e.pitch))
     };
     let (v, sv) = gnss_velocity(gnss, j).unwrap_or((Vec3::zeros(), Vec3::repeat(1.0)));
     let k_start = imu.partition_point(|s| s.t < g.t).min(imu.len() - 1);
     let v0 = cfg.init.velocity.map_or(v, Vec3::from);
-    let tilt_std = if cal.is_some() {
-        GSF_TILT_STD.min(1.0f64.to_radians())
-    } else {
-        GSF_TILT_STD
+    // In motion, roll and pitch come from the GNSS-compensated force pair
+    // ([`crate::motion_tilt`]) for each yaw; after a static window the
+    // GSF carries the levelled tilt through the motion with the gyro.
+    let ba_std = model.sensor.map_or(0.2, |s| s.init_ba_std);
+    let pair = match (is_static, cfg.init.attitude) {
+        (false, None) => crate::motion_tilt::force_pair(
+            imu,
+            gnss,
+            j,
+            &|i| gnss_velocity(gnss, i),
+            &bg0,
+            bg_std.max(),
+            ba_std,
+        ),
+        _ => None,
+    };
+    let fallback = match cfg.init.attitude {
+        Some(a) => (a[0].to_radians(), a[1].to_radians()),
+        None => gsf_tilt()?,
+    };
+    let tilt_for = |yaw: f64| pair.and_then(|p| p.tilt(yaw)).unwrap_or(fallback);
+    let (roll, pitch) = tilt_for(yaw);
+    let tilt_std = match (pair.and_then(|p| p.tilt(yaw)), cal.is_some()) {
+        (Some(_), _) => pair.map_or(GSF_TILT_STD, |p| p.tilt_std),
+        (None, true) => GSF_TILT_STD.min(1.0f64.to_radians()),
+        (None, false) => GSF_TILT_STD,
     };
     // The state at the start sample for a yaw and its σ.
     let start_state = |yaw: f64, yaw_std: f64| {
+        let (roll, pitch) = tilt_for(yaw);
         let mut nav = NavState {
             q_bn: q_bn_from_rpy(&Vec3::new(roll, pitch, yaw)),
             ..Default::default()

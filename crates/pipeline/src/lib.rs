@@ -33,6 +33,7 @@ mod kf_gins_out;
 pub mod kfgins_input;
 pub mod live;
 pub mod live_align;
+pub mod motion_tilt;
 pub mod noise_cfg;
 mod other;
 pub mod outputs;

@@ -250,3 +250,89 @@ mod tests {
         assert!((h + core::f64::consts::FRAC_PI_2).abs() < 1e-12);
     }
 }
+
+/// Roll and pitch [rad] in motion for a known yaw `yaw` [rad], from one
+/// specific-force vector pair: `f_b` in the body frame (FRD) and `f_n` in NED,
+/// the same force (`f_n = C_bn f_b`, `C_bn = R_z(ψ) R_y(θ) R_x(φ)`,
+/// `SEEDS.md §1` eq. 3). In motion `f_n = a_n − g_n + (2ω_ie + ω_en) × v_n`
+/// (Groves eq. 5.54) with the acceleration taken from GNSS velocities; at
+/// rest it reduces to [`level`]. Only the directions are used.
+///
+/// With `u = R_zᵀ f_n` (the heading frame): `f_b,x = u_x cos θ − u_z sin θ`
+/// fixes θ (the root nearest level), then φ is the angle that turns
+/// `(R_yᵀ u)_yz` into `f_b,yz`. `None` when either vector is degenerate
+/// (free fall, NaN) or the pair admits no tilt (|f_b,x| > |u_xz|).
+pub fn tilt_given_yaw(f_b: &Vec3, f_n: &Vec3, yaw: f64) -> Option<(f64, f64)> {
+    let (nb, nn) = (f_b.norm(), f_n.norm());
+    if !(nb > 1.0 && nn > 1.0 && nb.is_finite() && nn.is_finite()) {
+        return None;
+    }
+    let (f, fnn) = (f_b / nb, f_n / nn);
+    let (sy, cy) = yaw.sin_cos();
+    // u = R_z(ψ)ᵀ f_n.
+    let u = Vec3::new(cy * fnn.x + sy * fnn.y, -sy * fnn.x + cy * fnn.y, fnn.z);
+    let r = u.x.hypot(u.z);
+    if r < 1e-6 || f.x.abs() > r * (1.0 + 1e-9) {
+        return None;
+    }
+    let beta = u.z.atan2(u.x);
+    let a = (f.x / r).clamp(-1.0, 1.0).acos();
+    let wrap = crate::attitude::wrap_pi;
+    // Both roots of the pitch equation fit the pair exactly (the force
+    // direction leaves one rotation free); the vehicle is the one nearer
+    // level: the larger cos φ cos θ (body down closest to nav down).
+    let solve = |pitch: f64| {
+        let (sp, cp) = pitch.sin_cos();
+        // w = R_y(θ)ᵀ u; f = R_x(φ)ᵀ w turns (w_y, w_z) by −φ.
+        let (wy, wz) = (u.y, sp * u.x + cp * u.z);
+        let roll = wrap(wz.atan2(wy) - f.z.atan2(f.y));
+        // A ZYX pitch lies in [−90°, 90°]; the other range is the same
+        // rotation with roll and yaw turned by 180°, not this yaw.
+        let c = if cp >= 0.0 {
+            roll.cos() * cp
+        } else {
+            f64::NEG_INFINITY
+        };
+        (roll, pitch, c)
+    };
+    let (r1, p1, c1) = solve(wrap(a - beta));
+    let (r2, p2, c2) = solve(wrap(-a - beta));
+    let (roll, pitch, c) = if c1 >= c2 { (r1, p1, c1) } else { (r2, p2, c2) };
+    (c > f64::NEG_INFINITY).then_some((roll, pitch))
+}
+
+#[cfg(test)]
+mod tilt_tests {
+    use super::*;
+    use crate::ins::mech::q_bn_from_rpy;
+
+    /// Any vehicle attitude (roll, pitch within ±45°) and any acceleration
+    /// up to 0.5 g horizontally: the pair gives back roll and pitch to 1e-9
+    /// rad (the second, steeper root is the one left out).
+    #[test]
+    fn tilt_given_yaw_recovers_roll_and_pitch() {
+        let mut s = 0x2545_f491_4f6c_dd1du64;
+        let mut rnd = || {
+            s ^= s << 13;
+            s ^= s >> 7;
+            s ^= s << 17;
+            (s >> 11) as f64 / (1u64 << 53) as f64 * 2.0 - 1.0
+        };
+        for _ in 0..2000 {
+            let rpy = Vec3::new(rnd() * 0.78, rnd() * 0.78, rnd() * 3.1);
+            let a_n = Vec3::new(rnd() * 3.4, rnd() * 3.4, rnd() * 2.0);
+            let f_n = a_n - Vec3::new(0.0, 0.0, 9.81);
+            let c_bn = q_bn_from_rpy(&rpy).to_rotation_matrix().into_inner();
+            let f_b = c_bn.transpose() * f_n;
+            let (r, p) = tilt_given_yaw(&f_b, &f_n, rpy.z).expect("a valid pair");
+            assert!((r - rpy.x).abs() < 1e-9, "roll {r} vs {}", rpy.x);
+            assert!((p - rpy.y).abs() < 1e-9, "pitch {p} vs {}", rpy.y);
+        }
+        // At rest it is levelling.
+        let f_b = Vec3::new(0.8, -1.1, -9.7);
+        let (r, p) = tilt_given_yaw(&f_b, &Vec3::new(0.0, 0.0, -9.8), 0.3).unwrap();
+        let (rl, pl) = level(&f_b);
+        assert!((r - rl).abs() < 1e-12 && (p - pl).abs() < 1e-12);
+        assert!(tilt_given_yaw(&Vec3::zeros(), &Vec3::new(0.0, 0.0, -9.8), 0.0).is_none());
+    }
+}

@@ -102,6 +102,8 @@ pub struct AlignRow {
     /// Yaw error of the first solution [deg] and the σ the alignment gave it
     /// (diagnostics: a hand-over error beyond 3σ is the alignment's fault).
     pub yaw_err_start_deg: f64,
+    /// Roll and pitch error of the first solution [deg].
+    pub tilt_err_start_deg: [f64; 2],
     pub yaw_std_start_deg: f64,
     pub heading_max_err_deg: f64,
     pub heading_pass: bool,
@@ -110,6 +112,9 @@ pub struct AlignRow {
     pub h_rms_solution_m: f64,
     pub h_rms_gnss_m: f64,
     pub worse_than_gnss: bool,
+    /// Horizontal RMS of the solution at the fix epochs [m].
+    pub h_rms_solution_at_fixes_m: f64,
+    pub worse_than_gnss_at_fixes: bool,
 }
 
 /// One scenario's shares over its seeds and the per-seed rows.
@@ -122,6 +127,7 @@ pub struct ScenarioReport {
     pub heading_pass_share: f64,
     pub velocity_pass_share: f64,
     pub worse_than_gnss_share: f64,
+    pub worse_than_gnss_at_fixes_share: f64,
     pub latency_median_s: f64,
     pub latency_max_s: f64,
     pub rows: Vec<AlignRow>,
@@ -142,6 +148,7 @@ fn failed(seed: u64, msg: String) -> AlignRow {
         motion_start_s: f64::NAN,
         latency_s: f64::NAN,
         yaw_err_start_deg: f64::NAN,
+        tilt_err_start_deg: [f64::NAN; 2],
         yaw_std_start_deg: f64::NAN,
         heading_max_err_deg: f64::NAN,
         heading_pass: false,
@@ -150,6 +157,8 @@ fn failed(seed: u64, msg: String) -> AlignRow {
         h_rms_solution_m: f64::NAN,
         h_rms_gnss_m: f64::NAN,
         worse_than_gnss: true,
+        h_rms_solution_at_fixes_m: f64::NAN,
+        worse_than_gnss_at_fixes: true,
     }
 }
 
@@ -223,7 +232,30 @@ fn measure(pr: &PlatformRun) -> Result<AlignRow, String> {
             n.hypot(e)
         })
         .collect();
+    let e_at_fixes: Vec<f64> = pr
+        .run
+        .gnss
+        .iter()
+        .filter(|g| g.t >= first && g.t <= last)
+        .filter_map(|g| {
+            let k = sols.partition_point(|s| s.t < g.t);
+            let near = [k.checked_sub(1), Some(k)]
+                .into_iter()
+                .flatten()
+                .filter_map(|i| sols.get(i))
+                .min_by(|a, b| (a.t - g.t).abs().total_cmp(&(b.t - g.t).abs()))?;
+            let (n, e) = h_error_ne(near.lat, near.lon, &traj.at(near.t));
+            Some(n.hypot(e))
+        })
+        .collect();
     let (h_sol, h_gnss) = (rms(&e_sol), rms(&e_gnss));
+    let h_sol_fix = rms(&e_at_fixes);
+    let not_better = |a: f64, b: f64| {
+        !matches!(
+            a.partial_cmp(&b),
+            Some(std::cmp::Ordering::Less | std::cmp::Ordering::Equal)
+        )
+    };
     Ok(AlignRow {
         seed: 0,
         failure: None,
@@ -233,6 +265,13 @@ fn measure(pr: &PlatformRun) -> Result<AlignRow, String> {
         yaw_err_start_deg: sols.first().map_or(f64::NAN, |s| {
             wrap_pi(s.rpy.z - traj.at(s.t).rpy.z).to_degrees()
         }),
+        tilt_err_start_deg: sols.first().map_or([f64::NAN; 2], |s| {
+            let tr = traj.at(s.t).rpy;
+            [
+                wrap_pi(s.rpy.x - tr.x).to_degrees(),
+                wrap_pi(s.rpy.y - tr.y).to_degrees(),
+            ]
+        }),
         yaw_std_start_deg: r.align_yaw_std_deg,
         heading_max_err_deg,
         heading_pass: heading_max_err_deg < HEADING_MAX_DEG,
@@ -241,10 +280,9 @@ fn measure(pr: &PlatformRun) -> Result<AlignRow, String> {
         h_rms_solution_m: h_sol,
         h_rms_gnss_m: h_gnss,
         // NaN on either side (nothing to compare) counts as worse.
-        worse_than_gnss: !matches!(
-            h_sol.partial_cmp(&h_gnss),
-            Some(std::cmp::Ordering::Less | std::cmp::Ordering::Equal)
-        ),
+        worse_than_gnss: not_better(h_sol, h_gnss),
+        h_rms_solution_at_fixes_m: h_sol_fix,
+        worse_than_gnss_at_fixes: not_better(h_sol_fix, h_gnss),
     })
 }
 
@@ -286,6 +324,7 @@ pub fn run_align_check(
                 heading_pass_share: share(&|r| r.heading_pass),
                 velocity_pass_share: share(&|r| r.velocity_pass),
                 worse_than_gnss_share: share(&|r| r.worse_than_gnss),
+                worse_than_gnss_at_fixes_share: share(&|r| r.worse_than_gnss_at_fixes),
                 latency_median_s: lat.get(lat.len() / 2).copied().unwrap_or(f64::NAN),
                 latency_max_s: lat.last().copied().unwrap_or(f64::NAN),
                 rows: rows.to_vec(),
@@ -310,18 +349,27 @@ pub fn run_align_check(
 /// The summary: one line per scenario.
 pub fn format_summary(r: &AlignReport) -> String {
     let mut s = format!(
-        "{:<22} {:>6} {:>6} {:>9} {:>9} {:>9} {:>10} {:>10}\n",
-        "scenario", "seeds", "fails", "head<2°", "|dv|<0.2", "worse>GNSS", "lat med s", "lat max s"
+        "{:<22} {:>6} {:>6} {:>9} {:>9} {:>10} {:>10} {:>10} {:>10}\n",
+        "scenario",
+        "seeds",
+        "fails",
+        "head<2°",
+        "|dv|<0.2",
+        "worse>GNSS",
+        "@fixes",
+        "lat med s",
+        "lat max s"
     );
     for c in &r.scenarios {
         s += &format!(
-            "{:<22} {:>6} {:>6} {:>8.0}% {:>8.0}% {:>9.0}% {:>10.2} {:>10.2}\n",
+            "{:<22} {:>6} {:>6} {:>8.0}% {:>8.0}% {:>9.0}% {:>9.0}% {:>10.2} {:>10.2}\n",
             c.name,
             c.seeds,
             c.failures,
             100.0 * c.heading_pass_share,
             100.0 * c.velocity_pass_share,
             100.0 * c.worse_than_gnss_share,
+            100.0 * c.worse_than_gnss_at_fixes_share,
             c.latency_median_s,
             c.latency_max_s
         );
