@@ -233,7 +233,7 @@ mod tests {
     /// line is accounted for, and the output is the batch-order result.
     #[test]
     fn live_over_files_with_bad_lines() {
-        use navfuse_core::types::Vec3;
+        use navfuse_core::types::{GnssFix, Vec3};
         let dir = std::env::temp_dir().join(format!("navfuse_live_{}", std::process::id()));
         std::fs::create_dir_all(&dir).unwrap();
         let week = 2374u32;

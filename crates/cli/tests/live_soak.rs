@@ -64,3 +64,44 @@ fn soak_over_tcp_with_drops_and_sigterm() {
     }
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// SIGINT while the IMU source (stdin) is still open: live uses what has
+/// arrived, prints its summary and exits 0.
+#[test]
+fn sigint_ends_with_summary_and_exit_0() {
+    use std::io::Write;
+    use std::process::Stdio;
+    let mut child = Command::new(env!("CARGO_BIN_EXE_navfuse"))
+        .args([
+            "live",
+            "--gps-week",
+            "2374",
+            "--gnss",
+            "none",
+            "--estimator",
+            "hold",
+        ])
+        .args(["--out", "/dev/null"])
+        .stdin(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("run navfuse live");
+    let mut stdin = child.stdin.take().unwrap();
+    for k in 0..500 {
+        writeln!(stdin, "{:.3} 0 0 0 0 0 -0.098", 243_300.0 + 0.01 * k as f64).unwrap();
+    }
+    stdin.flush().unwrap();
+    std::thread::sleep(std::time::Duration::from_millis(1500));
+    let pid = child.id().to_string();
+    assert!(Command::new("kill")
+        .args(["-INT", &pid])
+        .status()
+        .unwrap()
+        .success());
+    let out = child.wait_with_output().unwrap();
+    drop(stdin);
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{:?}\n{err}", out.status);
+    assert!(err.contains("stopped by SIGINT"), "{err}");
+    assert!(err.contains("IMU input: 500 lines: 500 used"), "{err}");
+}

@@ -13,7 +13,7 @@ use navfuse_core::Estimator;
 use navfuse_io::live::{LatencyHistogram, Sequencer};
 use navfuse_io::nmea::NmeaWriter;
 use navfuse_io::time::week_tow;
-use navfuse_io::writers::TrajectoryWriter as _;
+use navfuse_io::writers::{sigma_h, TrajectoryWriter as _};
 use navfuse_io::RecordStats;
 use std::io::{self, Write};
 
@@ -61,13 +61,6 @@ impl Out {
     }
 }
 
-/// Horizontal and vertical 1-σ [m] of a solution: `√(σN² + σE²)` (the radial
-/// σ of the two independent axes as the ESKF's diagonal gives them; RTKLIB's
-/// convention) and `σD`.
-pub fn sigma_h_v(s: &NavSolution) -> (f64, f64) {
-    (s.std_pos_ned.x.hypot(s.std_pos_ned.y), s.std_pos_ned.z)
-}
-
 /// navfuse's proprietary NMEA sentence of a solution's σ (1-σ, from the
 /// estimator's covariance; empty fields when unknown), time as in GGA:
 /// `$PNVFS,hhmmss.sss,σH[m],σV[m],σvN,σvE,σvD[m/s],σroll,σpitch,σyaw[deg]*CS`.
@@ -76,7 +69,7 @@ pub fn pnvfs_sentence(s: &NavSolution) -> String {
     use std::fmt::Write as _;
     let c = navfuse_io::time::calendar_from_gps(s.t, navfuse_io::time::TimeSystem::Utc, 3);
     let mut body = format!("PNVFS,{:02}{:02}{:06.3}", c.hour, c.minute, c.second);
-    let (sh, sv) = sigma_h_v(s);
+    let (sh, sv) = (sigma_h(s), s.std_pos_ned.z);
     let deg = s.std_rpy.map(f64::to_degrees);
     let vals = [
         sh,
@@ -385,11 +378,11 @@ pub fn jnum(x: f64, d: usize) -> String {
 /// `lat`, `lon` [deg], `h` ellipsoidal [m]; `vn`, `ve`, `vd` [m/s];
 /// `roll`, `pitch`, `yaw` [deg] (ZYX, body FRD w.r.t. NED); 1-σ from the
 /// estimator's covariance: position `sn`, `se`, `sd` [m], horizontal `sh`
-/// and vertical `sv` [m] ([`sigma_h_v`]), velocity `svn`, `sve`, `svd`
+/// and vertical `sv` [m] ([`sigma_h`]: √(σN² + σE²); `sv` = `sd`), velocity `svn`, `sve`, `svd`
 /// [m/s], attitude `sroll`, `spitch`, `syaw` [deg]. Unknown values are `null`.
 pub fn json_line(s: &NavSolution) -> String {
     let (w, tow) = week_tow(s.t);
-    let (sh, sv) = sigma_h_v(s);
+    let (sh, sv) = (sigma_h(s), s.std_pos_ned.z);
     let deg = s.std_rpy.map(f64::to_degrees);
     format!(
         "{{\"t\":{},\"week\":{w},\"tow\":{},\"lat\":{},\"lon\":{},\"h\":{},\"vn\":{},\"ve\":{},\"vd\":{},\"roll\":{},\"pitch\":{},\"yaw\":{},\"sn\":{},\"se\":{},\"sd\":{},\"sh\":{},\"sv\":{},\"svn\":{},\"sve\":{},\"svd\":{},\"sroll\":{},\"spitch\":{},\"syaw\":{}}}\n",

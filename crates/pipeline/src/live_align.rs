@@ -221,8 +221,21 @@ impl Estimator for AligningEskf {
 mod tests {
     use super::*;
     use navfuse_sim::platform::{
-        platform_run, GnssGrade, ImuGrade, Outages, Platform, PlatformOptions,
+        platform_run, GnssGrade, ImuGrade, Outages, Platform, PlatformOptions, PlatformRun,
     };
+
+    /// A simulated run starting in motion: industrial IMU, RTK, no outages.
+    fn moving_start(p: Platform, seed: u64, duration_s: f64) -> PlatformRun {
+        let opt = PlatformOptions {
+            duration_s,
+            static_start: false,
+            imu: ImuGrade::Industrial,
+            gnss: GnssGrade::Rtk,
+            outages: Outages::None,
+            ..Default::default()
+        };
+        platform_run(p, seed, &opt).unwrap()
+    }
 
     fn cfg(platform: &str) -> RunConfig {
         let text = format!(
@@ -241,19 +254,7 @@ mod tests {
             (Platform::Car, "car", 1.0),
             (Platform::Pedestrian, "pedestrian", 2.0),
         ] {
-            let pr = platform_run(
-                p,
-                3,
-                &PlatformOptions {
-                    duration_s: 200.0,
-                    static_start: false,
-                    imu: ImuGrade::Industrial,
-                    gnss: GnssGrade::Rtk,
-                    outages: Outages::None,
-                    ..Default::default()
-                },
-            )
-            .unwrap();
+            let pr = moving_start(p, 3, 200.0);
             let mut e = AligningEskf::new(cfg(name), Path::new(".")).unwrap();
             let (imu, gnss) = (&pr.run.imu, &pr.run.gnss);
             let mut g = 0;
@@ -289,19 +290,7 @@ mod tests {
     /// (one realignment, no panic) and ends within 1 m of the truth.
     #[test]
     fn aligns_again_after_a_gap() {
-        let pr = platform_run(
-            Platform::Car,
-            5,
-            &PlatformOptions {
-                duration_s: 240.0,
-                static_start: false,
-                imu: ImuGrade::Industrial,
-                gnss: GnssGrade::Rtk,
-                outages: Outages::None,
-                ..Default::default()
-            },
-        )
-        .unwrap();
+        let pr = moving_start(Platform::Car, 5, 240.0);
         let t0 = pr.run.imu[0].t;
         let out = |t: f64| (t0 + 100.0..t0 + 120.0).contains(&t);
         let mut e = AligningEskf::new(cfg("car"), Path::new(".")).unwrap();

@@ -227,6 +227,16 @@ impl Conn {
         }
         Ok(self.w.as_mut().expect("just set"))
     }
+    /// Flush what is buffered and wait until stream time `t` is due.
+    fn wait_until(&mut self, pace: &Pace, t: f64) -> Result<(), String> {
+        while !pace.due(t) {
+            if let Some(w) = self.w.as_mut() {
+                w.flush().map_err(|e| format!("replay: {e}"))?;
+            }
+            pace.wait_for(t);
+        }
+        Ok(())
+    }
     /// Flush and close (the client sees end of stream after every byte).
     fn close(&mut self) -> Result<(), String> {
         if let Some(mut w) = self.w.take() {
@@ -273,12 +283,7 @@ pub fn serve(recs: Vec<Recording>, opt: ReplayOptions) -> Result<Replay, ToolErr
             for p in passes.iter() {
                 for s in &recs[p.recording].imu {
                     let t = s.t + p.offset;
-                    while !pace.due(t) {
-                        if let Some(w) = c.w.as_mut() {
-                            w.flush().map_err(|e| format!("replay imu: {e}"))?;
-                        }
-                        pace.wait_for(t);
-                    }
+                    c.wait_until(&pace, t)?;
                     use std::fmt::Write as _;
                     line.clear();
                     let (a, v) = (s.dtheta_b, s.dvel_b);
@@ -320,12 +325,7 @@ pub fn serve(recs: Vec<Recording>, opt: ReplayOptions) -> Result<Replay, ToolErr
                 for f in &recs[p.recording].gnss {
                     let mut f = *f;
                     f.t += p.offset;
-                    while !pace.due(f.t) {
-                        if let Some(w) = c.w.as_mut() {
-                            w.flush().map_err(|e| format!("replay gnss: {e}"))?;
-                        }
-                        pace.wait_for(f.t);
-                    }
+                    c.wait_until(&pace, f.t)?;
                     buf.clear();
                     NmeaWriter::new(&mut buf)
                         .write_fix(&f)
