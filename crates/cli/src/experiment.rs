@@ -24,6 +24,8 @@ pub enum Which {
     Generalise(crate::exp_platform::GeneraliseArgs),
     /// Alignment check: pedestrian and car starting in motion, default configuration.
     Align(crate::exp_platform::AlignArgs),
+    /// Soak `navfuse live` against a looping replay server: memory, CPU, latency, reconnects.
+    Soak(crate::live::soak::Args),
 }
 
 pub fn run(args: Args) -> Result<(), String> {
@@ -33,5 +35,6 @@ pub fn run(args: Args) -> Result<(), String> {
         Which::Seed004(a) => Ok(seed004::run(a)?),
         Which::Generalise(a) => crate::exp_platform::generalise(a),
         Which::Align(a) => crate::exp_platform::align(a),
+        Which::Soak(a) => crate::live::soak::run(a),
     }
 }

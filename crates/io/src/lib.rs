@@ -25,6 +25,8 @@ pub mod imu;
 pub mod kfgins;
 pub mod kfgins_yaml;
 pub mod live;
+pub mod live_source;
+pub mod live_stats;
 pub mod navcsv;
 pub mod nmea;
 #[cfg(feature = "parquet")]

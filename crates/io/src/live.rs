@@ -1,8 +1,8 @@
 //! Pieces of live mode (`navfuse live`) that do not depend on threads or
 //! sockets, so they can be tested and fuzzed: the gpsd JSON client protocol
 //! ([`GpsdAssembler`]), a lenient IMU line parser ([`ImuLineParser`]), the
-//! time-ordering of two asynchronous streams ([`Sequencer`]), a latency
-//! histogram ([`LatencyHistogram`]) and a reader that follows a file being
+//! time-ordering of two asynchronous streams ([`Sequencer`]), the counters
+//! of [`crate::live_stats`] and a reader that follows a file being
 //! written ([`FollowReader`]).
 //!
 //! **Ordering contract.** The estimator must see exactly the event sequence a
@@ -20,6 +20,7 @@
 
 use crate::error::RecordStats;
 use crate::imu::{Assembler, ImuForm, RawImu};
+pub use crate::live_stats::{GapCounter, LatencyHistogram};
 use crate::text::parse_finite;
 use crate::time::{gps_from_calendar, gps_seconds, parse_date_time, TimeSystem};
 use navfuse_core::types::{Event, GnssFix, ImuSample, Vec3};
@@ -525,68 +526,6 @@ impl Sequencer {
     }
 }
 
-// ---------------------------------------------------------------- latency
-
-/// Histogram of latencies: 10 µs bins up to 10 s, plus an overflow count.
-/// Bounded memory for any run length.
-#[derive(Clone, Debug)]
-pub struct LatencyHistogram {
-    bins: Vec<u32>,
-    over: u64,
-    n: u64,
-    max: f64,
-}
-
-impl Default for LatencyHistogram {
-    fn default() -> Self {
-        LatencyHistogram {
-            bins: vec![0; 1_000_000],
-            over: 0,
-            n: 0,
-            max: 0.0,
-        }
-    }
-}
-
-impl LatencyHistogram {
-    const BIN: f64 = 1e-5;
-
-    pub fn add(&mut self, seconds: f64) {
-        let s = seconds.max(0.0);
-        self.n += 1;
-        self.max = self.max.max(s);
-        let k = (s / Self::BIN) as usize;
-        match self.bins.get_mut(k) {
-            Some(b) => *b = b.saturating_add(1),
-            None => self.over += 1,
-        }
-    }
-
-    pub fn count(&self) -> u64 {
-        self.n
-    }
-
-    pub fn max(&self) -> f64 {
-        self.max
-    }
-
-    /// Quantile `q` ∈ [0, 1] [s] (upper edge of its bin; NaN when empty).
-    pub fn quantile(&self, q: f64) -> f64 {
-        if self.n == 0 {
-            return f64::NAN;
-        }
-        let rank = ((q.clamp(0.0, 1.0) * self.n as f64).ceil() as u64).max(1);
-        let mut acc = 0u64;
-        for (k, &b) in self.bins.iter().enumerate() {
-            acc += u64::from(b);
-            if acc >= rank {
-                return (k + 1) as f64 * Self::BIN;
-            }
-        }
-        self.max
-    }
-}
-
 // ---------------------------------------------------------------- follow
 
 /// Reads a file that another process is still writing: at end of file it
@@ -763,15 +702,5 @@ mod tests {
         assert!((out[1].dt - 0.02).abs() < 1e-9);
         assert!(p.stats.is_balanced(), "{}", p.stats);
         assert_eq!(p.stats.rejected_total(), 3);
-    }
-
-    #[test]
-    fn latency_quantiles() {
-        let mut h = LatencyHistogram::default();
-        for k in 1..=100 {
-            h.add(k as f64 * 1e-4);
-        }
-        assert!((h.quantile(0.5) - 50e-4).abs() < 1.5e-5);
-        assert!((h.quantile(0.99) - 99e-4).abs() < 1.5e-5);
     }
 }

@@ -33,6 +33,8 @@ mod kf_gins_out;
 pub mod kfgins_input;
 pub mod live;
 pub mod live_align;
+pub mod live_replay;
+pub mod live_session;
 pub mod motion_tilt;
 pub mod noise_cfg;
 mod other;

@@ -13,7 +13,7 @@ use navfuse_core::Estimator;
 use navfuse_io::live::{LatencyHistogram, Sequencer};
 use navfuse_io::nmea::NmeaWriter;
 use navfuse_io::time::week_tow;
-use navfuse_io::writers::TrajectoryWriter;
+use navfuse_io::writers::{sigma_h, TrajectoryWriter as _};
 use navfuse_io::RecordStats;
 use std::io::{self, Write};
 
@@ -21,41 +21,78 @@ use std::io::{self, Write};
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 #[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
 pub enum Format {
-    /// One JSON object per solution (full precision).
+    /// One JSON object per solution (full precision; fields in [`json_line`]).
     Json,
-    /// NMEA GGA + RMC (+ GST) per solution.
+    /// NMEA GGA + RMC + GST + `$PNVFS` (σ, see [`pnvfs_sentence`]) per solution.
     Nmea,
 }
 
 /// The solution sink of a live session: JSON lines or NMEA, flushed after
 /// every solution.
-pub enum Out {
-    Json(Box<dyn Write>),
-    Nmea(NmeaWriter<Box<dyn Write>>),
+pub struct Out {
+    format: Format,
+    sink: Box<dyn Write>,
+    /// One solution's NMEA sentences (reused).
+    buf: Vec<u8>,
 }
 
 impl Out {
     /// The sink writing `format` to `sink`.
     pub fn new(format: Format, sink: Box<dyn Write>) -> Self {
-        match format {
-            Format::Json => Out::Json(sink),
-            Format::Nmea => Out::Nmea(NmeaWriter::new(sink)),
+        Out {
+            format,
+            sink,
+            buf: Vec::with_capacity(512),
         }
     }
 
     /// Write one solution and flush.
     pub fn write(&mut self, s: &NavSolution) -> io::Result<()> {
-        match self {
-            Out::Json(w) => {
-                w.write_all(json_line(s).as_bytes())?;
-                w.flush()
-            }
-            Out::Nmea(w) => {
-                w.write(s)?;
-                w.finish()
+        match self.format {
+            Format::Json => self.sink.write_all(json_line(s).as_bytes())?,
+            Format::Nmea => {
+                self.buf.clear();
+                NmeaWriter::new(&mut self.buf).write(s)?;
+                self.buf.extend_from_slice(pnvfs_sentence(s).as_bytes());
+                self.sink.write_all(&self.buf)?;
             }
         }
+        self.sink.flush()
     }
+}
+
+/// navfuse's proprietary NMEA sentence of a solution's σ (1-σ, from the
+/// estimator's covariance; empty fields when unknown), time as in GGA:
+/// `$PNVFS,hhmmss.sss,σH[m],σV[m],σvN,σvE,σvD[m/s],σroll,σpitch,σyaw[deg]*CS`.
+/// σN, σE, σD of the position are in the GST sentence before it.
+pub fn pnvfs_sentence(s: &NavSolution) -> String {
+    use std::fmt::Write as _;
+    let c = navfuse_io::time::calendar_from_gps(s.t, navfuse_io::time::TimeSystem::Utc, 3);
+    let mut body = format!("PNVFS,{:02}{:02}{:06.3}", c.hour, c.minute, c.second);
+    let (sh, sv) = (sigma_h(s), s.std_pos_ned.z);
+    let deg = s.std_rpy.map(f64::to_degrees);
+    let vals = [
+        sh,
+        sv,
+        s.std_v_n.x,
+        s.std_v_n.y,
+        s.std_v_n.z,
+        deg.x,
+        deg.y,
+        deg.z,
+    ];
+    for (k, v) in vals.into_iter().enumerate() {
+        let d = if k < 5 { 3 } else { 4 };
+        if v.is_finite() {
+            let _ = write!(body, ",{:.d$}", v.min(9.99e5));
+        } else {
+            body.push(',');
+        }
+    }
+    format!(
+        "${body}*{:02X}\r\n",
+        navfuse_io::nmea::checksum(body.as_bytes())
+    )
 }
 
 /// Test estimator: the last GNSS position (and its σ) at every IMU sample.
@@ -93,27 +130,61 @@ pub fn make_estimator(name: &str) -> Result<Box<dyn Estimator>, ToolError> {
     match name {
         "hold" => Ok(Box::new(HoldLastFix { last: None })),
         "eskf" => {
-            Err("--estimator eskf needs --platform (self-aligning) or --kfgins-config YAML".into())
+            Err("the ESKF is built by aligning_eskf (self-aligning) or kfgins_eskf (YAML)".into())
         }
         other => Err(format!("unknown estimator {other:?} (available: hold, eskf)").into()),
     }
 }
 
-/// `--estimator eskf` without a KF-GINS YAML: the self-aligning ESKF
-/// ([`crate::live_align::AligningEskf`]) with the profile of `platform`, IMU
-/// noise from the sensor preset `imu_preset` (default: the conservative
+/// The estimator of a live session: any [`Estimator`], or the self-aligning
+/// ESKF, whose realignments and warnings go to the summary.
+pub enum LiveEst {
+    Boxed(Box<dyn Estimator>),
+    Aligning(Box<crate::live_align::AligningEskf>),
+}
+
+impl LiveEst {
+    fn get(&mut self) -> &mut dyn Estimator {
+        match self {
+            LiveEst::Boxed(e) => e.as_mut(),
+            LiveEst::Aligning(e) => e.as_mut(),
+        }
+    }
+    pub fn name(&self) -> &'static str {
+        match self {
+            LiveEst::Boxed(e) => e.name(),
+            LiveEst::Aligning(e) => e.name(),
+        }
+    }
+    /// Alignments started again after a gap in the data.
+    pub fn realigns(&self) -> u64 {
+        match self {
+            LiveEst::Boxed(_) => 0,
+            LiveEst::Aligning(e) => e.realigns,
+        }
+    }
+    /// The estimator's warnings (alignment).
+    pub fn warnings(&self) -> &[String] {
+        match self {
+            LiveEst::Boxed(_) => &[],
+            LiveEst::Aligning(e) => &e.warnings,
+        }
+    }
+}
+
+/// The default live estimator: the self-aligning ESKF
+/// ([`crate::live_align::AligningEskf`]) with the profile of `platform`
+/// (None: no platform constraints, as `navfuse run` without a platform),
+/// IMU noise from the sensor preset `imu_preset` (default: the conservative
 /// MEMS preset) and the GNSS antenna at `lever_arm_b` (body FRD) [m].
 pub fn aligning_eskf(
     platform: Option<crate::profile::Platform>,
     imu_preset: Option<&str>,
     lever_arm_b: &[f64],
-) -> Result<Box<dyn Estimator>, ToolError> {
+) -> Result<LiveEst, ToolError> {
     let lever_arm: [f64; 3] = lever_arm_b
         .try_into()
         .map_err(|_| ToolError("--lever-arm: expected x,y,z".into()))?;
-    if platform.is_none() {
-        return Err("the self-aligning ESKF needs --platform".into());
-    }
     let filter = crate::config::FilterCfg {
         platform,
         imu_preset: imu_preset.map(str::to_string),
@@ -123,7 +194,7 @@ pub fn aligning_eskf(
     let cfg = crate::config::RunConfig::for_streams(filter, None);
     let e = crate::live_align::AligningEskf::new(cfg, std::path::Path::new("."))
         .map_err(|e| ToolError(e.to_string()))?;
-    Ok(Box::new(e))
+    Ok(LiveEst::Aligning(Box::new(e)))
 }
 
 /// How `navfuse kf-gins` presents events to its ESKF: times as time of week,
@@ -193,7 +264,7 @@ impl KfGinsFrame {
 /// Hands the events a [`Sequencer`] releases to the estimator (through the
 /// kf-gins time window when there is one) and counts the solutions.
 pub struct LiveDriver {
-    pub est: Box<dyn Estimator>,
+    pub est: LiveEst,
     frame: Option<KfGinsFrame>,
     /// kf-gins: the first solution only initialises (not written).
     first_pending: bool,
@@ -209,7 +280,7 @@ pub struct LiveDriver {
 
 impl LiveDriver {
     /// A driver of `est`; `frame`: the kf-gins time window (None: every event).
-    pub fn new(est: Box<dyn Estimator>, frame: Option<KfGinsFrame>) -> Self {
+    pub fn new(est: LiveEst, frame: Option<KfGinsFrame>) -> Self {
         LiveDriver {
             est,
             frame,
@@ -245,7 +316,7 @@ impl LiveDriver {
                     continue;
                 }
             };
-            let sol = est.push(&ev);
+            let sol = est.get().push(&ev);
             if sol.is_some() && self.first_pending && matches!(ev, Event::Imu(_)) {
                 // kf-gins: the first sample only initialises (not written).
                 self.first_pending = false;
@@ -284,7 +355,7 @@ impl LiveDriver {
                 // kf-gins hands no fix over after the last IMU sample.
                 continue;
             }
-            if let Some(sol) = self.est.push(&ev) {
+            if let Some(sol) = self.est.get().push(&ev) {
                 write(&sol).map_err(|e| format!("output: {e}"))?;
                 self.n_sol += 1;
                 self.n_gnss_sol += 1;
@@ -303,12 +374,18 @@ pub fn jnum(x: f64, d: usize) -> String {
     }
 }
 
-/// One solution as a JSON line: GPS time, week and time of week, position
-/// [deg, m], NED velocity [m/s], roll/pitch/yaw [deg], position σ NED [m].
+/// One solution as a JSON line. Fields: `t` GPS time [s], `week`, `tow`;
+/// `lat`, `lon` [deg], `h` ellipsoidal [m]; `vn`, `ve`, `vd` [m/s];
+/// `roll`, `pitch`, `yaw` [deg] (ZYX, body FRD w.r.t. NED); 1-σ from the
+/// estimator's covariance: position `sn`, `se`, `sd` [m], horizontal `sh`
+/// and vertical `sv` [m] ([`sigma_h`]: √(σN² + σE²); `sv` = `sd`), velocity `svn`, `sve`, `svd`
+/// [m/s], attitude `sroll`, `spitch`, `syaw` [deg]. Unknown values are `null`.
 pub fn json_line(s: &NavSolution) -> String {
     let (w, tow) = week_tow(s.t);
+    let (sh, sv) = (sigma_h(s), s.std_pos_ned.z);
+    let deg = s.std_rpy.map(f64::to_degrees);
     format!(
-        "{{\"t\":{},\"week\":{w},\"tow\":{},\"lat\":{},\"lon\":{},\"h\":{},\"vn\":{},\"ve\":{},\"vd\":{},\"roll\":{},\"pitch\":{},\"yaw\":{},\"sn\":{},\"se\":{},\"sd\":{}}}\n",
+        "{{\"t\":{},\"week\":{w},\"tow\":{},\"lat\":{},\"lon\":{},\"h\":{},\"vn\":{},\"ve\":{},\"vd\":{},\"roll\":{},\"pitch\":{},\"yaw\":{},\"sn\":{},\"se\":{},\"sd\":{},\"sh\":{},\"sv\":{},\"svn\":{},\"sve\":{},\"svd\":{},\"sroll\":{},\"spitch\":{},\"syaw\":{}}}\n",
         jnum(s.t, 6),
         jnum(tow, 6),
         jnum(s.lat.to_degrees(), 11),
@@ -323,6 +400,14 @@ pub fn json_line(s: &NavSolution) -> String {
         jnum(s.std_pos_ned.x, 5),
         jnum(s.std_pos_ned.y, 5),
         jnum(s.std_pos_ned.z, 5),
+        jnum(sh, 5),
+        jnum(sv, 5),
+        jnum(s.std_v_n.x, 5),
+        jnum(s.std_v_n.y, 5),
+        jnum(s.std_v_n.z, 5),
+        jnum(deg.x, 5),
+        jnum(deg.y, 5),
+        jnum(deg.z, 5),
     )
 }
 
@@ -375,5 +460,40 @@ mod tests {
         let v: serde_json::Value = serde_json::from_str(json_line(&s).trim()).unwrap();
         assert_eq!(v["week"], 2372);
         assert!(v["roll"].is_null());
+        assert!(v["syaw"].is_null());
+    }
+
+    /// σ fields in JSON and in `$PNVFS` come from the solution's covariance
+    /// diagonal: σH = √(σN² + σE²), attitude in degrees.
+    #[test]
+    fn sigma_fields_in_json_and_nmea() {
+        use navfuse_core::types::Vec3;
+        let mut s = NavSolution::unknown_at(1_435_000_000.25);
+        s.lat = 0.7;
+        s.lon = -1.8;
+        s.h = 1600.0;
+        s.v_n = Vec3::new(1.0, 2.0, 0.0);
+        s.rpy = Vec3::zeros();
+        s.std_pos_ned = Vec3::new(0.3, 0.4, 0.5);
+        s.std_v_n = Vec3::new(0.01, 0.02, 0.03);
+        s.std_rpy = Vec3::new(0.001, 0.002, 0.01);
+        let v: serde_json::Value = serde_json::from_str(json_line(&s).trim()).unwrap();
+        assert!((v["sh"].as_f64().unwrap() - 0.5).abs() < 1e-9);
+        assert!((v["sv"].as_f64().unwrap() - 0.5).abs() < 1e-9);
+        assert!((v["sve"].as_f64().unwrap() - 0.02).abs() < 1e-9);
+        assert!((v["syaw"].as_f64().unwrap() - 0.01f64.to_degrees()).abs() < 1e-5);
+        let mut out = Out::new(Format::Nmea, Box::new(io::sink()));
+        out.write(&s).unwrap();
+        let p = pnvfs_sentence(&s);
+        let body = &p[1..p.find('*').unwrap()];
+        let f: Vec<&str> = body.split(',').collect();
+        assert_eq!(f[0], "PNVFS");
+        assert_eq!(&f[2..6], ["0.500", "0.500", "0.010", "0.020"]);
+        assert_eq!(f[9], "0.5730");
+        let cs = u8::from_str_radix(&p[p.find('*').unwrap() + 1..][..2], 16).unwrap();
+        assert_eq!(cs, navfuse_io::nmea::checksum(body.as_bytes()));
+        // The writer's GGA/RMC/GST precede it; unknown σ give empty fields.
+        let u = pnvfs_sentence(&NavSolution::unknown_at(1_435_000_000.25));
+        assert!(u.contains(",,,,,,,,*"), "{u}");
     }
 }
