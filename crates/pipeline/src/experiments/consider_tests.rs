@@ -79,17 +79,3 @@ fn rtk_default_is_bit_identical_to_white() {
     );
     assert_eq!(a.augmented_states, b.augmented_states);
 }
-
-/// `navfuse experiment generalise` through the library (for a worktree
-/// without the CLI built): cells `NAVFUSE_GEN_CELLS`, JSON to
-/// `NAVFUSE_GEN_JSON`, table on stdout.
-#[test]
-#[ignore = "experiment: minutes; set NAVFUSE_GEN_CELLS and NAVFUSE_GEN_JSON"]
-fn generalise_to_json() {
-    let cells = std::env::var("NAVFUSE_GEN_CELLS").expect("NAVFUSE_GEN_CELLS");
-    let path = std::env::var("NAVFUSE_GEN_JSON").expect("NAVFUSE_GEN_JSON");
-    let cells = select_cells(&cells).unwrap();
-    let r = super::generalise::run_generalise(&cells, &Default::default()).unwrap();
-    std::fs::write(&path, serde_json::to_string_pretty(&r).unwrap()).unwrap();
-    println!("{}", super::generalise::format_table(&r));
-}

@@ -58,7 +58,7 @@ pub struct GnssErrorStates {
     /// Schmidt–Kalman "consider" states: `b` enters the covariance, the
     /// innovation covariance and the gain of the other states, but is never
     /// estimated (its gain rows are zero, `b̂ ≡ 0`, `P_bb` only propagates).
-    /// See [`consider_update`].
+    /// See [`crate::kalman::update_joseph_masked`].
     pub consider: bool,
 }
 
@@ -408,8 +408,8 @@ impl Aug {
 }
 
 /// Joseph update with the χ² gate and de-weighting of [`super::Eskf::update`],
-/// for any state dimension; with `mask` the Schmidt–Kalman update of
-/// [`consider_update`]. `Ok((nis, deweighted))`; `Err((reject, nis))`.
+/// for any state dimension; with `mask` the Schmidt–Kalman update
+/// ([`crate::kalman::update_joseph_masked`]). `Ok((nis, deweighted))`; `Err((reject, nis))`.
 #[allow(clippy::too_many_arguments)]
 pub(super) fn gated_update<const N: usize, const M: usize>(
     dx: &mut SVector<f64, N>,
@@ -422,10 +422,7 @@ pub(super) fn gated_update<const N: usize, const M: usize>(
     mask: Option<&SVector<f64, N>>,
 ) -> Result<(f64, bool), (UpdateReject, f64)> {
     let upd = |dx: &mut SVector<f64, N>, p: &mut SMatrix<f64, N, N>, r: &SMatrix<f64, M, M>, g| {
-        match mask {
-            None => crate::kalman::update_joseph(dx, p, h, r, dz, g),
-            Some(m) => consider_update(dx, p, h, r, dz, g, m),
-        }
+        crate::kalman::update_joseph_masked(dx, p, h, r, dz, g, mask)
     };
     let mut info = upd(dx, p, r, gate);
     if info.singular() || !info.nis.is_finite() {
@@ -446,63 +443,4 @@ pub(super) fn gated_update<const N: usize, const M: usize>(
         return Err((UpdateReject::Singular, nis));
     }
     Ok((nis, true))
-}
-
-/// Schmidt–Kalman ("consider") update (Schmidt 1966; Simon, *Optimal State
-/// Estimation*, 2006, §7.5; Brown & Hwang 4th ed. §9.? "consider" states):
-/// the optimal gain `K = P Hᵀ S⁻¹`, `S = H P Hᵀ + R`, with the rows of the
-/// consider states zeroed (`mask` 0), so those states keep their prior mean
-/// while their covariance and cross-covariance are updated with the Joseph
-/// form, which is exact for any gain: `P ← (I − K H) P (I − K H)ᵀ + K R Kᵀ`
-/// (Groves 2nd ed. eq. 3.58), evaluated as in [`crate::kalman::update_joseph`].
-/// The estimated states then get the best gain among filters that do not
-/// estimate the consider states (the white-noise filter is one of them),
-/// and `P` is their true error covariance under the model.
-pub(super) fn consider_update<const N: usize, const M: usize>(
-    x: &mut SVector<f64, N>,
-    p: &mut SMatrix<f64, N, N>,
-    h: &SMatrix<f64, M, N>,
-    r: &SMatrix<f64, M, M>,
-    innovation: &SVector<f64, M>,
-    gate: Option<f64>,
-    mask: &SVector<f64, N>,
-) -> crate::kalman::UpdateInfo {
-    use nalgebra::Cholesky;
-    let reject = |nis| crate::kalman::UpdateInfo {
-        nis,
-        accepted: false,
-    };
-    let hp: SMatrix<f64, M, N> = h * *p;
-    let mut s: SMatrix<f64, M, M> = r.clone_owned();
-    s.gemm(1.0, &hp, &h.transpose(), 1.0);
-    let s = (s + s.transpose()) * 0.5;
-    let Some(chol) = Cholesky::new(s) else {
-        return reject(f64::INFINITY);
-    };
-    let mut y = *innovation;
-    if !chol.l_dirty().solve_lower_triangular_mut(&mut y) {
-        return reject(f64::INFINITY);
-    }
-    let nis = y.norm_squared();
-    if !nis.is_finite() || gate.is_some_and(|g| nis > g) {
-        return reject(nis);
-    }
-    let mut kt = hp;
-    chol.solve_mut(&mut kt);
-    for j in 0..N {
-        for i in 0..M {
-            kt[(i, j)] *= mask[j];
-        }
-    }
-    let k: SMatrix<f64, N, M> = kt.transpose();
-    x.gemv(1.0, &k, innovation, 1.0);
-    p.gemm(-1.0, &k, &hp, 1.0);
-    let mut b: SMatrix<f64, N, M> = k * r;
-    b.gemm(-1.0, &*p, &h.transpose(), 1.0);
-    p.gemm(1.0, &b, &kt, 1.0);
-    *p = (*p + p.transpose()) * 0.5;
-    crate::kalman::UpdateInfo {
-        nis,
-        accepted: true,
-    }
 }
