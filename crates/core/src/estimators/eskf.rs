@@ -1297,14 +1297,14 @@ impl Eskf {
         };
         let fd = self.cfg.gate_deweight_factor;
         let res = match &mut self.aug {
-            None => gated_update(&mut dx, &mut self.p, h, r, dz, g, fd),
+            None => gated_update(&mut dx, &mut self.p, h, r, dz, g, fd, None),
             Some(a) => {
                 let mut pf = a.full(&self.p);
                 let mut hf = SMatrix::<f64, M, NF>::zeros();
                 hf.fixed_view_mut::<M, NX>(0, 0).copy_from(h);
                 hf.fixed_view_mut::<M, NA>(0, NX).copy_from(h_a);
                 let mut dxf = SVector::<f64, NF>::zeros();
-                let res = gated_update(&mut dxf, &mut pf, &hf, r, dz, g, fd);
+                let res = gated_update(&mut dxf, &mut pf, &hf, r, dz, g, fd, a.gain_mask.as_ref());
                 if res.is_ok() {
                     if self.cfg.smoother_every > 0 && a.rec_p_prior.is_none() {
                         a.rec_p_prior = Some((a.p_xa, a.p_aa));

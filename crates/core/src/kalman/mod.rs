@@ -151,6 +151,25 @@ pub fn update_joseph<const N: usize, const M: usize>(
     innovation: &SVector<f64, M>,
     gate: Option<f64>,
 ) -> UpdateInfo {
+    update_joseph_masked(x, p, h, r, innovation, gate, None)
+}
+
+/// [`update_joseph`] with the gain rows multiplied by `mask` (0 or 1 per
+/// state): with zeros, the Schmidt–Kalman ("consider") update (Schmidt
+/// 1966; Simon, *Optimal State Estimation*, 2006, §7.5): the masked states
+/// keep their prior mean while `P` — the Joseph form is exact for any gain —
+/// stays their joint error covariance; the other states get the best gain
+/// among those that leave the masked ones unestimated. `None`: exactly
+/// [`update_joseph`].
+pub fn update_joseph_masked<const N: usize, const M: usize>(
+    x: &mut SVector<f64, N>,
+    p: &mut SMatrix<f64, N, N>,
+    h: &SMatrix<f64, M, N>,
+    r: &SMatrix<f64, M, M>,
+    innovation: &SVector<f64, M>,
+    gate: Option<f64>,
+    mask: Option<&SVector<f64, N>>,
+) -> UpdateInfo {
     let hp: SMatrix<f64, M, N> = h * *p;
     let mut s: SMatrix<f64, M, M> = r.clone_owned();
     s.gemm(1.0, &hp, &h.transpose(), 1.0);
@@ -180,6 +199,13 @@ pub fn update_joseph<const N: usize, const M: usize>(
     // Kᵀ = S⁻¹ H P (S, P symmetric).
     let mut kt = hp;
     chol.solve_mut(&mut kt);
+    if let Some(m) = mask {
+        for j in 0..N {
+            for i in 0..M {
+                kt[(i, j)] *= m[j];
+            }
+        }
+    }
     let k: SMatrix<f64, N, M> = kt.transpose();
     x.gemv(1.0, &k, innovation, 1.0);
     // A P = P − K (H P)

@@ -14,6 +14,8 @@
 pub mod align_check;
 pub mod attitude;
 pub mod baseline;
+#[cfg(test)]
+mod consider_tests;
 pub mod generalise;
 mod score;
 pub mod seed002;
@@ -80,6 +82,11 @@ pub fn variant_config(variant: Variant, pr: &PlatformRun) -> RunConfig {
         Variant::Default => cfg.filter.platform = Some(platform),
         Variant::Oracle => {
             cfg.filter.platform = Some(platform);
+            // The oracle's GNSS model is white with the reported σ.
+            cfg.filter.gnss_error = Some(crate::gnss_error::GnssErrorCfg {
+                model: Some("white".into()),
+                ..Default::default()
+            });
             cfg.input.imu_time_offset = Some(TimeOffsetCfg::Seconds(pr.imu_time_offset_s));
             set_true_init(&mut cfg, pr);
         }

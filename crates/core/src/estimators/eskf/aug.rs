@@ -55,6 +55,11 @@ pub struct GnssErrorStates {
     pub tau_s: f64,
     /// Steady-state σ per NED axis [m] (≥ 0; also the initial σ).
     pub sigma_m: Vec3,
+    /// Schmidt–Kalman "consider" states: `b` enters the covariance, the
+    /// innovation covariance and the gain of the other states, but is never
+    /// estimated (its gain rows are zero, `b̂ ≡ 0`, `P_bb` only propagates).
+    /// See [`crate::kalman::update_joseph_masked`].
+    pub consider: bool,
 }
 
 /// IMU–GNSS time-offset state (convention: true time = IMU stamp + τ).
@@ -149,6 +154,9 @@ pub(super) struct Aug {
     /// Steady-state variance of the GM states; random-walk PSD of τ.
     var: SVector<f64, NA>,
     active: [bool; NA],
+    /// Gain mask over the joint state: 0 for consider states, 1 otherwise
+    /// (`None`: no consider state, the plain Joseph update).
+    pub(super) gain_mask: Option<SVector<f64, NF>>,
     // Smoother bookkeeping (as the filter's `rec_*`).
     pub(super) rec_phi: SVector<f64, NA>,
     pub(super) rec_p_post: (SMatrix<f64, NX, NA>, SMatrix<f64, NA, NA>),
@@ -168,6 +176,7 @@ impl Aug {
         let mut beta = SVector::<f64, NA>::zeros();
         let mut var = SVector::<f64, NA>::zeros();
         let mut active = [false; NA];
+        let mut gain_mask = None;
         if let Some(g) = cfg.gnss_error {
             let ok = g.tau_s.is_finite()
                 && g.tau_s > 0.0
@@ -180,6 +189,13 @@ impl Aug {
                 var[IA_GNSS + k] = g.sigma_m[k] * g.sigma_m[k];
                 p_aa[(IA_GNSS + k, IA_GNSS + k)] = var[IA_GNSS + k];
                 active[IA_GNSS + k] = true;
+            }
+            if g.consider {
+                let mut m = SVector::<f64, NF>::repeat(1.0);
+                for k in 0..3 {
+                    m[NX + IA_GNSS + k] = 0.0;
+                }
+                gain_mask = Some(m);
             }
         }
         if let Some(t) = cfg.time_offset {
@@ -204,6 +220,7 @@ impl Aug {
             beta,
             var,
             active,
+            gain_mask,
             rec_phi: SVector::repeat(1.0),
             rec_p_post: (SMatrix::zeros(), p_aa),
             rec_p_prior: None,
@@ -391,7 +408,9 @@ impl Aug {
 }
 
 /// Joseph update with the χ² gate and de-weighting of [`super::Eskf::update`],
-/// for any state dimension. `Ok((nis, deweighted))`; `Err((reject, nis))`.
+/// for any state dimension; with `mask` the Schmidt–Kalman update
+/// ([`crate::kalman::update_joseph_masked`]). `Ok((nis, deweighted))`; `Err((reject, nis))`.
+#[allow(clippy::too_many_arguments)]
 pub(super) fn gated_update<const N: usize, const M: usize>(
     dx: &mut SVector<f64, N>,
     p: &mut SMatrix<f64, N, N>,
@@ -400,8 +419,12 @@ pub(super) fn gated_update<const N: usize, const M: usize>(
     dz: &SVector<f64, M>,
     gate: Option<f64>,
     deweight_factor: f64,
+    mask: Option<&SVector<f64, N>>,
 ) -> Result<(f64, bool), (UpdateReject, f64)> {
-    let mut info = crate::kalman::update_joseph(dx, p, h, r, dz, gate);
+    let upd = |dx: &mut SVector<f64, N>, p: &mut SMatrix<f64, N, N>, r: &SMatrix<f64, M, M>, g| {
+        crate::kalman::update_joseph_masked(dx, p, h, r, dz, g, mask)
+    };
+    let mut info = upd(dx, p, r, gate);
     if info.singular() || !info.nis.is_finite() {
         return Err((UpdateReject::Singular, info.nis));
     }
@@ -415,7 +438,7 @@ pub(super) fn gated_update<const N: usize, const M: usize>(
     }
     let rs = r * (info.nis / g);
     let nis = info.nis;
-    info = crate::kalman::update_joseph(dx, p, h, &rs, dz, None);
+    info = upd(dx, p, &rs, None);
     if !info.accepted {
         return Err((UpdateReject::Singular, nis));
     }
