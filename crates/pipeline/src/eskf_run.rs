@@ -485,7 +485,7 @@ pub(crate) fn run_eskf_span(
         rts_smooth(&records, eskf.last_record_covariance(), |e| {
             let mut sol = smoothed_solution(e);
             if with_std {
-                let row = crate::sigma::std_row(e.t, &e.p_diag, None);
+                let row = crate::sigma::std_row(e.t, &e.p_diag, e.p_pos_cross, None);
                 crate::sigma::set_solution_std(&mut sol, &row);
                 smoothed_std.push(row);
             }

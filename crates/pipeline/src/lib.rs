@@ -36,6 +36,7 @@ pub mod live_align;
 pub mod noise_cfg;
 mod other;
 pub mod outputs;
+pub mod pos_out;
 pub mod profile;
 pub mod resolved;
 pub mod run;

@@ -43,14 +43,14 @@ pub fn write_journal_parquet(path: &Path, log: &[UpdateLog]) -> Result<String> {
 }
 
 /// The extra output formats named in the config (by extension: csv, nav,
-/// geojson, kml, gpx, nmea, parquet). An unknown name is a [`PipelineError::Options`].
+/// geojson, kml, gpx, nmea, parquet, pos). An unknown name is a [`PipelineError::Options`].
 pub fn out_formats(names: &[String]) -> Result<Vec<OutFormat>> {
     names
         .iter()
         .map(|n| {
             OutFormat::from_path(Path::new(&format!("x.{n}"))).ok_or_else(|| {
                 PipelineError::Options(format!(
-                    "unknown format {n:?} (csv, nav, geojson, kml, gpx, nmea, parquet)"
+                    "unknown format {n:?} (csv, nav, geojson, kml, gpx, nmea, parquet, pos)"
                 ))
             })
         })
