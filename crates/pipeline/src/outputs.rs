@@ -145,6 +145,26 @@ mod tests {
                 }
             }
         }
+        // σ columns: the σ file's position σ, row for row (9 decimals there).
+        for stem in ["solution", "solution_smoothed"] {
+            let t = read_table(&out.join(format!("{stem}.parquet"))).unwrap();
+            let std = navfuse_io::stdfile::read_std_file(&out.join(format!("{stem}.std"))).unwrap();
+            assert_eq!(std.len(), t.rows(), "{stem}");
+            for (k, name) in ["std_n_m", "std_e_m", "std_d_m"].iter().enumerate() {
+                let Some(ColumnData::F64(c)) = t.column(name) else {
+                    panic!("{stem}: no column {name}")
+                };
+                for (i, r) in std.iter().enumerate() {
+                    let d = (c[i] - r.pos_ned[k]).abs();
+                    assert!(
+                        d <= 0.5e-9 + 1e-12 && c[i] > 0.0,
+                        "{stem} {name} row {i}: {} vs {}",
+                        c[i],
+                        r.pos_ned[k]
+                    );
+                }
+            }
+        }
         let j = read_table(&out.join("journal.parquet")).unwrap();
         let csv = std::fs::read_to_string(out.join("solution.innovations.csv")).unwrap();
         assert_eq!(j.rows(), csv.lines().count() - 1);
