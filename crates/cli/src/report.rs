@@ -252,6 +252,7 @@ mod tests {
             at: At::Reference,
             max_gap: 1.0,
             week: None,
+            std: None,
             out: None,
             title: None,
             quiet: true,

@@ -206,7 +206,6 @@ mod tests {
             w.write_epoch(s, e).unwrap();
         }
         w.finish().unwrap();
-        drop(w);
         let text = String::from_utf8(buf.clone()).unwrap();
         let l1 = text.lines().nth(5).unwrap();
         assert!(

@@ -34,7 +34,8 @@ pub fn rtklib_q(
     coast_after_s: f64,
 ) -> (u8, u8) {
     let Some(st) = status else { return (0, 0) };
-    if !(st.since_pos_s <= coast_after_s) {
+    // NaN since_pos_s (never) counts as coasting too.
+    if st.since_pos_s.is_nan() || st.since_pos_s > coast_after_s {
         return (Q_DR, 0);
     }
     let t_pos = t - st.since_pos_s;
