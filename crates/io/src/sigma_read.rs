@@ -91,10 +91,10 @@ pub fn read_geojson_sigma(json: &str, name: &str) -> Result<Vec<(f64, f64)>, Str
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::trajectory::{writer, OutFormat};
+    use crate::trajectory::OutFormat;
     use crate::writers::sigma_h;
+    use crate::writers::tests::render;
     use navfuse_core::types::{NavSolution, Vec3};
-    use std::io::Write;
 
     /// Four epochs: σ unknown, then three different σ.
     fn track() -> Vec<NavSolution> {
@@ -113,27 +113,6 @@ mod tests {
                 s
             })
             .collect()
-    }
-
-    fn render(fmt: OutFormat, sols: &[NavSolution]) -> String {
-        struct Shared(std::rc::Rc<std::cell::RefCell<Vec<u8>>>);
-        impl Write for Shared {
-            fn write(&mut self, b: &[u8]) -> std::io::Result<usize> {
-                self.0.borrow_mut().extend_from_slice(b);
-                Ok(b.len())
-            }
-            fn flush(&mut self) -> std::io::Result<()> {
-                Ok(())
-            }
-        }
-        let buf = std::rc::Rc::new(std::cell::RefCell::new(Vec::new()));
-        let mut w = writer(Shared(buf.clone()), fmt);
-        for s in sols {
-            w.write(s).unwrap();
-        }
-        w.finish().unwrap();
-        let out = String::from_utf8(buf.borrow().clone()).unwrap();
-        out
     }
 
     fn same(back: &[(f64, f64)], sols: &[NavSolution], tol: f64) {

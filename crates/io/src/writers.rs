@@ -409,7 +409,7 @@ impl<W: Write> TrajectoryWriter for GpxWriter<W> {
 }
 
 #[cfg(test)]
-mod tests {
+pub(crate) mod tests {
     use super::*;
     use navfuse_core::types::Vec3;
     use proptest::prelude::*;
@@ -435,7 +435,8 @@ mod tests {
             .collect()
     }
 
-    fn render(fmt: crate::trajectory::OutFormat, sols: &[NavSolution]) -> String {
+    /// `sols` written in `fmt` to a string (test helper, also of [`crate::sigma_read`]).
+    pub(crate) fn render(fmt: crate::trajectory::OutFormat, sols: &[NavSolution]) -> String {
         struct Shared(std::rc::Rc<std::cell::RefCell<Vec<u8>>>);
         impl Write for Shared {
             fn write(&mut self, b: &[u8]) -> io::Result<usize> {
