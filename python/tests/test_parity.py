@@ -63,3 +63,17 @@ def test_eskf_process_on_numpy_arrays_equals_kf_gins(data_dir, tmp_path):
     diff = np.nanmax(np.abs(got.to_numpy() - ref.to_numpy()))
     print(f"Eskf.process vs kf_gins: max difference {diff}")
     assert diff == 0.0
+
+
+def test_kf_gins_smoothed_frame_carries_the_smoothed_sigma(data_dir, tmp_path):
+    """The smoothed DataFrame has the RTS covariance's σ (it had NaN): finite
+    and positive, and on average not above the forward σ (smoothing only adds
+    information)."""
+    yaml = data_dir / "drive_0708" / "kfgins" / "kf-gins_outage.yaml"
+    r = navfuse.kf_gins(yaml, smooth=True, output=tmp_path)
+    sm, fw = r.smoothed, r.solution
+    assert len(sm) > 1000
+    for c in ["std_n_m", "std_e_m", "std_d_m", "std_vn_mps", "std_yaw_deg"]:
+        assert np.isfinite(sm[c]).all() and (sm[c] > 0).all(), c
+    for c in ["std_n_m", "std_e_m", "std_d_m"]:
+        assert sm[c].mean() <= fw[c].mean(), c

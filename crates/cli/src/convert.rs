@@ -32,6 +32,9 @@ pub enum To {
     Gpx,
     /// NMEA 0183 (GGA, RMC, GST); GNSS inputs keep their quality and satellite count
     Nmea,
+    /// RTKLIB .pos: σ from the input where it has them; Q 0 and cross terms
+    /// `nan` (a trajectory file has no aiding status or covariance)
+    Pos,
 }
 
 /// Convert between trajectory file formats (format from extension or given).
@@ -77,9 +80,10 @@ pub fn output_format(to: Option<To>, path: &std::path::Path) -> Result<OutFormat
         Some(To::Kml) => OutFormat::Kml,
         Some(To::Gpx) => OutFormat::Gpx,
         Some(To::Nmea) => OutFormat::Nmea,
+        Some(To::Pos) => OutFormat::Pos,
         None => OutFormat::from_path(path).ok_or_else(|| {
             format!(
-                "{}: cannot tell the output format from the extension; give --to (csv, nav, geojson, kml, gpx, nmea)",
+                "{}: cannot tell the output format from the extension; give --to (csv, nav, geojson, kml, gpx, nmea, pos)",
                 path.display()
             )
         })?,

@@ -52,6 +52,10 @@ pub struct Args {
     /// GPS week for time-of-week-only inputs (default: from the other inputs).
     #[arg(long)]
     pub week: Option<u32>,
+    /// σ file (navfuse `.std`) of the solution with the same stem, else of
+    /// the first solution (default: STEM.std beside STEM.nav is used).
+    #[arg(long, value_name = "FILE")]
+    pub std: Option<PathBuf>,
     /// Output directory (default RUN_DIR/report).
     #[arg(long, short, value_name = "DIR")]
     pub out: Option<PathBuf>,
@@ -127,6 +131,7 @@ pub fn run(args: Args) -> Result<(), String> {
             solutions,
             kfgins_outputs,
             week: args.week,
+            std: args.std.clone(),
         },
     )?;
     if let Some(t) = &args.title {
@@ -247,6 +252,7 @@ mod tests {
             at: At::Reference,
             max_gap: 1.0,
             week: None,
+            std: None,
             out: None,
             title: None,
             quiet: true,
@@ -308,6 +314,7 @@ mod tests {
                 solutions: vec![("KF-GINS".into(), d.join("kfgins_result_outage_10hz.nav"))],
                 kfgins_outputs: vec![("navfuse ESKF".into(), eskf)],
                 week: None,
+                std: None,
             },
         )
         .unwrap();

@@ -13,6 +13,7 @@
 //! - [`navcsv`]: navfuse trajectory CSV → `NavSolution`
 //! - [`imu`]: the rules turning stamped records into intervals (`dt`, integration)
 //! - [`writers`]: CSV, KF-GINS `.nav`, GeoJSON, KML, GPX
+//! - [`pos_writer`]: RTKLIB `.pos` with σ, cross covariances and quality
 //! - [`parquet_out`] (feature `parquet`, default): Parquet tables of solutions and the update journal
 //! - [`trajectory`]: formats by name/extension (used by `navfuse convert`)
 //! - [`time`]: GPS week/TOW ↔ GPS seconds ↔ GPST/UTC calendar
@@ -32,7 +33,9 @@ pub mod nmea;
 #[cfg(feature = "parquet")]
 pub mod parquet_out;
 pub mod pos;
+pub mod pos_writer;
 pub mod rinex;
+pub mod sigma_read;
 pub mod stdfile;
 pub mod tag;
 pub mod text;

@@ -10,11 +10,14 @@
 //! header line).
 //!
 //! Columns: lat/lon [deg], ellipsoidal height [m], Q (1 fix, 2 float, 3 SBAS,
-//! 4 DGPS, 5 single, 6 PPP), ns, sdn/sde/sdu [m] (→ `std_ned`, σ_down = sdu),
-//! sdne/sdeu/sdun, age [s], ratio, and when present vn/ve/vu [m/s] and
-//! sdvn/sdve/sdvu/sdvne/sdveu/sdvun. **vu is up**: `v_n = (vn, ve, −vu)`.
-//! The cross terms (sdne…, RTKLIB's signed square roots of covariances), age
-//! and ratio are checked to be numbers but not carried.
+//! 4 DGPS, 5 single, 6 PPP, 7 dead reckoning), ns, sdn/sde/sdu [m] (→
+//! `std_ned`, σ_down = sdu), sdne/sdeu/sdun, age [s], ratio, and when present
+//! vn/ve/vu [m/s] and sdvn/sdve/sdvu/sdvne/sdveu/sdvun. **vu is up**:
+//! `v_n = (vn, ve, −vu)`. σ columns may be `nan` (unknown, as
+//! [`crate::pos_writer`] writes them). The position cross terms (sdne…,
+//! RTKLIB's signed square roots of covariances) are available per record as
+//! NED covariances from [`PosReader::cross_ned`]; age and ratio are checked
+//! to be numbers but not carried.
 
 use crate::error::{ReadError, RecordStats};
 use crate::kfgins::wrap_pi;
@@ -94,6 +97,7 @@ pub struct PosReader<R> {
     layout: Option<Layout>,
     header: Option<Layout>,
     done: bool,
+    cross_ned: Vec3,
 }
 
 impl<R: BufRead> PosReader<R> {
@@ -103,7 +107,15 @@ impl<R: BufRead> PosReader<R> {
             layout: None,
             header: None,
             done: false,
+            cross_ned: Vec3::repeat(f64::NAN),
         }
+    }
+
+    /// Position covariances off the diagonal (NE, ED, DN) [m²], NED, of the
+    /// last record read (from sdne/sdeu/sdun, [`crate::pos_writer::ned_cross`]);
+    /// NaN when the file has no such columns or writes `nan`.
+    pub fn cross_ned(&self) -> Vec3 {
+        self.cross_ned
     }
 
     pub fn stats(&self) -> &RecordStats {
@@ -252,10 +264,17 @@ impl<R: BufRead> PosReader<R> {
                 Some(v) => Err(s.err(NAMES[j], format!("not an integer in 0..={max}: {v}"))),
             }
         };
-        let quality = small_int(I_Q, 6.0)?;
+        let quality = small_int(I_Q, 7.0)?;
         let num_sats = small_int(I_NS, 255.0)?;
+        // σ and cross terms: a number or `nan` (unknown).
+        let get_sd = |j: usize| -> Result<Option<f64>, ReadError> {
+            match l.col[j] {
+                Some(i) => s.f64_or_nan(i, NAMES[j]).map(Some),
+                None => Ok(None),
+            }
+        };
         let nonneg = |j: usize| -> Result<f64, ReadError> {
-            match get(j)? {
+            match get_sd(j)? {
                 Some(v) if v < 0.0 => {
                     Err(s.err(NAMES[j], format!("standard deviation {v} is negative")))
                 }
@@ -264,8 +283,13 @@ impl<R: BufRead> PosReader<R> {
             }
         };
         let std_ned = Vec3::new(nonneg(I_SDN)?, nonneg(I_SDN + 1)?, nonneg(I_SDN + 2)?);
-        for j in 8..13 {
-            get(j)?; // cross terms, age, ratio: must be numbers
+        let mut x = [f64::NAN; 3];
+        for (k, v) in x.iter_mut().enumerate() {
+            *v = get_sd(8 + k)?.unwrap_or(f64::NAN);
+        }
+        let cross_ned = crate::pos_writer::ned_cross(x);
+        for j in 11..13 {
+            get(j)?; // age, ratio: must be numbers
         }
         let v = [get(I_VN)?, get(I_VN + 1)?, get(I_VN + 2)?];
         let v_n = match v {
@@ -275,12 +299,13 @@ impl<R: BufRead> PosReader<R> {
         let std_v_n = if l.col[I_SDVN].is_some() {
             let sv = Vec3::new(nonneg(I_SDVN)?, nonneg(I_SDVN + 1)?, nonneg(I_SDVN + 2)?);
             for j in 19..22 {
-                get(j)?;
+                get_sd(j)?;
             }
             Some(sv)
         } else {
             None
         };
+        self.cross_ned = cross_ned;
         Ok(Some(GnssFix {
             t,
             lat: lat.to_radians(),

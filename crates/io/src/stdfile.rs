@@ -44,6 +44,10 @@ pub struct StdRow {
     pub ba: Vec3,
     pub sg: Vec3,
     pub sa: Vec3,
+    /// Position covariances off the diagonal (NE, ED, DN) [m²], NED; NaN
+    /// when unknown. Not a column of the file (its layout is KF-GINS's):
+    /// carried for the RTKLIB `.pos` writer ([`crate::pos_writer`]).
+    pub pos_cross_ned: Vec3,
     /// What aided the epoch (`None`: the file had no status columns).
     pub status: Option<EpochStatus>,
 }
@@ -172,6 +176,7 @@ pub fn read_std<R: BufRead>(rdr: R, name: &str) -> Result<Vec<StdRow>, ReadError
             ba: v[4],
             sg: v[5],
             sa: v[6],
+            pos_cross_ned: Vec3::repeat(f64::NAN),
             status,
         });
     }
@@ -223,6 +228,7 @@ mod tests {
             ba: v(1e-3),
             sg: v(1e-4),
             sa: v(2e-4),
+            pos_cross_ned: Vec3::repeat(f64::NAN),
             status,
         }
     }

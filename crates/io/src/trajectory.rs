@@ -39,6 +39,8 @@ pub enum OutFormat {
     Nmea,
     /// Apache Parquet table (`crate::parquet_out`, feature `parquet`).
     Parquet,
+    /// RTKLIB `.pos` ([`crate::pos_writer::PosWriter`]).
+    Pos,
 }
 
 fn ext(path: &Path) -> String {
@@ -62,7 +64,7 @@ impl InFormat {
 
 impl OutFormat {
     /// From the extension: `.csv`, `.nav`, `.geojson`/`.json`, `.kml`, `.gpx`,
-    /// `.nmea`, `.parquet`.
+    /// `.nmea`, `.parquet`, `.pos`.
     pub fn from_path(path: &Path) -> Option<Self> {
         match ext(path).as_str() {
             "csv" => Some(OutFormat::Csv),
@@ -72,6 +74,7 @@ impl OutFormat {
             "gpx" => Some(OutFormat::Gpx),
             "nmea" => Some(OutFormat::Nmea),
             "parquet" => Some(OutFormat::Parquet),
+            "pos" => Some(OutFormat::Pos),
             _ => None,
         }
     }
@@ -86,6 +89,7 @@ impl OutFormat {
             OutFormat::Gpx => "gpx",
             OutFormat::Nmea => "nmea",
             OutFormat::Parquet => "parquet",
+            OutFormat::Pos => "pos",
         }
     }
 }
@@ -173,6 +177,7 @@ pub fn writer<W: std::io::Write + 'static>(w: W, fmt: OutFormat) -> Box<dyn Traj
         OutFormat::Kml => Box::new(KmlWriter::new(w)),
         OutFormat::Gpx => Box::new(GpxWriter::new(w)),
         OutFormat::Nmea => Box::new(crate::nmea::NmeaWriter::new(w)),
+        OutFormat::Pos => Box::new(crate::pos_writer::PosWriter::new(w)),
         #[cfg(feature = "parquet")]
         OutFormat::Parquet => Box::new(crate::parquet_out::ParquetTrajectoryWriter::new(w)),
         #[cfg(not(feature = "parquet"))]

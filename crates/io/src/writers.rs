@@ -269,15 +269,47 @@ impl<W: Write> TrajectoryWriter for GeoJsonWriter<W> {
 }
 
 /// KML 2.2: one Placemark with a LineString, `altitudeMode` absolute,
-/// coordinates `lon,lat,h`.
+/// coordinates `lon,lat,h`. When any epoch has a position σ, a second
+/// Placemark `sigma` (no geometry) follows with `ExtendedData`: `Data`
+/// `sigma_h_m` and `sigma_v_m`, whitespace-separated 1-σ horizontal
+/// √(σN² + σE²) and vertical [m], the k-th value for the k-th coordinate of
+/// the track (`nan` unknown; [`crate::sigma_read::read_kml_sigma`] reads them back).
 pub struct KmlWriter<W: Write> {
     w: W,
     started: bool,
+    sigma: Vec<[f64; 2]>,
 }
 
 impl<W: Write> KmlWriter<W> {
     pub fn new(w: W) -> Self {
-        KmlWriter { w, started: false }
+        KmlWriter {
+            w,
+            started: false,
+            sigma: Vec::new(),
+        }
+    }
+
+    /// The `sigma` Placemark (see the type doc), when any σ is known.
+    fn write_sigma(&mut self) -> io::Result<()> {
+        if !self.sigma.iter().flatten().any(|v| v.is_finite()) {
+            return Ok(());
+        }
+        self.w.write_all(
+            b"<Placemark>\n<name>sigma</name>\n<description>1-sigma position uncertainty [m] \
+of the track, one value per coordinate in order: sigma_h_m horizontal sqrt(sN^2+sE^2), \
+sigma_v_m vertical; nan unknown</description>\n<ExtendedData>\n",
+        )?;
+        for (k, name) in ["sigma_h_m", "sigma_v_m"].iter().enumerate() {
+            write!(self.w, "<Data name=\"{name}\"><value>")?;
+            for (i, v) in self.sigma.iter().enumerate() {
+                let sep = if i == 0 { "" } else { " " };
+                write!(self.w, "{sep}{}", t(v[k], 4))?;
+            }
+            self.w.write_all(b"</value></Data>\n")?;
+        }
+        self.w.write_all(b"</ExtendedData>\n</Placemark>\n")?;
+        self.sigma.clear();
+        Ok(())
     }
     fn start(&mut self) -> io::Result<()> {
         if !self.started {
@@ -296,6 +328,7 @@ impl<W: Write> TrajectoryWriter for KmlWriter<W> {
     fn write(&mut self, s: &NavSolution) -> io::Result<()> {
         check_pos(s)?;
         self.start()?;
+        self.sigma.push([sigma_h(s), s.std_pos_ned.z]);
         writeln!(
             self.w,
             "{},{},{}",
@@ -307,7 +340,9 @@ impl<W: Write> TrajectoryWriter for KmlWriter<W> {
     fn finish(&mut self) -> io::Result<()> {
         self.start()?;
         self.w
-            .write_all(b"</coordinates>\n</LineString>\n</Placemark>\n</Document>\n</kml>\n")?;
+            .write_all(b"</coordinates>\n</LineString>\n</Placemark>\n")?;
+        self.write_sigma()?;
+        self.w.write_all(b"</Document>\n</kml>\n")?;
         self.w.flush()
     }
 }
@@ -374,7 +409,7 @@ impl<W: Write> TrajectoryWriter for GpxWriter<W> {
 }
 
 #[cfg(test)]
-mod tests {
+pub(crate) mod tests {
     use super::*;
     use navfuse_core::types::Vec3;
     use proptest::prelude::*;
@@ -400,7 +435,8 @@ mod tests {
             .collect()
     }
 
-    fn render(fmt: crate::trajectory::OutFormat, sols: &[NavSolution]) -> String {
+    /// `sols` written in `fmt` to a string (test helper, also of [`crate::sigma_read`]).
+    pub(crate) fn render(fmt: crate::trajectory::OutFormat, sols: &[NavSolution]) -> String {
         struct Shared(std::rc::Rc<std::cell::RefCell<Vec<u8>>>);
         impl Write for Shared {
             fn write(&mut self, b: &[u8]) -> io::Result<usize> {

@@ -11,7 +11,8 @@ use navfuse_core::types::NavSolution;
 use navfuse_core::Vec3;
 use std::path::Path;
 
-/// Solution of a smoothed epoch (no covariance).
+/// Solution of a smoothed epoch, with the 1-σ of the smoothed covariance
+/// diagonal ([`crate::sigma::std_row`]).
 pub fn smoothed_solution(e: &SmoothedEpoch) -> NavSolution {
     let mut s = NavSolution::unknown_at(e.t);
     s.lat = e.nav.lat;
@@ -19,6 +20,8 @@ pub fn smoothed_solution(e: &SmoothedEpoch) -> NavSolution {
     s.h = e.nav.h;
     s.v_n = e.nav.v_n;
     s.rpy = e.nav.rpy();
+    let row = crate::sigma::std_row(e.t, &e.p_diag, e.p_pos_cross, None);
+    crate::sigma::set_solution_std(&mut s, &row);
     s
 }
 

@@ -58,7 +58,7 @@ use std::path::{Path, PathBuf};
 /// period = 90.0
 ///
 /// # top level, optional: extra solution formats besides solution.nav
-/// formats = ["csv", "geojson", "kml", "gpx", "nmea", "parquet"]
+/// formats = ["csv", "geojson", "kml", "gpx", "nmea", "parquet", "pos"]
 /// ```
 #[derive(Clone, Debug, Deserialize, Serialize)]
 #[serde(deny_unknown_fields)]

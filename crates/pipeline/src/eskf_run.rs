@@ -483,13 +483,10 @@ pub(crate) fn run_eskf_span(
     if cfg.filter.smooth {
         smoothed.reserve(records.len());
         rts_smooth(&records, eskf.last_record_covariance(), |e| {
-            let mut sol = smoothed_solution(e);
             if with_std {
-                let row = crate::sigma::std_row(e.t, &e.p_diag, None);
-                crate::sigma::set_solution_std(&mut sol, &row);
-                smoothed_std.push(row);
+                smoothed_std.push(crate::sigma::std_row(e.t, &e.p_diag, e.p_pos_cross, None));
             }
-            smoothed.push(sol);
+            smoothed.push(smoothed_solution(e));
         });
         smoothed.reverse();
         smoothed_std.reverse();

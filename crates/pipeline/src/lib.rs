@@ -39,6 +39,7 @@ pub mod motion_tilt;
 pub mod noise_cfg;
 mod other;
 pub mod outputs;
+pub mod pos_out;
 pub mod profile;
 pub mod resolved;
 pub mod run;

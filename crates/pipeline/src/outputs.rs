@@ -43,14 +43,14 @@ pub fn write_journal_parquet(path: &Path, log: &[UpdateLog]) -> Result<String> {
 }
 
 /// The extra output formats named in the config (by extension: csv, nav,
-/// geojson, kml, gpx, nmea, parquet). An unknown name is a [`PipelineError::Options`].
+/// geojson, kml, gpx, nmea, parquet, pos). An unknown name is a [`PipelineError::Options`].
 pub fn out_formats(names: &[String]) -> Result<Vec<OutFormat>> {
     names
         .iter()
         .map(|n| {
             OutFormat::from_path(Path::new(&format!("x.{n}"))).ok_or_else(|| {
                 PipelineError::Options(format!(
-                    "unknown format {n:?} (csv, nav, geojson, kml, gpx, nmea, parquet)"
+                    "unknown format {n:?} (csv, nav, geojson, kml, gpx, nmea, parquet, pos)"
                 ))
             })
         })
@@ -142,6 +142,26 @@ mod tests {
                     let tol = 0.5 * 10f64.powi(-dec) * (1.0 + 1e-9);
                     let ok = (c[i] - v[k + 1]).abs() <= tol || (c[i].is_nan() && v[k + 1].is_nan());
                     assert!(ok, "{stem} row {i} {name}: {} vs .nav {}", c[i], v[k + 1]);
+                }
+            }
+        }
+        // σ columns: the σ file's position σ, row for row (9 decimals there).
+        for stem in ["solution", "solution_smoothed"] {
+            let t = read_table(&out.join(format!("{stem}.parquet"))).unwrap();
+            let std = navfuse_io::stdfile::read_std_file(&out.join(format!("{stem}.std"))).unwrap();
+            assert_eq!(std.len(), t.rows(), "{stem}");
+            for (k, name) in ["std_n_m", "std_e_m", "std_d_m"].iter().enumerate() {
+                let Some(ColumnData::F64(c)) = t.column(name) else {
+                    panic!("{stem}: no column {name}")
+                };
+                for (i, r) in std.iter().enumerate() {
+                    let d = (c[i] - r.pos_ned[k]).abs();
+                    assert!(
+                        d <= 0.5e-9 + 1e-12 && c[i] > 0.0,
+                        "{stem} {name} row {i}: {} vs {}",
+                        c[i],
+                        r.pos_ned[k]
+                    );
                 }
             }
         }

@@ -15,6 +15,7 @@ use crate::summary::Summary;
 use crate::time_offset::{default_mode, TimeOffset, TimeOffsetCfg};
 use navfuse_core::estimators::eskf::EskfStats;
 use navfuse_core::types::NavSolution;
+use navfuse_io::trajectory::OutFormat;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
@@ -129,12 +130,32 @@ pub fn run(cfg: &RunConfig, base_dir: &Path, opts: &RunOptions) -> Result<RunOut
     let r = run_eskf_span(cfg, base_dir, &span, loaded.aux.as_ref(), !opts.no_std)?;
     std::fs::create_dir_all(&out_dir).map_err(PipelineError::io(&out_dir, ""))?;
     let mut outputs = Vec::new();
+    // `.pos` carries the covariance's cross terms and the aiding status:
+    // written from the σ rows (crate::pos_out), not by write_solutions.
+    let pos = formats.contains(&OutFormat::Pos);
+    let formats: Vec<OutFormat> = formats
+        .into_iter()
+        .filter(|f| *f != OutFormat::Pos)
+        .collect();
+    let write_pos = |stem: &str, sols: &[_], std: &[_]| {
+        crate::pos_out::write_pos(
+            &out_dir.join(format!("{stem}.pos")),
+            sols,
+            std,
+            &r.std,
+            &span.gnss,
+            r.coast_after_s,
+        )
+    };
     outputs.extend(write_solutions(
         &out_dir,
         "solution",
         &r.solutions,
         &formats,
     )?);
+    if pos {
+        outputs.push(write_pos("solution", &r.solutions, &r.std)?);
+    }
     if !opts.no_std {
         outputs.push(write_std(&out_dir.join("solution.std"), &r.std)?);
     }
@@ -142,7 +163,7 @@ pub fn run(cfg: &RunConfig, base_dir: &Path, opts: &RunOptions) -> Result<RunOut
         &out_dir.join("solution.innovations.csv"),
         &r.updates,
     )?);
-    if formats.contains(&navfuse_io::trajectory::OutFormat::Parquet) {
+    if formats.contains(&OutFormat::Parquet) {
         let p = out_dir.join("journal.parquet");
         outputs.push(write_journal_parquet(&p, &r.updates)?);
     }
@@ -153,6 +174,13 @@ pub fn run(cfg: &RunConfig, base_dir: &Path, opts: &RunOptions) -> Result<RunOut
             &r.smoothed,
             &formats,
         )?);
+        if pos {
+            outputs.push(write_pos(
+                "solution_smoothed",
+                &r.smoothed,
+                &r.smoothed_std,
+            )?);
+        }
         if !opts.no_std {
             outputs.push(write_std(
                 &out_dir.join("solution_smoothed.std"),

@@ -10,8 +10,15 @@ use navfuse_io::stdfile::StdRow;
 use std::path::Path;
 
 /// The σ row at `t` from the diagonal of the error-state covariance
-/// (states indexed by the ESKF's named offsets).
-pub fn std_row(t: f64, p_diag: &StateVec, status: Option<EpochStatus>) -> StdRow {
+/// (states indexed by the ESKF's named offsets) and its off-diagonal NED
+/// position terms `pos_cross_ned` (NE, ED, DN) [m²]
+/// ([`navfuse_core::estimators::eskf::pos_cross_ned`]).
+pub fn std_row(
+    t: f64,
+    p_diag: &StateVec,
+    pos_cross_ned: Vec3,
+    status: Option<EpochStatus>,
+) -> StdRow {
     let sd = |i: usize| {
         Vec3::new(
             p_diag[i].max(0.0).sqrt(),
@@ -28,6 +35,7 @@ pub fn std_row(t: f64, p_diag: &StateVec, status: Option<EpochStatus>) -> StdRow
         ba: sd(I_BA),
         sg: sd(I_SG),
         sa: sd(I_SA),
+        pos_cross_ned,
         status,
     }
 }

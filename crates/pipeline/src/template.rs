@@ -67,7 +67,7 @@ pub fn run_template(
         &mut o,
         true,
         "formats = [\"csv\", \"geojson\"]",
-        "also csv, geojson, kml, gpx, nmea, parquet besides solution.nav",
+        "also csv, geojson, kml, gpx, nmea, parquet, pos besides solution.nav",
     );
     o.push_str("\n[input]\n");
     match csv {

@@ -139,8 +139,13 @@ impl Member {
         self.take_updates();
         if let Some(sol) = sol {
             if self.with_std {
-                let p = self.eskf.covariance().diagonal();
-                let row = crate::sigma::std_row(sol.t, &p, Some(self.aid.status(sol.t)));
+                let p = self.eskf.covariance();
+                let row = crate::sigma::std_row(
+                    sol.t,
+                    &p.diagonal(),
+                    navfuse_core::estimators::eskf::pos_cross_ned(p),
+                    Some(self.aid.status(sol.t)),
+                );
                 self.std.push(row);
             }
             self.sols.push(sol);

@@ -14,6 +14,7 @@
 //! | `innovations.csv`, `NAME.innovations.csv` | innovations: columns `t` (or `t_gps_s`), `kind`, `nis`, `dof`, `accepted` (1/0/true/false), optional `estimator` |
 //! | `states.csv`, `NAME.states.csv` | estimated states vs time: `t` (or `t_gps_s`) and columns `QUANTITY_AXIS_UNIT` or `QUANTITY_UNIT` (e.g. `bg_x_dph`, `ba_z_mg`, `td_s`); one plot per quantity+unit |
 //! | any other `*.nav`, `*.csv` (navfuse trajectory CSV), `*.pos` | one solution each, named by the file stem, its own colour |
+//! | `STEM.std` | navfuse σ file of the solution `STEM.*` (or `--std FILE`): ±3σ bands and the uncertainty section (error against ±2σ, horizontal NEES) |
 //! | `KF_GINS_Navresult.nav` + `KF_GINS_STD.txt` + `KF_GINS_IMU_ERR.txt` | a KF-GINS output folder (KF-GINS's or `navfuse kf-gins`'s): the solution with its σ and IMU error states ([`read_kfgins_output`]) |
 //!
 //! Other files (and CSVs without a trajectory header, e.g. an `errors.csv`
@@ -33,6 +34,7 @@
 pub mod build;
 pub mod fixture;
 mod page;
+mod sigma_in;
 pub mod svg;
 
 use navfuse_core::NavSolution;
@@ -124,6 +126,10 @@ pub struct LoadOptions {
     pub kfgins_outputs: Vec<(String, PathBuf)>,
     /// GPS week for time-of-week-only inputs (default: from the inputs).
     pub week: Option<u32>,
+    /// σ file ([`navfuse_io::stdfile`]) of the solution with the same file
+    /// stem, else of the first solution (default: every `STEM.std` in the
+    /// directory goes to the solution `STEM.*`).
+    pub std: Option<PathBuf>,
 }
 
 /// Whitespace-separated numeric rows of a KF-GINS text output with at least
@@ -503,6 +509,7 @@ pub fn load_run_dir(dir: &Path, opt: &LoadOptions) -> Result<Inputs, String> {
     let mut sol_paths: Vec<(String, PathBuf)> = Vec::new();
     let mut kfgins_dirs: Vec<(String, PathBuf)> = Vec::new();
     let mut truth_cands: Vec<PathBuf> = Vec::new();
+    let mut std_files: Vec<PathBuf> = Vec::new();
     for p in &files {
         let n = lower_name(p);
         let ext = n.rsplit('.').next().unwrap_or("").to_string();
@@ -548,6 +555,8 @@ pub fn load_run_dir(dir: &Path, opt: &LoadOptions) -> Result<Inputs, String> {
             kfgins_dirs.push(("KF-GINS output".into(), dir.to_path_buf()));
         } else if ext == "nav" || ext == "pos" {
             sol_paths.push((stem(p), p.clone()));
+        } else if ext == "std" {
+            std_files.push(p.clone());
         } else if ext == "csv" {
             let head = first_line(p)?;
             if header_cols(&head).iter().any(|c| c == "lat_deg") {
@@ -602,10 +611,30 @@ pub fn load_run_dir(dir: &Path, opt: &LoadOptions) -> Result<Inputs, String> {
         }
         !dup
     });
+    // `navfuse run` with formats = ["pos"]: STEM.pos is STEM.nav again.
+    let nav_stems: Vec<String> = sol_paths
+        .iter()
+        .filter(|(_, p)| !lower_name(p).ends_with(".pos"))
+        .map(|(n, _)| n.clone())
+        .collect();
+    sol_paths.retain(|(n, p)| {
+        let dup = lower_name(p).ends_with(".pos") && nav_stems.contains(n);
+        if dup {
+            inp.ignored
+                .push(format!("{} (same solution as {n}.nav/.csv)", p.display()));
+        }
+        !dup
+    });
     sol_paths.extend(opt.solutions.iter().cloned());
     for (name, p) in &sol_paths {
         inp.solutions.push(read_trajectory(p, name, false)?);
     }
+    sigma_in::attach_std_files(
+        &mut inp.solutions,
+        &std_files,
+        opt.std.as_deref(),
+        &mut inp.ignored,
+    )?;
     kfgins_dirs.extend(opt.kfgins_outputs.iter().cloned());
     for (name, d) in &kfgins_dirs {
         let (sol, states) = read_kfgins_output(d, name)?;

@@ -8,6 +8,9 @@ use navfuse_core::NavSolution;
 use navfuse_eval::{evaluate, outage_metric, ErrorEpoch, Outage, Stats};
 use std::fmt::Write as _;
 
+#[path = "sigma_plots.rs"]
+mod sigma_plots;
+
 const WEEK_S: f64 = 604_800.0;
 const TRUTH_COLOUR: &str = "#222222";
 const FIX_COLOUR: &str = "#7f7f7f";
@@ -337,6 +340,7 @@ pub(crate) fn render(inp: &Inputs, progress: &mut dyn FnMut(&str)) -> Result<Ren
             ),
             plots,
         });
+        sections.extend(sigma_plots::section(inp, &results, &spans, t0));
         let has_vel = results
             .iter()
             .filter_map(|r| r.evaluation.as_ref())

@@ -376,3 +376,107 @@ fn demo_layout_nav_and_csv_of_one_solution_and_two_truths() {
     let r = render(&inp, &mut |_| {}).unwrap();
     assert!(r.html.contains("<h3>run.toml</h3>"));
 }
+
+/// `solution.nav` alone: no uncertainty section; with `solution.std` beside
+/// it (or given as `--std`): σ attached, the ±2σ and NEES plots drawn, and
+/// the NEES of an error drawn with exactly the σ it claims (N(0, σ²) per
+/// axis, seeded) is χ²(2): about 5 % above 5.991.
+#[test]
+fn sigma_plots_appear_with_a_std_file_and_not_without() {
+    use navfuse_core::Vec3;
+    use navfuse_io::stdfile::{write_std_row, StdRow};
+    use navfuse_io::trajectory::OutFormat;
+    let dir = tmp("sigma");
+    let truth = crate::fixture::truth();
+    let write = |name: &str, fmt: OutFormat, s: &[NavSolution]| {
+        let mut w = navfuse_io::trajectory::create_writer(&dir.join(name), fmt).unwrap();
+        for x in s {
+            w.write(x).unwrap();
+        }
+        w.finish().unwrap();
+    };
+    write("truth.csv", OutFormat::Csv, &truth);
+    // Errors N(0, σ²) with σ = (0.4, 0.3, 0.8) m (Box–Muller on an xorshift).
+    let sd = Vec3::new(0.4, 0.3, 0.8);
+    let mut st = 0x2545_f491_4f6c_dd1du64;
+    let mut u = move || {
+        st ^= st << 13;
+        st ^= st >> 7;
+        st ^= st << 17;
+        ((st >> 11) as f64 + 0.5) / (1u64 << 53) as f64
+    };
+    let mut z = move || (-2.0 * u().ln()).sqrt() * (std::f64::consts::TAU * u()).cos();
+    let r = 6_378_137.0;
+    let sol: Vec<NavSolution> = truth
+        .iter()
+        .map(|t| {
+            let mut s = *t;
+            s.lat += sd.x * z() / r;
+            s.lon += sd.y * z() / (r * t.lat.cos());
+            s.h -= sd.z * z();
+            s
+        })
+        .collect();
+    write("solution.nav", OutFormat::Nav, &sol);
+    let ids = |r: &Rendered| r.plots.iter().map(|p| p.0.clone()).collect::<Vec<_>>();
+    let plain = render(
+        &load_run_dir(&dir, &LoadOptions::default()).unwrap(),
+        &mut |_| {},
+    )
+    .unwrap();
+    assert!(!plain.sections.iter().any(|s| s == "uncertainty"));
+    assert!(!ids(&plain)
+        .iter()
+        .any(|i| i.starts_with("sigma-") || i.starts_with("nees")));
+    let mut f = Vec::new();
+    for s in &sol {
+        let row = StdRow {
+            t: s.t,
+            pos_ned: sd,
+            vel_ned: Vec3::repeat(0.05),
+            att_rpy: Vec3::repeat(0.01),
+            bg: Vec3::zeros(),
+            ba: Vec3::zeros(),
+            sg: Vec3::zeros(),
+            sa: Vec3::zeros(),
+            pos_cross_ned: Vec3::repeat(f64::NAN),
+            status: None,
+        };
+        write_std_row(&mut f, &row).unwrap();
+    }
+    let std_path = dir.join("solution.std");
+    std::fs::write(&std_path, &f).unwrap();
+    let inp = load_run_dir(&dir, &LoadOptions::default()).unwrap();
+    assert_eq!(inp.solutions.len(), 1, "{:?}", inp.ignored);
+    assert_eq!(inp.solutions[0].epochs[5].std_pos_ned, sd);
+    assert!(inp.solutions[0]
+        .records
+        .as_ref()
+        .unwrap()
+        .contains("σ from solution.std"));
+    let with = render(&inp, &mut |_| {}).unwrap();
+    assert!(with.sections.iter().any(|s| s == "uncertainty"));
+    for id in ["sigma-horizontal", "sigma-vertical", "nees-horizontal"] {
+        assert!(ids(&with).iter().any(|i| i == id), "{id} missing");
+    }
+    assert!(with.html.contains("χ²(2) 95 % = 5.991"));
+    // The table row: share of NEES above 5.991 near 5 % (3001 epochs: ±1.2 %).
+    let sect = with.html.split("id=\"uncertainty\"").nth(1).unwrap();
+    let row = sect.split("<td>solution</td>").nth(1).unwrap();
+    let cells: Vec<&str> = row.split("<td>").skip(3).take(1).collect();
+    let share: f64 = cells[0].split(' ').next().unwrap().parse().unwrap();
+    assert!(
+        (2.5..7.5).contains(&share),
+        "NEES share above χ²(2) 95 %: {share} %"
+    );
+    // Explicit --std with another stem: attached to the (only) solution.
+    let moved = dir.join("other.sigma");
+    std::fs::rename(&std_path, &moved).unwrap();
+    let opt = LoadOptions {
+        std: Some(moved),
+        ..Default::default()
+    };
+    let inp = load_run_dir(&dir, &opt).unwrap();
+    assert_eq!(inp.solutions[0].epochs[0].std_pos_ned, sd);
+    let _ = std::fs::remove_dir_all(&dir);
+}

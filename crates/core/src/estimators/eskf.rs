@@ -295,6 +295,19 @@ pub struct SmoothedEpoch {
     /// Diagonal of the smoothed error-state covariance `P^s_k` (never above
     /// the forward `P⁺_k` diagonal).
     pub p_diag: StateVec,
+    /// Off-diagonal position terms of `P^s_k` [m²]: (NE, ED, DN), NED
+    /// position error frame (RTKLIB `.pos` cross terms, [`pos_cross_ned`]).
+    pub p_pos_cross: Vec3,
+}
+
+/// The off-diagonal position covariances (NE, ED, DN) [m²] of `p` (NED
+/// position error states at [`I_POS`]).
+pub fn pos_cross_ned(p: &Cov) -> Vec3 {
+    Vec3::new(
+        p[(I_POS, I_POS + 1)],
+        p[(I_POS + 1, I_POS + 2)],
+        p[(I_POS + 2, I_POS)],
+    )
 }
 
 /// Backward RTS pass over the forward filter's checkpoints (oldest first).
@@ -324,6 +337,7 @@ pub fn rts_smooth(records: &[SmootherRecord], p_last: &Cov, mut out: impl FnMut(
         nav: last.nav,
         errors: last.errors,
         p_diag: last.p_post_diag,
+        p_pos_cross: pos_cross_ned(p_last),
     });
     for k in (0..n - 1).rev() {
         let next = &records[k + 1];
@@ -348,6 +362,7 @@ pub fn rts_smooth(records: &[SmootherRecord], p_last: &Cov, mut out: impl FnMut(
             nav,
             errors,
             p_diag,
+            p_pos_cross: pos_cross_ned(&ps),
         });
     }
 }
