@@ -34,6 +34,7 @@ pub mod kfgins_input;
 pub mod live;
 pub mod live_align;
 pub mod noise_cfg;
+pub mod offset_passes;
 mod other;
 pub mod outputs;
 pub mod profile;
