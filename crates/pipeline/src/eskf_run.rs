@@ -340,7 +340,11 @@ impl EskfRun {
     /// The summary's `time_offset` text, given the offset the input loading
     /// applied (τ [s] and how), if any.
     pub fn time_offset_text(&self, applied: Option<&(f64, String)>) -> String {
-        time_offset_note(&self.time_offset_estimate, applied)
+        let note = time_offset_note(&self.time_offset_estimate, applied);
+        match &self.time_offset_passes {
+            Some(p) => format!("{note}; {p}"),
+            None => note,
+        }
     }
 }
 

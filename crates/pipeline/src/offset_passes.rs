@@ -156,6 +156,72 @@ pub fn run_with_offset_passes(
     }
 }
 
+/// `navfuse run`'s file path: when `[input] imu_time_offset` is unset or
+/// `"auto"` the inputs were loaded without an offset
+/// ([`wants_passes`]); this decides it on them — by passes when the fixes
+/// carry velocities, else by the course estimate
+/// ([`crate::time_offset::auto_estimate`], only where the course follows
+/// the heading: [`crate::time_offset::default_mode`]) — shifts the IMU and
+/// aux stamps of `loaded` by it, records it in `loaded`, and returns the
+/// final pass's run (to keep, on the shifted inputs) when passes ran.
+pub fn decide_on_loaded(
+    cfg: &crate::config::RunConfig,
+    base_dir: &std::path::Path,
+    loaded: &mut crate::input::Loaded,
+    with_std: bool,
+) -> Result<Option<EskfRun>> {
+    use crate::time_offset::{default_mode, TimeOffset};
+    let (mut kept, applied) = if has_velocity(&loaded.gnss) {
+        let (imu0, gnss, aux0) = (&loaded.imu, &loaded.gnss, &loaded.aux);
+        let mut run = |imu: &[ImuSample]| {
+            let tau = imu
+                .first()
+                .zip(imu0.first())
+                .map_or(0.0, |(a, b)| a.t - b.t);
+            let aux = aux0.as_ref().map(|a| shift_aux(a, tau));
+            let span = crate::eskf_run::select_span(cfg, imu, gnss)?;
+            crate::eskf_run::run_eskf_span(cfg, base_dir, &span, aux.as_ref(), with_std)
+        };
+        let p = run_with_offset_passes(imu0, gnss, &mut run)?;
+        let mut r = p.run;
+        r.time_offset_passes = Some(p.note);
+        (Some(r), p.applied)
+    } else if cfg.input.imu_time_offset.is_some() || default_mode(cfg) == TimeOffset::Auto {
+        (None, TimeOffset::Auto.resolve(&loaded.imu, &loaded.gnss)?)
+    } else {
+        (None, None)
+    };
+    if let Some((tau, _)) = &applied {
+        loaded.imu.iter_mut().for_each(|s| s.t += tau);
+        if let Some(a) = &mut loaded.aux {
+            *a = shift_aux(a, *tau);
+        }
+        loaded.resolved["imu_time_offset_s"] = serde_json::json!(tau);
+    }
+    if let Some(r) = &mut kept {
+        r.time_offset_applied = applied.clone();
+    }
+    loaded.imu_time_offset = applied;
+    Ok(kept)
+}
+
+/// Whether `navfuse run` loads without an offset and leaves it to
+/// [`decide_on_loaded`]: `[input] imu_time_offset` unset or `"auto"`.
+pub fn wants_passes(cfg: &crate::config::RunConfig) -> bool {
+    use crate::time_offset::TimeOffsetCfg;
+    match &cfg.input.imu_time_offset {
+        None => true,
+        Some(TimeOffsetCfg::Named(n)) => n == "auto",
+        Some(TimeOffsetCfg::Seconds(_)) => false,
+    }
+}
+
+fn shift_aux(a: &crate::input::AuxSeries, tau: f64) -> crate::input::AuxSeries {
+    let mut a = a.clone();
+    a.0.iter_mut().for_each(|x| x.t += tau);
+    a
+}
+
 fn fmt(e: &VelOffsetEstimate) -> String {
     match e.tau_s {
         Some(t) => format!(

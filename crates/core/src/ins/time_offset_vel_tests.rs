@@ -3,7 +3,6 @@
 //! constant acceleration error (filter tilt/bias) that the model must absorb.
 use super::*;
 use crate::attitude::{dcm_from_euler, skew};
-use alloc::vec;
 
 /// xorshift64* + Box–Muller: a deterministic stream for tests.
 struct Rng(u64);
@@ -181,5 +180,4 @@ fn too_few_velocity_epochs_give_no_estimate() {
     let e = estimate_from_velocity(&ins, &gnss, &VelOffsetConfig::default());
     assert_eq!(e.tau_s, None);
     assert_eq!(e.reason, TimeOffsetReason::TooFewPairs);
-    let _ = vec![0u8; 0];
 }
