@@ -395,12 +395,8 @@ fn std_tau(obs: &[Obs], track: &Track, tau: f64, p: &Profile, cfg: &VelOffsetCon
 /// Robust screen on the largest normalised residual of each epoch; returns
 /// the number dropped.
 fn screen(obs: &mut Vec<Obs>, p: &Profile, k: f64) -> usize {
-    let mut z: Vec<f64> = p.res.iter().flat_map(|r| r.iter().copied()).collect();
-    z.sort_by(f64::total_cmp);
-    let med = z[z.len() / 2];
-    let mut dev: Vec<f64> = z.iter().map(|e| (e - med).abs()).collect();
-    dev.sort_by(f64::total_cmp);
-    let lim = k * 1.4826 * dev[dev.len() / 2];
+    let z: Vec<f64> = p.res.iter().flat_map(|r| r.iter().copied()).collect();
+    let (med, lim) = super::time_offset::robust_band(z, k);
     let before = obs.len();
     let mut idx = 0;
     obs.retain(|_| {

@@ -4,23 +4,7 @@
 use super::*;
 use crate::attitude::{dcm_from_euler, skew};
 
-/// xorshift64* + Box–Muller: a deterministic stream for tests.
-struct Rng(u64);
-impl Rng {
-    fn new(seed: u64) -> Self {
-        Rng(seed.wrapping_mul(0x9e37_79b9_7f4a_7c15) | 1)
-    }
-    fn uni(&mut self) -> f64 {
-        self.0 ^= self.0 >> 12;
-        self.0 ^= self.0 << 25;
-        self.0 ^= self.0 >> 27;
-        (self.0.wrapping_mul(0x2545_f491_4f6c_dd1d) >> 11) as f64 / (1u64 << 53) as f64
-    }
-    fn gauss(&mut self) -> f64 {
-        let u = self.uni().max(1e-300);
-        (-2.0 * u.ln()).sqrt() * (core::f64::consts::TAU * self.uni()).cos()
-    }
-}
+use crate::ins::time_offset::tests::Rng;
 
 /// Sum of raised-cosine bumps: (centre, half-width, amplitude).
 fn bumps(b: &[(f64, f64, f64)], t: f64) -> f64 {
