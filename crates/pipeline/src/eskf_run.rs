@@ -331,13 +331,20 @@ pub struct EskfRun {
     /// The IMU time offset [s] this in-memory run applied and how
     /// ([`run_eskf`] only; file runs report it from the loading).
     pub time_offset_applied: Option<(f64, String)>,
+    /// The account of the offset passes ([`crate::offset_passes`]), when
+    /// the offset was found that way.
+    pub time_offset_passes: Option<String>,
 }
 
 impl EskfRun {
     /// The summary's `time_offset` text, given the offset the input loading
     /// applied (τ [s] and how), if any.
     pub fn time_offset_text(&self, applied: Option<&(f64, String)>) -> String {
-        time_offset_note(&self.time_offset_estimate, applied)
+        let note = time_offset_note(&self.time_offset_estimate, applied);
+        match &self.time_offset_passes {
+            Some(p) => format!("{note}; {p}"),
+            None => note,
+        }
     }
 }
 
@@ -360,6 +367,24 @@ pub fn run_eskf(
         Some(TimeOffsetCfg::Seconds(s)) => TimeOffset::parse(&s.to_string())?,
         Some(TimeOffsetCfg::Named(n)) => TimeOffset::parse(n)?,
     };
+    // With GNSS velocities the offset comes from filter passes, which assume
+    // nothing about course and heading: every platform, named `auto` or
+    // left unset (`crate::offset_passes`).
+    let passes = match (&cfg.input.imu_time_offset, mode) {
+        (None, _) | (_, TimeOffset::Auto) => crate::offset_passes::has_velocity(gnss),
+        _ => false,
+    };
+    if passes {
+        let mut run = |imu: &[ImuSample]| {
+            let span = select_span(cfg, imu, gnss)?;
+            run_eskf_span(cfg, base_dir, &span, aux, true)
+        };
+        let p = crate::offset_passes::run_with_offset_passes(imu, gnss, &mut run)?;
+        let mut r = p.run;
+        r.time_offset_applied = p.applied;
+        r.time_offset_passes = Some(p.note);
+        return Ok(r);
+    }
     let shifted: Vec<ImuSample>;
     let mut applied = None;
     let imu = match mode.resolve(imu, gnss)? {
@@ -519,6 +544,7 @@ pub(crate) fn run_eskf_span(
         gnss_fixes_fed: gnss_fed,
         seconds_filter,
         time_offset_applied: None,
+        time_offset_passes: None,
     })
 }
 

@@ -37,6 +37,7 @@ pub mod live_replay;
 pub mod live_session;
 pub mod motion_tilt;
 pub mod noise_cfg;
+pub mod offset_passes;
 mod other;
 pub mod outputs;
 pub mod pos_out;

@@ -12,7 +12,7 @@ use crate::outputs::{out_formats, write_innovations, write_journal_parquet, writ
 use crate::run_checks::time_keys_json;
 use crate::sigma::write_std;
 use crate::summary::Summary;
-use crate::time_offset::{default_mode, TimeOffset, TimeOffsetCfg};
+use crate::time_offset::TimeOffsetCfg;
 use navfuse_core::estimators::eskf::EskfStats;
 use navfuse_core::types::NavSolution;
 use navfuse_io::trajectory::OutFormat;
@@ -67,12 +67,15 @@ pub fn run(cfg: &RunConfig, base_dir: &Path, opts: &RunOptions) -> Result<RunOut
     let (imu_path, gnss_path) = (rel(&cfg.input.imu), rel(&cfg.input.gnss));
     let imu_tag = cfg.input.imu_tag.as_deref().map(rel);
     let none = TimeOffsetCfg::Named("none".into());
-    let offset = match (&cfg.input.imu_time_offset, default_mode(cfg)) {
-        (Some(o), _) => Some(o),
-        (None, TimeOffset::None) => Some(&none),
-        (None, _) => None,
+    // Unset or `auto`: loaded without an offset, decided below on the
+    // loaded inputs (filter passes when the fixes carry velocities).
+    let passes = crate::offset_passes::wants_passes(cfg);
+    let offset = if passes {
+        Some(&none)
+    } else {
+        cfg.input.imu_time_offset.as_ref()
     };
-    let loaded = input::load(&InputSpec {
+    let mut loaded = input::load(&InputSpec {
         imu: &imu_path,
         imu_format: cfg.input.imu_format.as_deref(),
         imu_rate: cfg.input.imu_rate,
@@ -85,6 +88,11 @@ pub fn run(cfg: &RunConfig, base_dir: &Path, opts: &RunOptions) -> Result<RunOut
         imu_tag: imu_tag.as_deref(),
     })
     .map_err(|e| cfg.err(e.to_string()))?;
+    let mut kept = if passes {
+        crate::offset_passes::decide_on_loaded(cfg, base_dir, &mut loaded, !opts.no_std)?
+    } else {
+        None
+    };
     let inputs = serde_json::json!({
         "imu": loaded.imu_report,
         "gnss": loaded.gnss_report,
@@ -127,7 +135,10 @@ pub fn run(cfg: &RunConfig, base_dir: &Path, opts: &RunOptions) -> Result<RunOut
             },
         );
     }
-    let r = run_eskf_span(cfg, base_dir, &span, loaded.aux.as_ref(), !opts.no_std)?;
+    let r = match kept.take() {
+        Some(r) => r,
+        None => run_eskf_span(cfg, base_dir, &span, loaded.aux.as_ref(), !opts.no_std)?,
+    };
     std::fs::create_dir_all(&out_dir).map_err(PipelineError::io(&out_dir, ""))?;
     let mut outputs = Vec::new();
     // `.pos` carries the covariance's cross terms and the aiding status:

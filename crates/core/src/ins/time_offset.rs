@@ -514,14 +514,18 @@ fn std_tau(obs: &[Obs], lin: &Lin, active: usize) -> f64 {
     classical.max(sandwich).sqrt()
 }
 
-/// Robust residual screen: keeps |z − med| ≤ k·1.4826·MAD; returns dropped count.
-fn screen(obs: &mut Vec<Obs>, lin: &Lin, k: f64) -> usize {
-    let mut z: Vec<f64> = lin.score.iter().map(|s| s.1).collect();
+/// Median and k·1.4826·MAD of `z` (a robust σ band; `z` non-empty).
+pub(crate) fn robust_band(mut z: Vec<f64>, k: f64) -> (f64, f64) {
     z.sort_by(f64::total_cmp);
     let med = z[z.len() / 2];
     let mut dev: Vec<f64> = z.iter().map(|e| (e - med).abs()).collect();
     dev.sort_by(f64::total_cmp);
-    let lim = k * 1.4826 * dev[dev.len() / 2];
+    (med, k * 1.4826 * dev[dev.len() / 2])
+}
+
+/// Robust residual screen: keeps |z − med| ≤ k·1.4826·MAD; returns dropped count.
+fn screen(obs: &mut Vec<Obs>, lin: &Lin, k: f64) -> usize {
+    let (med, lim) = robust_band(lin.score.iter().map(|s| s.1).collect(), k);
     let before = obs.len();
     let mut idx = 0;
     obs.retain(|_| {
@@ -612,4 +616,4 @@ pub fn estimate(imu: &[ImuSample], gnss: &[GnssFix], cfg: &TimeOffsetConfig) -> 
 
 #[cfg(test)]
 #[path = "time_offset_tests.rs"]
-mod tests;
+pub(crate) mod tests;

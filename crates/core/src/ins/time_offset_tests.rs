@@ -5,12 +5,12 @@ use crate::Vec3;
 use alloc::vec;
 
 /// xorshift64* + Box–Muller: a deterministic stream for tests.
-struct Rng(u64);
+pub(crate) struct Rng(u64);
 impl Rng {
-    fn new(seed: u64) -> Self {
+    pub(crate) fn new(seed: u64) -> Self {
         Rng(seed.wrapping_mul(0x9e37_79b9_7f4a_7c15) | 1)
     }
-    fn uni(&mut self) -> f64 {
+    pub(crate) fn uni(&mut self) -> f64 {
         self.0 ^= self.0 >> 12;
         self.0 ^= self.0 << 25;
         self.0 ^= self.0 >> 27;
@@ -19,7 +19,7 @@ impl Rng {
     fn range(&mut self, a: f64, b: f64) -> f64 {
         a + (b - a) * self.uni()
     }
-    fn gauss(&mut self) -> f64 {
+    pub(crate) fn gauss(&mut self) -> f64 {
         let u = self.uni().max(1e-300);
         (-2.0 * u.ln()).sqrt() * (core::f64::consts::TAU * self.uni()).cos()
     }
