@@ -35,7 +35,48 @@ impl fmt::Display for ReadError {
 
 impl std::error::Error for ReadError {}
 
+/// The class of a failure, shared by every navfuse library error so that the
+/// `navfuse` CLI maps errors to its documented exit codes (docs/exit-codes.md)
+/// without knowing their details.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum FailureKind {
+    /// Bad command line or configuration (unknown key, wrong type, bad option).
+    Usage,
+    /// The input data is malformed, empty, or unusable (every record rejected,
+    /// no alignment possible).
+    Input,
+    /// The file system refused: an input cannot be opened/read, an output
+    /// cannot be written.
+    Io,
+    /// A bug: an invariant broke (a panic, a writer thread lost).
+    Internal,
+}
+
+impl FailureKind {
+    /// The process exit code: 2 usage/config, 3 input data, 4 I/O, 70
+    /// internal (`EX_SOFTWARE` of BSD sysexits).
+    pub fn exit_code(self) -> u8 {
+        match self {
+            FailureKind::Usage => 2,
+            FailureKind::Input => 3,
+            FailureKind::Io => 4,
+            FailureKind::Internal => 70,
+        }
+    }
+}
+
 impl ReadError {
+    /// [`FailureKind::Io`] when the file could not be opened or read
+    /// (field `<file>`, or an `I/O error` while reading), else
+    /// [`FailureKind::Input`] (the content is wrong).
+    pub fn kind(&self) -> FailureKind {
+        if self.field == "<file>" || self.msg.starts_with("I/O error") {
+            FailureKind::Io
+        } else {
+            FailureKind::Input
+        }
+    }
+
     /// New error; `field` may be a `&'static str` or an owned `String`.
     pub fn new(
         file: &Arc<str>,

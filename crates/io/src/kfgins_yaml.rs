@@ -135,8 +135,8 @@ impl KfGinsConfig {
 
     /// Read a KF-GINS YAML file; relative paths in it resolve against its folder.
     pub fn load(path: &Path) -> Result<Self, String> {
-        let text = std::fs::read_to_string(path)
-            .map_err(|e| format!("{}: cannot read: {e}", path.display()))?;
+        let text = crate::text::read_text_capped(path, crate::text::MAX_CONFIG_BYTES)
+            .map_err(|e| e.to_string())?;
         let mut c = Self::parse(&text, &path.display().to_string())?;
         c.base_dir = path.parent().map(Path::to_path_buf).unwrap_or_default();
         Ok(c)

@@ -308,7 +308,7 @@ fn filter(
     filtered?;
     let write = |name: &str, buf: &[u8]| {
         let p = out_dir.join(name);
-        std::fs::write(&p, buf).map_err(PipelineError::io(&p, "cannot write: "))
+        navfuse_io::atomic::write_atomic(&p, buf).map_err(PipelineError::io(&p, "cannot write: "))
     };
     let mut smoothed = Vec::new();
     if smooth {

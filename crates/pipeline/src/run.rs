@@ -168,7 +168,7 @@ pub fn run(cfg: &RunConfig, base_dir: &Path, opts: &RunOptions) -> Result<RunOut
     let p = out_dir.join("summary.json");
     let json =
         serde_json::to_string_pretty(&summary).map_err(|e| PipelineError::Output(e.to_string()))?;
-    std::fs::write(&p, json).map_err(PipelineError::io(&p, ""))?;
+    navfuse_io::atomic::write_atomic(&p, json).map_err(PipelineError::io(&p, ""))?;
     let st = &r.stats;
     let message = format!(
         "navfuse run: {} solutions, GNSS used {} / gated {}; {}; summary {}",
