@@ -42,11 +42,11 @@ impl std::error::Error for ReadError {}
 pub enum FailureKind {
     /// Bad command line or configuration (unknown key, wrong type, bad option).
     Usage,
-    /// The input data is malformed, empty, or unusable (every record rejected,
-    /// no alignment possible).
+    /// An input data file is missing, malformed, empty or unusable (every
+    /// record rejected, no alignment possible).
     Input,
-    /// The file system refused: an input cannot be opened/read, an output
-    /// cannot be written.
+    /// The file system refused: an output cannot be written, the
+    /// configuration file cannot be read, a read fails mid-file.
     Io,
     /// A bug: an invariant broke (a panic, a writer thread lost).
     Internal,
@@ -66,11 +66,12 @@ impl FailureKind {
 }
 
 impl ReadError {
-    /// [`FailureKind::Io`] when the file could not be opened or read
-    /// (field `<file>`, or an `I/O error` while reading), else
-    /// [`FailureKind::Input`] (the content is wrong).
+    /// [`FailureKind::Io`] for a read error of the file system in the middle
+    /// of a file (`I/O error`), else [`FailureKind::Input`]: the content is
+    /// wrong, or the input file is missing or unreadable (an input that is
+    /// not there is the input's problem, like one that is malformed).
     pub fn kind(&self) -> FailureKind {
-        if self.field == "<file>" || self.msg.starts_with("I/O error") {
+        if self.msg.starts_with("I/O error") {
             FailureKind::Io
         } else {
             FailureKind::Input

@@ -40,7 +40,8 @@ impl OutFile {
         })
     }
 
-    fn write_out(&mut self) -> Result<()> {
+    /// Write the buffer out (the file stays uncommitted).
+    pub fn write_out(&mut self) -> Result<()> {
         use std::io::Write as _;
         self.file
             .write_all(&self.buf)

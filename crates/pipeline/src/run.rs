@@ -83,7 +83,11 @@ pub fn run(cfg: &RunConfig, base_dir: &Path, opts: &RunOptions) -> Result<RunOut
         gnss_time_base: cfg.input.gnss_time_base,
         imu_tag: imu_tag.as_deref(),
     })
-    .map_err(|e| cfg.err(e.to_string()))?;
+    .map_err(|e| match e {
+        // The data's fault (exit code 3), named after the configuration.
+        PipelineError::Input(m) => PipelineError::Input(format!("{}: {m}", cfg.name())),
+        e => cfg.err(e.to_string()),
+    })?;
     let inputs = serde_json::json!({
         "imu": loaded.imu_report,
         "gnss": loaded.gnss_report,
