@@ -171,7 +171,6 @@ where
         return Err(no_records(&args.input, stats(&src)));
     }
     w.finish().map_err(werr)?;
-    drop(w);
     f.commit().map_err(werr)?;
     Ok((n, stats(&src).clone()))
 }

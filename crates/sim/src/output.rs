@@ -131,7 +131,6 @@ pub fn write_run(run: &SimRun, dir: &Path) -> Result<(), SimError> {
         );
     }
     nav.finish().map_err(nav_err)?;
-    drop(nav);
     nav_file.commit().map_err(nav_err)?;
     write(dir, "truth.csv", &csv)?;
 
