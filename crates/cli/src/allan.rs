@@ -6,6 +6,7 @@
 //! `navfuse run` configuration takes as is; also to `--toml FILE`) and
 //! `allan.svg` (log–log plot) to `--out`.
 
+use crate::fail::Fail;
 use clap::Args as ClapArgs;
 use navfuse_pipeline::allan::analyse;
 use std::path::PathBuf;
@@ -27,11 +28,11 @@ pub struct Args {
     pub toml: Option<PathBuf>,
 }
 
-pub fn run(args: Args) -> Result<(), String> {
-    let r = analyse(&args.imu_file, &args.format)?;
+pub fn run(args: Args) -> Result<(), Fail> {
+    let r = analyse(&args.imu_file, &args.format).map_err(|e| Fail::input(String::from(e)))?;
     println!("Allan deviation of {}", args.imu_file.display());
     println!("{}", r.table());
-    std::fs::create_dir_all(&args.out).map_err(|e| format!("{}: {e}", args.out.display()))?;
+    std::fs::create_dir_all(&args.out).map_err(Fail::io(&args.out))?;
     for (name, text) in [
         ("allan.csv", r.csv()),
         (
@@ -41,11 +42,11 @@ pub fn run(args: Args) -> Result<(), String> {
         ("allan.svg", r.svg()),
     ] {
         let p = args.out.join(name);
-        std::fs::write(&p, text).map_err(|e| format!("{}: {e}", p.display()))?;
+        navfuse_io::atomic::write_atomic(&p, text).map_err(Fail::io(&p))?;
     }
     if let Some(p) = &args.toml {
         let text = r.toml(&args.imu_file.display().to_string());
-        std::fs::write(p, text).map_err(|e| format!("{}: {e}", p.display()))?;
+        navfuse_io::atomic::write_atomic(p, text).map_err(Fail::io(p))?;
         println!(
             "wrote {} ([filter.imu_noise] for a run configuration)",
             p.display()

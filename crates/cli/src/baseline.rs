@@ -2,6 +2,7 @@
 //! RINEX 2 observation files (model and options:
 //! [`navfuse_pipeline::experiments::baseline`]).
 
+use crate::fail::Fail;
 use clap::Args as ClapArgs;
 use std::path::{Path, PathBuf};
 
@@ -55,14 +56,27 @@ pub struct Args {
     pub out: Option<PathBuf>,
 }
 
-pub fn run(args: Args) -> Result<(), String> {
+pub fn run(args: Args) -> Result<(), Fail> {
     if args.max_gdop.is_nan() || args.max_gdop <= 0.0 {
-        return Err(format!("--max-gdop must be > 0, got {}", args.max_gdop));
+        return Err(Fail::usage(format!(
+            "--max-gdop must be > 0, got {}",
+            args.max_gdop
+        )));
     }
     if !(0.0..=1.0).contains(&args.humidity) {
-        return Err(format!("--humidity must be in 0..1, got {}", args.humidity));
+        return Err(Fail::usage(format!(
+            "--humidity must be in 0..1, got {}",
+            args.humidity
+        )));
     }
-    let (rover, base, nav) = load(&args.rover, &args.base, &args.nav)?;
+    if let Some(r) = args.reference.as_ref().filter(|r| r.len() != 3) {
+        return Err(Fail::usage(format!(
+            "--reference needs 3 values dx,dy,dz, got {}",
+            r.len()
+        )));
+    }
+    let (rover, base, nav) =
+        load(&args.rover, &args.base, &args.nav).map_err(|e| Fail::input(String::from(e)))?;
     let opts = Opts {
         kinematic: args.kinematic,
         l2: args.l2,
@@ -74,9 +88,18 @@ pub fn run(args: Args) -> Result<(), String> {
         humidity: args.humidity,
         ..Default::default()
     };
-    let sum = process(&base, &rover, &nav, &opts)?;
+    let sum = process(&base, &rover, &nav, &opts).map_err(|e| Fail::input(String::from(e)))?;
+    if sum.epochs.is_empty() {
+        return Err(Fail::input(format!(
+            "{} / {}: no epoch could be solved ({} paired, {} unpaired)",
+            args.rover.display(),
+            args.base.display(),
+            sum.paired(),
+            sum.unpaired
+        )));
+    }
     if let Some(p) = &args.out {
-        write_csv(p, &sum)?;
+        write_csv(p, &sum).map_err(|e| Fail::new(crate::fail::FailureKind::Io, e))?;
     }
     let n = sum.paired();
     let nfix = sum.epochs.iter().filter(|e| e.fixed_b.is_some()).count();
@@ -115,12 +138,6 @@ pub fn run(args: Args) -> Result<(), String> {
         );
     }
     if let Some(r) = &args.reference {
-        if r.len() != 3 {
-            return Err(format!(
-                "--reference needs 3 values dx,dy,dz, got {}",
-                r.len()
-            ));
-        }
         let reference = Vec3::new(r[0], r[1], r[2]);
         let st = stats(&sum, &reference);
         println!(
@@ -145,9 +162,8 @@ pub fn run(args: Args) -> Result<(), String> {
 /// float or `rejected_<reason>`; a rejected epoch has empty baselines).
 fn write_csv(p: &Path, sum: &Summary) -> Result<(), String> {
     use std::io::Write;
-    let mut w = std::io::BufWriter::new(
-        std::fs::File::create(p).map_err(|e| format!("{}: {e}", p.display()))?,
-    );
+    let mut w =
+        navfuse_io::atomic::AtomicFile::create(p).map_err(|e| format!("{}: {e}", p.display()))?;
     let io = |e: std::io::Error| format!("{}: {e}", p.display());
     writeln!(
         w,
@@ -199,5 +215,5 @@ fn write_csv(p: &Path, sum: &Summary) -> Result<(), String> {
     for (_, line) in rows {
         writeln!(w, "{line}").map_err(io)?;
     }
-    w.flush().map_err(io)
+    w.commit().map_err(io)
 }

@@ -5,6 +5,7 @@
 //! `--from`/`--to`. KF-GINS GNSS text needs `--from kfgins-gnss`. Prints one
 //! summary line: records read, written, rejected (with reasons).
 
+use crate::fail::Fail;
 use clap::{Args as ClapArgs, ValueEnum};
 use navfuse_io::trajectory::{create_writer, open_nav_source, InFormat, OutFormat};
 use std::path::PathBuf;
@@ -90,24 +91,24 @@ pub fn output_format(to: Option<To>, path: &std::path::Path) -> Result<OutFormat
     })
 }
 
-pub fn run(args: Args) -> Result<(), String> {
-    let fin = input_format(args.from, &args.input)?;
-    let fout = output_format(args.to, &args.output)?;
+pub fn run(args: Args) -> Result<(), Fail> {
+    let fin = input_format(args.from, &args.input).map_err(Fail::usage)?;
+    let fout = output_format(args.to, &args.output).map_err(Fail::usage)?;
     if fout == OutFormat::Nmea && matches!(fin, InFormat::Pos | InFormat::KfGinsGnss) {
         return fixes_to_nmea(&args, fin);
     }
-    let mut src = open_nav_source(&args.input, fin, args.gps_week).map_err(|e| e.to_string())?;
-    let mut out = create_writer(&args.output, fout)
-        .map_err(|e| format!("{}: cannot create: {e}", args.output.display()))?;
+    let mut src = open_nav_source(&args.input, fin, args.gps_week)?;
+    let werr = Fail::io(&args.output);
+    let mut out = create_writer(&args.output, fout).map_err(Fail::io(&args.output))?;
     let mut written = 0u64;
     for sol in src.by_ref() {
-        let sol = sol.map_err(|e| e.to_string())?;
-        out.write(&sol)
-            .map_err(|e| format!("{}: write failed: {e}", args.output.display()))?;
+        out.write(&sol?).map_err(Fail::io(&args.output))?;
         written += 1;
     }
-    out.finish()
-        .map_err(|e| format!("{}: write failed: {e}", args.output.display()))?;
+    if written == 0 {
+        return Err(no_records(&args.input, src.stats()));
+    }
+    out.finish().map_err(werr)?;
     let st = src.stats();
     println!(
         "convert: {} ({fin:?}) -> {} ({fout:?}): {} records read, {} written, {} rejected; {}",
@@ -121,23 +122,25 @@ pub fn run(args: Args) -> Result<(), String> {
     Ok(())
 }
 
+/// An input that gave no record: an error naming the file and its counts
+/// (never an empty output with exit 0).
+fn no_records(input: &std::path::Path, st: &navfuse_io::RecordStats) -> Fail {
+    Fail::input(format!("{}: no usable records ({st})", input.display()))
+}
+
 /// GNSS fixes → NMEA keeping each fix's quality and satellite count (the
 /// trajectory path would lose them).
-fn fixes_to_nmea(args: &Args, fin: InFormat) -> Result<(), String> {
+fn fixes_to_nmea(args: &Args, fin: InFormat) -> Result<(), Fail> {
     use navfuse_io::kfgins::KfGinsGnssReader;
     use navfuse_io::pos::PosReader;
-    let (rdr, name) = navfuse_io::open(&args.input).map_err(|e| e.to_string())?;
+    let (rdr, name) = navfuse_io::open(&args.input)?;
     let (n, st) = match fin {
-        InFormat::Pos => {
-            let mut r = PosReader::new(rdr, &name);
-            let n = write_nmea(&mut r, args)?;
-            (n, r.stats().clone())
-        }
-        _ => {
-            let mut r = KfGinsGnssReader::new(rdr, &name, args.gps_week);
-            let n = write_nmea(&mut r, args)?;
-            (n, r.stats().clone())
-        }
+        InFormat::Pos => write_nmea(PosReader::new(rdr, &name), PosReader::stats, args)?,
+        _ => write_nmea(
+            KfGinsGnssReader::new(rdr, &name, args.gps_week),
+            KfGinsGnssReader::stats,
+            args,
+        )?,
     };
     println!(
         "convert: {} ({fin:?}) -> {} (Nmea): {} records read, {n} written, {} rejected; {st}",
@@ -149,21 +152,29 @@ fn fixes_to_nmea(args: &Args, fin: InFormat) -> Result<(), String> {
     Ok(())
 }
 
-fn write_nmea(
-    src: &mut dyn Iterator<Item = Result<navfuse_core::types::GnssFix, navfuse_io::ReadError>>,
+/// Stream the fixes of `src` to the NMEA output; no fix is an error and
+/// leaves no output. Returns the count written and the reader's accounting.
+fn write_nmea<R>(
+    mut src: R,
+    stats: impl Fn(&R) -> &navfuse_io::RecordStats,
     args: &Args,
-) -> Result<u64, String> {
+) -> Result<(u64, navfuse_io::RecordStats), Fail>
+where
+    R: Iterator<Item = Result<navfuse_core::types::GnssFix, navfuse_io::ReadError>>,
+{
     use navfuse_io::writers::TrajectoryWriter;
-    let werr = |e: std::io::Error| format!("{}: write failed: {e}", args.output.display());
-    let f = std::fs::File::create(&args.output)
-        .map_err(|e| format!("{}: cannot create: {e}", args.output.display()))?;
-    let mut w = navfuse_io::nmea::NmeaWriter::new(std::io::BufWriter::new(f));
+    let werr = |e: std::io::Error| Fail::io(&args.output)(e);
+    let mut f = navfuse_io::atomic::AtomicFile::create(&args.output).map_err(werr)?;
+    let mut w = navfuse_io::nmea::NmeaWriter::new(&mut f);
     let mut n = 0u64;
-    for fix in src {
-        w.write_fix(&fix.map_err(|e| e.to_string())?)
-            .map_err(werr)?;
+    for fix in src.by_ref() {
+        w.write_fix(&fix?).map_err(werr)?;
         n += 1;
     }
+    if n == 0 {
+        return Err(no_records(&args.input, stats(&src)));
+    }
     w.finish().map_err(werr)?;
-    Ok(n)
+    f.commit().map_err(werr)?;
+    Ok((n, stats(&src).clone()))
 }

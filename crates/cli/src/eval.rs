@@ -10,10 +10,11 @@
 //! other's week (or the week given by `--week`), with a note on stderr. The
 //! same applies to `T0` of `--outages` and to `--fixes` times.
 
+use crate::fail::{Fail, FailureKind};
 use clap::Args as ClapArgs;
 use navfuse_eval::files::{errors_csv, harmonise_weeks, in_week, read_trajectory, render_table};
 use navfuse_eval::{evaluate, Align, EvalConfig, OutageSchedule};
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
 /// Evaluate a solution against a reference trajectory.
 #[derive(ClapArgs, Debug)]
@@ -88,17 +89,28 @@ impl From<At> for Align {
     }
 }
 
-pub fn run(args: Args) -> Result<(), String> {
+pub fn run(args: Args) -> Result<(), Fail> {
     let week_arg = args.week.unwrap_or(0);
-    let (mut solution, sol_stats) = read_trajectory(&args.solution, week_arg, false)?;
-    let (mut reference, ref_stats) = read_trajectory(&args.truth, week_arg, true)?;
-    if solution.is_empty() {
-        return Err(format!("{}: no solution epochs", args.solution.display()));
+    let read = |p: &Path, w: u32, txt: bool| {
+        read_trajectory(p, w, txt).map_err(|e| Fail::input(e.to_string()))
+    };
+    let (mut solution, sol_stats) = read(&args.solution, week_arg, false)?;
+    let (mut reference, ref_stats) = read(&args.truth, week_arg, true)?;
+    for (p, n, st) in [
+        (&args.solution, solution.len(), &sol_stats),
+        (&args.truth, reference.len(), &ref_stats),
+    ] {
+        if n == 0 {
+            return Err(Fail::input(format!("{}: no epochs ({st})", p.display())));
+        }
     }
     if let Some(p) = &args.std {
-        let rows = navfuse_io::stdfile::read_std_file(p).map_err(|e| e.to_string())?;
+        let rows = navfuse_io::stdfile::read_std_file(p).map_err(|e| Fail::input(e.to_string()))?;
         if navfuse_io::stdfile::attach_std(&mut solution, &rows) == 0 {
-            return Err(format!("{}: no row matches a solution epoch", p.display()));
+            return Err(Fail::input(format!(
+                "{}: no row matches a solution epoch",
+                p.display()
+            )));
         }
     }
     let week = harmonise_weeks(
@@ -107,13 +119,15 @@ pub fn run(args: Args) -> Result<(), String> {
         &mut reference,
         &args.truth,
         args.week,
-    )?;
+    )
+    .map_err(|e| Fail::input(e.to_string()))?;
 
     let lever_arm_b = args
         .lever_arm
         .as_deref()
         .map(|s| parse_floats::<3>(s, "--lever-arm"))
-        .transpose()?;
+        .transpose()
+        .map_err(Fail::usage)?;
     let cfg = EvalConfig {
         max_gap: args.max_gap,
         lever_arm_b,
@@ -123,12 +137,12 @@ pub fn run(args: Args) -> Result<(), String> {
     let t_first = solution.iter().map(|s| s.t).fold(f64::INFINITY, f64::min);
     let schedule = match args.outages.as_deref() {
         None => None,
-        Some(s) => Some(parse_outages(s, t_first, week, args.outage_count)?),
+        Some(s) => Some(parse_outages(s, t_first, week, args.outage_count).map_err(Fail::usage)?),
     };
     let fixes = match &args.fixes {
         None => None,
         Some(p) => {
-            let (f, _) = read_trajectory(p, week.map_or(0, |w| w as u32), true)?;
+            let (f, _) = read(p, week.map_or(0, |w| w as u32), true)?;
             Some(f.iter().map(|x| x.t).collect::<Vec<f64>>())
         }
     };
@@ -141,11 +155,11 @@ pub fn run(args: Args) -> Result<(), String> {
         fixes.as_deref(),
     )
     .map_err(|e| {
-        format!(
+        Fail::input(format!(
             "evaluating {} against {}: {e}",
             args.solution.display(),
             args.truth.display()
-        )
+        ))
     })?;
 
     let table = render_table(&ev, &args.solution, &args.truth, schedule.as_ref());
@@ -157,7 +171,8 @@ pub fn run(args: Args) -> Result<(), String> {
     }
 
     if let Some(p) = &args.json {
-        let mut v = serde_json::to_value(&ev).map_err(|e| format!("JSON: {e}"))?;
+        let mut v = serde_json::to_value(&ev)
+            .map_err(|e| Fail::new(FailureKind::Internal, format!("JSON: {e}")))?;
         if let Some(o) = v.as_object_mut() {
             if !args.json_errors {
                 o.remove("errors");
@@ -168,7 +183,8 @@ pub fn run(args: Args) -> Result<(), String> {
             );
             o.insert("truth".into(), args.truth.display().to_string().into());
             if let Some(c) = &cons {
-                let mut c = serde_json::to_value(c).map_err(|e| format!("JSON: {e}"))?;
+                let mut c = serde_json::to_value(c)
+                    .map_err(|e| Fail::new(FailureKind::Internal, format!("JSON: {e}")))?;
                 if !args.json_errors {
                     if let Some(m) = c.as_object_mut() {
                         m.remove("series");
@@ -178,17 +194,20 @@ pub fn run(args: Args) -> Result<(), String> {
             }
             o.insert(
                 "outage_schedule".into(),
-                serde_json::to_value(&schedule).map_err(|e| format!("JSON: {e}"))?,
+                serde_json::to_value(&schedule)
+                    .map_err(|e| Fail::new(FailureKind::Internal, format!("JSON: {e}")))?,
             );
         }
-        let js = serde_json::to_string_pretty(&v).map_err(|e| format!("JSON: {e}"))?;
-        std::fs::write(p, js + "\n").map_err(|e| format!("{}: {e}", p.display()))?;
+        let js = serde_json::to_string_pretty(&v)
+            .map_err(|e| Fail::new(FailureKind::Internal, format!("JSON: {e}")))?;
+        navfuse_io::atomic::write_atomic(p, js + "\n").map_err(Fail::io(p))?;
     }
     if let Some(p) = &args.csv {
-        std::fs::write(p, errors_csv(&ev)).map_err(|e| format!("{}: {e}", p.display()))?;
+        navfuse_io::atomic::write_atomic(p, errors_csv(&ev)).map_err(Fail::io(p))?;
     }
     if let Some(p) = &args.parquet {
-        navfuse_eval::parquet::write_errors(p, &ev.errors).map_err(|e| e.to_string())?;
+        navfuse_eval::parquet::write_errors(p, &ev.errors)
+            .map_err(|e| Fail::new(FailureKind::Io, e.to_string()))?;
     }
     if let Some(dir) = &args.report {
         let (sol, truth) = (
@@ -202,7 +221,8 @@ pub fn run(args: Args) -> Result<(), String> {
             args.fixes.as_deref(),
             cfg,
             schedule.as_ref(),
-        )?;
+        )
+        .map_err(|e| Fail::new(FailureKind::Io, e))?;
     }
     Ok(())
 }

@@ -42,7 +42,8 @@ pub struct AlignArgs {
 
 fn write_json<T: serde::Serialize>(path: &Path, v: &T) -> Result<(), String> {
     let text = serde_json::to_string_pretty(v).map_err(|e| e.to_string())?;
-    std::fs::write(path, text).map_err(|e| format!("{}: cannot write: {e}", path.display()))
+    navfuse_io::atomic::write_atomic(path, text)
+        .map_err(|e| format!("{}: cannot write: {e}", path.display()))
 }
 
 pub fn generalise(a: GeneraliseArgs) -> Result<(), String> {

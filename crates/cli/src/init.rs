@@ -59,7 +59,8 @@ pub fn run(args: Args) -> Result<(), String> {
         guess.as_ref().map(|(p, g)| (p.as_str(), g)),
     )
     .map_err(|e| e.to_string())?;
-    std::fs::write(&args.output, text).map_err(|e| format!("{}: {e}", args.output.display()))?;
+    navfuse_io::atomic::write_atomic(&args.output, text)
+        .map_err(|e| format!("{}: {e}", args.output.display()))?;
     eprintln!(
         "wrote {} ({} profile); set the lines marked EDIT{}",
         args.output.display(),

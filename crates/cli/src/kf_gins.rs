@@ -7,6 +7,7 @@
 //! The run is [`navfuse_pipeline::kf_gins::run_kf_gins`]; this adds the
 //! `--truth` / `--compare` accuracy lines and the `--verbose` summary.
 
+use crate::fail::Fail;
 use clap::Args as ClapArgs;
 use navfuse_core::types::NavSolution;
 use navfuse_io::kfgins_yaml::KfGinsConfig;
@@ -77,11 +78,11 @@ pub struct Args {
     pub align: Option<AlignSource>,
 }
 
-pub fn run(args: Args) -> Result<(), String> {
+pub fn run(args: Args) -> Result<(), Fail> {
     let t0 = Instant::now();
-    let r = run_config(&args).map_err(|e| e.to_string())?;
+    let r = run_config(&args)?;
     if let Some(cp) = &args.compare {
-        let other = check::read_nav(cp).map_err(|e| e.to_string())?;
+        let other = check::read_nav(cp)?;
         let a = check::accuracy(&r.solutions, &other, &navfuse_core::Vec3::zeros());
         eprintln!(
             "vs {}: horizontal RMS {:.4} m, vertical RMS {:.4} m, max horizontal {:.4} m ({} epochs)",
@@ -89,13 +90,13 @@ pub fn run(args: Args) -> Result<(), String> {
         );
     }
     if let Some(tp) = &args.truth {
-        let truth = check::read_nav(tp).map_err(|e| e.to_string())?;
+        let truth = check::read_nav(tp)?;
         let lever = r.config.lever_arm_b;
         let outages = match &args.outages {
-            Some(s) => Some(check::parse_outages(s).map_err(|e| e.to_string())?),
+            Some(s) => Some(check::parse_outages(s).map_err(|e| Fail::usage(e.to_string()))?),
             None => None,
         };
-        let fixes = run_fix_times(&args)?;
+        let fixes = run_fix_times(&args).map_err(Fail::input)?;
         let print = |name: &str, sols: &[NavSolution]| {
             let a = check::accuracy(sols, &truth, &lever);
             eprintln!("{name}: horizontal RMS {:.4} m, vertical RMS {:.4} m, max horizontal {:.3} m ({} epochs)", a.h_rms, a.v_rms, a.h_max, a.n);

@@ -1,8 +1,10 @@
 //! `navfuse`: the command-line tool. Thin: parses arguments, wires readers,
 //! estimators and writers together. Each subcommand lives in its own module
-//! with an `Args` struct and a `run(args) -> Result<(), String>`.
+//! with an `Args` struct and a `run(args) -> Result<(), Fail>` (or `String`
+//! for commands whose failures are not classified: exit code 1).
 
 use clap::{Parser, Subcommand};
+use fail::{Fail, FailureKind};
 use std::process::ExitCode;
 
 mod allan;
@@ -13,6 +15,7 @@ mod demo;
 mod eval;
 mod exp_platform;
 mod experiment;
+mod fail;
 mod init;
 mod kf_gins;
 mod live;
@@ -66,31 +69,44 @@ enum Command {
 }
 
 fn main() -> ExitCode {
-    let cli = Cli::parse();
-    let result = match cli.command {
-        Command::Convert(a) => convert::run(a),
-        Command::Run(a) => run::run(a),
-        Command::Init(a) => init::run(a),
-        Command::KfGins(a) => kf_gins::run(a),
-        Command::Eval(a) => eval::run(a),
-        Command::Bench(a) => bench::run(a),
-        Command::Sim(a) => sim::run(a),
-        Command::Allan(a) => allan::run(a),
-        Command::Demo(a) => demo::run(a),
-        Command::Attitude(a) => {
-            navfuse_pipeline::experiments::attitude::run(a).map_err(String::from)
-        }
-        Command::Baseline(a) => baseline::run(a),
-        Command::Experiment(a) => experiment::run(a),
-        Command::SmoothGps(a) => smooth_gps::run(a),
-        Command::Report(a) => report::run(a),
-        Command::Live(a) => live::run(a),
-    };
+    let cli = Cli::parse(); // usage errors: clap prints them and exits with 2
+                            // A panic is a bug: its message is printed by the default hook, and the
+                            // exit code says "internal" (70) instead of Rust's 101.
+    let result = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| dispatch(cli)))
+        .unwrap_or_else(|_| {
+            Err(Fail::new(
+                FailureKind::Internal,
+                "internal error (a bug: please report it with the command line)",
+            ))
+        });
     match result {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {
             eprintln!("navfuse: {e}");
-            ExitCode::FAILURE
+            ExitCode::from(e.exit_code())
         }
+    }
+}
+
+/// Run the command; exit codes in docs/exit-codes.md.
+fn dispatch(cli: Cli) -> Result<(), Fail> {
+    match cli.command {
+        Command::Convert(a) => convert::run(a),
+        Command::Run(a) => run::run(a),
+        Command::Init(a) => Ok(init::run(a)?),
+        Command::KfGins(a) => kf_gins::run(a),
+        Command::Eval(a) => eval::run(a),
+        Command::Bench(a) => Ok(bench::run(a)?),
+        Command::Sim(a) => Ok(sim::run(a)?),
+        Command::Allan(a) => allan::run(a),
+        Command::Demo(a) => Ok(demo::run(a)?),
+        Command::Attitude(a) => {
+            navfuse_pipeline::experiments::attitude::run(a).map_err(|e| Fail::from(String::from(e)))
+        }
+        Command::Baseline(a) => baseline::run(a),
+        Command::Experiment(a) => Ok(experiment::run(a)?),
+        Command::SmoothGps(a) => Ok(smooth_gps::run(a)?),
+        Command::Report(a) => Ok(report::run(a)?),
+        Command::Live(a) => Ok(live::run(a)?),
     }
 }

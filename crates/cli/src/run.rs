@@ -2,6 +2,7 @@
 //! TOML config ([`navfuse_pipeline::RunConfig`]); the work is
 //! [`navfuse_pipeline::run()`], this adds the optional HTML report.
 
+use crate::fail::Fail;
 use clap::Args as ClapArgs;
 use navfuse_pipeline::{resolve_path, RunConfig, RunOptions};
 use std::path::{Path, PathBuf};
@@ -29,8 +30,8 @@ pub struct Args {
     pub no_std: bool,
 }
 
-pub fn run(args: Args) -> Result<(), String> {
-    let cfg = RunConfig::from_toml_file(&args.config).map_err(|e| e.to_string())?;
+pub fn run(args: Args) -> Result<(), Fail> {
+    let cfg = RunConfig::from_toml_file(&args.config)?;
     let base = args
         .config
         .parent()
@@ -41,14 +42,15 @@ pub fn run(args: Args) -> Result<(), String> {
         estimator: args.estimator.clone(),
         no_std: args.no_std,
     };
-    let out = navfuse_pipeline::run(&cfg, &base, &opts).map_err(|e| e.to_string())?;
+    let out = navfuse_pipeline::run(&cfg, &base, &opts)?;
     eprintln!("{}", out.message);
     if args.report {
         run_report(
             &out.out_dir,
             args.truth.as_deref(),
             &resolve_path(&base, &cfg.input.gnss),
-        )?;
+        )
+        .map_err(Fail::input)?;
     }
     Ok(())
 }

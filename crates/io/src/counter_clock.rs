@@ -20,7 +20,6 @@
 
 use crate::error::ReadError;
 use crate::tag::TagFile;
-use std::io::BufRead;
 use std::path::Path;
 use std::sync::Arc;
 
@@ -262,13 +261,21 @@ pub fn fit_csv_counter(
     let mut last = f64::NEG_INFINITY;
     loop {
         buf.clear();
-        let n = rdr
-            .read_until(b'\n', &mut buf)
+        let fill = crate::text::fill_line(&mut rdr, &mut buf, crate::text::MAX_LINE_BYTES)
             .map_err(|e| ReadError::new(&file, nl + 1, "<line>", format!("I/O error: {e}")))?;
-        if n == 0 {
-            break;
+        match fill {
+            crate::text::Fill::Eof => break,
+            crate::text::Fill::TooLong => {
+                return Err(ReadError::new(
+                    &file,
+                    nl + 1,
+                    "<line>",
+                    crate::text::too_long_msg(),
+                ))
+            }
+            crate::text::Fill::Line => {}
         }
-        pos += n as u64;
+        pos += buf.len() as u64;
         let idx = nl;
         if buf.last() == Some(&b'\n') {
             nl += 1;

@@ -35,7 +35,49 @@ impl fmt::Display for ReadError {
 
 impl std::error::Error for ReadError {}
 
+/// The class of a failure, shared by every navfuse library error so that the
+/// `navfuse` CLI maps errors to its documented exit codes (docs/exit-codes.md)
+/// without knowing their details.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum FailureKind {
+    /// Bad command line or configuration (unknown key, wrong type, bad option).
+    Usage,
+    /// An input data file is missing, malformed, empty or unusable (every
+    /// record rejected, no alignment possible).
+    Input,
+    /// The file system refused: an output cannot be written, the
+    /// configuration file cannot be read, a read fails mid-file.
+    Io,
+    /// A bug: an invariant broke (a panic, a writer thread lost).
+    Internal,
+}
+
+impl FailureKind {
+    /// The process exit code: 2 usage/config, 3 input data, 4 I/O, 70
+    /// internal (`EX_SOFTWARE` of BSD sysexits).
+    pub fn exit_code(self) -> u8 {
+        match self {
+            FailureKind::Usage => 2,
+            FailureKind::Input => 3,
+            FailureKind::Io => 4,
+            FailureKind::Internal => 70,
+        }
+    }
+}
+
 impl ReadError {
+    /// [`FailureKind::Io`] for a read error of the file system in the middle
+    /// of a file (`I/O error`), else [`FailureKind::Input`]: the content is
+    /// wrong, or the input file is missing or unreadable (an input that is
+    /// not there is the input's problem, like one that is malformed).
+    pub fn kind(&self) -> FailureKind {
+        if self.msg.starts_with("I/O error") {
+            FailureKind::Io
+        } else {
+            FailureKind::Input
+        }
+    }
+
     /// New error; `field` may be a `&'static str` or an owned `String`.
     pub fn new(
         file: &Arc<str>,

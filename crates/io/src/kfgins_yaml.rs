@@ -5,6 +5,11 @@
 //! `initgyrbias`/`gbstd`/`initbgstd` deg/h, `initaccbias`/`abstd`/`initbastd`
 //! mGal, scale factors ppm, `arw` deg/√h, `vrw` m/s/√h, `corrtime` h,
 //! `initpos` lat/lon deg + height m, `antlever` m in body FRD.
+//!
+//! Errors name the file, line and key: an unknown key (a typo such as
+//! `initattt` is never silently ignored; KF-GINS's own keys are all known),
+//! a value of the wrong type or count, a missing required key. The file is
+//! read with [`MAX_CONFIG_BYTES`](crate::text::MAX_CONFIG_BYTES) as its cap.
 
 use navfuse_core::estimators::eskf::{EskfConfig, ImuErrors, ImuNoise, InitStd};
 use navfuse_core::ins::mech::{q_bn_from_rpy, NavState};
@@ -68,6 +73,7 @@ impl KfGinsNoise {
 
 /// A KF-GINS configuration file, fields in KF-GINS's own units.
 #[derive(Clone, Debug, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
 pub struct KfGinsConfig {
     pub imupath: String,
     pub gnsspath: String,
@@ -135,8 +141,8 @@ impl KfGinsConfig {
 
     /// Read a KF-GINS YAML file; relative paths in it resolve against its folder.
     pub fn load(path: &Path) -> Result<Self, String> {
-        let text = std::fs::read_to_string(path)
-            .map_err(|e| format!("{}: cannot read: {e}", path.display()))?;
+        let text = crate::text::read_text_capped(path, crate::text::MAX_CONFIG_BYTES)
+            .map_err(|e| e.to_string())?;
         let mut c = Self::parse(&text, &path.display().to_string())?;
         c.base_dir = path.parent().map(Path::to_path_buf).unwrap_or_default();
         Ok(c)
@@ -308,6 +314,34 @@ antlever: [ 0.1, -0.2, -0.3 ]
         let bad = YAML.replace("antlever: [ 0.1, -0.2, -0.3 ]\n", "");
         let e = KfGinsConfig::parse(&bad, "t.yaml").unwrap_err();
         assert!(e.contains("antlever"), "{e}");
+    }
+
+    /// The line of the key: 1 + the lines before it in the text.
+    fn line_of(text: &str, key: &str) -> usize {
+        1 + text[..text.find(key).unwrap()].matches('\n').count()
+    }
+
+    #[test]
+    fn unknown_key_and_wrong_type_name_key_and_line() {
+        let bad = YAML.replace("initatt:", "initattt:");
+        let e = KfGinsConfig::parse(&bad, "t.yaml").unwrap_err();
+        let l = line_of(&bad, "initattt");
+        assert!(
+            e.starts_with(&format!("t.yaml:{l}:")) && e.contains("unknown field `initattt`"),
+            "{e}"
+        );
+        let bad = YAML.replace("  corrtime: 1.0", "  corrtime: one hour");
+        let e = KfGinsConfig::parse(&bad, "t.yaml").unwrap_err();
+        let l = line_of(&bad, "corrtime");
+        assert!(
+            e.starts_with(&format!("t.yaml:{l}:")) && e.contains("corrtime"),
+            "{e}"
+        );
+        let e = KfGinsConfig::load(Path::new("/nonexistent/kf.yaml")).unwrap_err();
+        assert!(
+            e.contains("/nonexistent/kf.yaml") && e.contains("cannot open"),
+            "{e}"
+        );
     }
 
     #[test]

@@ -12,12 +12,14 @@
 //! - [`csv_imu`]: generic CSV IMU with column map, units, mounting; presets
 //! - [`navcsv`]: navfuse trajectory CSV → `NavSolution`
 //! - [`imu`]: the rules turning stamped records into intervals (`dt`, integration)
+//! - [`atomic`]: every output file written whole or not at all (temp + fsync + rename)
 //! - [`writers`]: CSV, KF-GINS `.nav`, GeoJSON, KML, GPX
 //! - [`pos_writer`]: RTKLIB `.pos` with σ, cross covariances and quality
 //! - [`parquet_out`] (feature `parquet`, default): Parquet tables of solutions and the update journal
 //! - [`trajectory`]: formats by name/extension (used by `navfuse convert`)
 //! - [`time`]: GPS week/TOW ↔ GPS seconds ↔ GPST/UTC calendar
 
+pub mod atomic;
 pub mod counter_clock;
 pub mod csv_imu;
 pub mod data;
@@ -55,7 +57,7 @@ mod realdata_time;
 #[cfg(test)]
 mod testutil;
 
-pub use error::{ReadError, RecordStats};
+pub use error::{FailureKind, ReadError, RecordStats};
 
 use std::fs::File;
 use std::io::BufReader;

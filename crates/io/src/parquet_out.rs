@@ -14,6 +14,7 @@
 //! Files are whole or absent: written to `NAME.tmp` beside the target and
 //! renamed into place.
 
+use crate::atomic::AtomicFile;
 use crate::time::week_tow;
 use crate::writers::{lon_deg, TrajectoryWriter};
 use navfuse_core::estimators::eskf::UpdateLog;
@@ -315,17 +316,13 @@ fn encode<W: Write + Send>(out: W, t: &Table, group_rows: usize) -> parquet::err
     w.into_inner()
 }
 
-fn write_file(file: std::fs::File, t: &Table, group_rows: usize) -> parquet::errors::Result<()> {
-    let buf = std::io::BufWriter::with_capacity(1 << 16, file);
-    let mut out = encode(buf, t, group_rows)?;
+fn write_file(file: &mut AtomicFile, t: &Table, group_rows: usize) -> parquet::errors::Result<()> {
+    let out = encode(file, t, group_rows)?;
     out.flush()?;
-    out.into_inner()
-        .map_err(|e| parquet::errors::ParquetError::External(Box::new(e.into_error())))?
-        .sync_all()?;
     Ok(())
 }
 
-/// Write `t` to `path` (whole or absent: via `path.tmp` and a rename).
+/// Write `t` to `path`, whole or absent ([`AtomicFile`]).
 /// Columns must all have the same length.
 pub fn write_table(path: &Path, t: &Table) -> Result<(), ParquetOutError> {
     write_table_grouped(path, t, ROW_GROUP_ROWS)
@@ -349,21 +346,16 @@ pub(crate) fn write_table_grouped(
             ),
         });
     }
-    let mut tmp = PathBuf::from(path);
-    tmp.as_mut_os_string().push(".tmp");
     let io = |source| ParquetOutError::Io {
         path: name.clone(),
         source,
     };
-    let file = std::fs::File::create(&tmp).map_err(io)?;
-    if let Err(source) = write_file(file, t, group_rows.max(1)) {
-        let _ = std::fs::remove_file(&tmp);
-        return Err(ParquetOutError::Parquet { path: name, source });
-    }
-    std::fs::rename(&tmp, path).map_err(|e| {
-        let _ = std::fs::remove_file(&tmp);
-        io(e)
-    })
+    let mut file = AtomicFile::create(path).map_err(io)?;
+    write_file(&mut file, t, group_rows.max(1)).map_err(|source| ParquetOutError::Parquet {
+        path: name.clone(),
+        source,
+    })?;
+    file.commit().map_err(io)
 }
 
 /// [`TrajectoryWriter`] for Parquet (`navfuse convert x.nav x.parquet`,

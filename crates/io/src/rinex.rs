@@ -67,8 +67,7 @@ fn field(line: &str, a: usize, b: usize) -> &str {
 /// Read a RINEX 2 (or 3) GPS navigation file.
 pub fn read_nav(path: &Path) -> Result<Vec<KeplerOrbit>, ReadError> {
     let name = path.display().to_string();
-    let text = std::fs::read_to_string(path)
-        .map_err(|e| err(&name, 0, "<file>", format!("cannot read: {e}")))?;
+    let text = crate::text::read_text_capped(path, u64::MAX)?;
     parse_nav(&text, &name)
 }
 
@@ -406,8 +405,7 @@ fn text_of<'a>(bytes: &'a [u8], name: &str) -> Result<&'a str, ReadError> {
 /// counted per system and skipped).
 pub fn read_obs(path: &Path) -> Result<ObsFile, ReadError> {
     let name = path.display().to_string();
-    let bytes =
-        std::fs::read(path).map_err(|e| err(&name, 0, "<file>", format!("cannot read: {e}")))?;
+    let bytes = crate::text::read_bytes_capped(path, u64::MAX)?;
     parse_obs(text_of(&bytes, &name)?, &name)
 }
 

@@ -104,7 +104,7 @@ fn aid_from_name(s: &str) -> Option<Option<UpdateKind>> {
 pub fn read_std<R: BufRead>(rdr: R, name: &str) -> Result<Vec<StdRow>, ReadError> {
     let file: Arc<str> = Arc::from(name);
     let mut out = Vec::new();
-    for (i, line) in rdr.lines().enumerate() {
+    for (i, line) in crate::text::capped_lines(rdr).enumerate() {
         let ln = i as u64 + 1;
         let line = line.map_err(|e| ReadError::new(&file, ln, "<line>", e.to_string()))?;
         let line = line.trim();

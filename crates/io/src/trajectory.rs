@@ -2,6 +2,7 @@
 //! as a stream of [`NavSolution`], create any writer. Used by `navfuse
 //! convert` (and by anything that needs "a trajectory file").
 
+use crate::atomic::AtomicFile;
 use crate::error::{ReadError, RecordStats};
 use crate::kfgins::{KfGinsGnssReader, KfGinsNavReader};
 use crate::navcsv::NavCsvReader;
@@ -10,9 +11,10 @@ use crate::writers::{
     CsvWriter, GeoJsonWriter, GpxWriter, KfGinsNavWriter, KmlWriter, TrajectoryWriter,
 };
 use navfuse_core::types::{GnssFix, NavSolution, Vec3};
-use std::fs::File;
-use std::io::{BufRead, BufWriter};
+use std::cell::RefCell;
+use std::io::BufRead;
 use std::path::Path;
+use std::rc::Rc;
 
 /// Trajectory input formats.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -202,8 +204,11 @@ impl TrajectoryWriter for NoParquet {
     }
 }
 
-/// Create `path` and a buffered writer of `fmt` on it.
-/// Parquet is written whole at `finish` (via a temporary name and a rename).
+/// Create a writer of `fmt` on `path`, written whole or not at all: the
+/// file appears under its name only when `finish` succeeds (an
+/// [`AtomicFile`](crate::atomic::AtomicFile)); dropped unfinished or after an
+/// error, nothing is left and a previous version stays intact.
+/// Parquet is written whole at `finish` too (same helper).
 pub fn create_writer(path: &Path, fmt: OutFormat) -> std::io::Result<Box<dyn TrajectoryWriter>> {
     #[cfg(feature = "parquet")]
     if fmt == OutFormat::Parquet {
@@ -211,6 +216,41 @@ pub fn create_writer(path: &Path, fmt: OutFormat) -> std::io::Result<Box<dyn Tra
             crate::parquet_out::ParquetTrajectoryWriter::create(path),
         ));
     }
-    let f = File::create(path)?;
-    Ok(writer(BufWriter::with_capacity(1 << 16, f), fmt))
+    let file = Rc::new(RefCell::new(AtomicFile::create(path)?));
+    Ok(Box::new(Committing {
+        inner: writer(SharedFile(file.clone()), fmt),
+        file,
+    }))
+}
+
+/// The [`AtomicFile`] shared between a format writer (which owns its sink)
+/// and [`Committing`] (which commits it after the writer's `finish`).
+struct SharedFile(Rc<RefCell<AtomicFile>>);
+
+impl std::io::Write for SharedFile {
+    fn write(&mut self, buf: &[u8]) -> std::io::Result<usize> {
+        self.0.borrow_mut().write(buf)
+    }
+    fn write_all(&mut self, buf: &[u8]) -> std::io::Result<()> {
+        self.0.borrow_mut().write_all(buf)
+    }
+    fn flush(&mut self) -> std::io::Result<()> {
+        self.0.borrow_mut().flush()
+    }
+}
+
+/// A format writer whose `finish` also commits the file.
+struct Committing {
+    inner: Box<dyn TrajectoryWriter>,
+    file: Rc<RefCell<AtomicFile>>,
+}
+
+impl TrajectoryWriter for Committing {
+    fn write(&mut self, s: &NavSolution) -> std::io::Result<()> {
+        self.inner.write(s)
+    }
+    fn finish(&mut self) -> std::io::Result<()> {
+        self.inner.finish()?;
+        self.file.borrow_mut().commit()
+    }
 }

@@ -22,8 +22,7 @@ fn err(file: &str, line: usize, field: &str, msg: impl Into<String>) -> ReadErro
 /// Read a YUMA almanac file.
 pub fn read_yuma(path: &Path, week_rollovers: u32) -> Result<Vec<KeplerOrbit>, GnssParseError> {
     let name = path.display().to_string();
-    let text = std::fs::read_to_string(path)
-        .map_err(|e| err(&name, 0, "<file>", format!("cannot read: {e}")))?;
+    let text = crate::text::read_text_capped(path, u64::MAX)?;
     parse_yuma(&text, &name, week_rollovers)
 }
 

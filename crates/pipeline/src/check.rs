@@ -27,7 +27,8 @@ pub fn smoothed_solution(e: &SmoothedEpoch) -> NavSolution {
 
 /// Read a KF-GINS `.nav` (week tow lat lon h vN vE vD roll pitch yaw; attitude may be nan).
 pub fn read_nav(path: &Path) -> Result<Vec<NavSolution>> {
-    let text = std::fs::read_to_string(path).map_err(PipelineError::io(path, "cannot read: "))?;
+    let text = navfuse_io::text::read_text_capped(path, u64::MAX)
+        .map_err(crate::kfgins_input::input_err)?;
     let mut v = Vec::new();
     for (i, line) in text.lines().enumerate() {
         if line.trim().is_empty() {

@@ -116,8 +116,7 @@ impl RunConfig {
     /// ([`PipelineError::Io`]) or `FILE: <TOML error naming the key>`
     /// ([`PipelineError::Config`]).
     pub fn from_toml_file(path: &Path) -> Result<RunConfig> {
-        let text =
-            std::fs::read_to_string(path).map_err(PipelineError::io(path, "cannot read: "))?;
+        let text = read_config_text(path)?;
         let mut cfg: RunConfig = toml::from_str(&text).map_err(|e| PipelineError::Config {
             file: path.display().to_string(),
             msg: e.to_string(),
@@ -329,4 +328,27 @@ pub struct OutageCfg {
     pub start: f64,
     pub length: f64,
     pub period: f64,
+}
+/// A configuration file's text, at most
+/// [`MAX_CONFIG_BYTES`](navfuse_io::text::MAX_CONFIG_BYTES) long with no
+/// line over [`MAX_LINE_BYTES`](navfuse_io::text::MAX_LINE_BYTES): an
+/// unopenable file is [`PipelineError::Io`], an oversized or non-UTF-8 one
+/// [`PipelineError::Config`] naming the line.
+pub(crate) fn read_config_text(path: &Path) -> Result<String> {
+    use navfuse_io::text::{read_text_capped, MAX_CONFIG_BYTES};
+    read_text_capped(path, MAX_CONFIG_BYTES).map_err(|e| match e.kind() {
+        navfuse_io::FailureKind::Io => PipelineError::Io {
+            path: path.to_path_buf(),
+            what: "",
+            source: std::io::Error::other(e.msg),
+        },
+        _ => PipelineError::Config {
+            file: path.display().to_string(),
+            msg: if e.line > 0 {
+                format!("line {}: {}", e.line, e.msg)
+            } else {
+                e.msg
+            },
+        },
+    })
 }

@@ -15,7 +15,6 @@
 //! in rad/s, implausible for a vehicle) proves degrees.
 
 use crate::error::{PipelineError, Result};
-use std::io::BufRead;
 use std::path::Path;
 
 /// Data rows read for the magnitude checks (a few seconds at 100 Hz).
@@ -186,7 +185,7 @@ fn median(mut v: Vec<f64>) -> Option<f64> {
 pub fn sniff_csv(path: &Path) -> Result<CsvGuess> {
     let file = std::fs::File::open(path).map_err(PipelineError::io(path, "cannot read: "))?;
     let mut lines = Vec::new();
-    for l in std::io::BufReader::new(file).lines() {
+    for l in navfuse_io::text::capped_lines(std::io::BufReader::new(file)) {
         let l = l.map_err(PipelineError::io(path, "cannot read: "))?;
         let s = l.trim();
         if s.is_empty() || s.starts_with('#') {

@@ -16,10 +16,9 @@ use navfuse_core::estimators::pf_lc::{PfLc, PfLcConfig};
 use navfuse_core::ins::mech::{q_bn_from_rpy, NavState};
 use navfuse_core::Estimator;
 use navfuse_core::{earth, Event, NavSolution, Vec3};
-use navfuse_io::writers::{CsvWriter, KfGinsNavWriter, TrajectoryWriter};
+use navfuse_io::trajectory::{create_writer, OutFormat};
+use navfuse_io::writers::TrajectoryWriter;
 use navfuse_sim::{output, simulate, Scenario, SimRun};
-use std::fs::File;
-use std::io::BufWriter;
 use std::path::Path;
 use std::time::Instant;
 
@@ -137,14 +136,12 @@ fn run_estimator(
         }
     }
     let secs = t0.elapsed().as_secs_f64();
-    let open = |ext: &str| -> Result<BufWriter<File>, String> {
-        let p = out.join(format!("{name}.{ext}"));
-        File::create(&p)
-            .map(BufWriter::new)
-            .map_err(|e| format!("{}: {e}", p.display()))
+    let open = |fmt: OutFormat| -> Result<Box<dyn TrajectoryWriter>, String> {
+        let p = out.join(format!("{name}.{}", fmt.extension()));
+        create_writer(&p, fmt).map_err(|e| format!("{}: {e}", p.display()))
     };
-    let mut nav = KfGinsNavWriter::new(open("nav")?);
-    let mut csv = CsvWriter::new(open("csv")?);
+    let mut nav = open(OutFormat::Nav)?;
+    let mut csv = open(OutFormat::Csv)?;
     let start = run.traj.truth[0].t;
     let outages = &run.scenario.gnss.outages;
     let mut outage_max = vec![f64::NAN; outages.len()];

@@ -2,6 +2,7 @@
 //! `navfuse` CLI printed before the pipeline became a library (it prints
 //! `e.to_string()`), so messages name the file, line and field as before.
 
+pub use navfuse_io::FailureKind;
 use std::path::PathBuf;
 
 /// Errors of the run pipeline.
@@ -39,6 +40,21 @@ pub enum PipelineError {
 }
 
 impl PipelineError {
+    /// The class of the failure, for the CLI's exit code: configuration and
+    /// options → usage; input, alignment and estimator failures → input data
+    /// (the data did not allow a solution); file system → I/O; output
+    /// serialisation or a lost writer thread → internal.
+    pub fn kind(&self) -> FailureKind {
+        match self {
+            PipelineError::Config { .. } | PipelineError::Options(_) => FailureKind::Usage,
+            PipelineError::Input(_) | PipelineError::Alignment(_) | PipelineError::Estimator(_) => {
+                FailureKind::Input
+            }
+            PipelineError::Io { .. } => FailureKind::Io,
+            PipelineError::Output(_) => FailureKind::Internal,
+        }
+    }
+
     /// An [`PipelineError::Io`] on `path` with the message prefix `what`.
     pub fn io(path: impl Into<PathBuf>, what: &'static str) -> impl FnOnce(std::io::Error) -> Self {
         let path = path.into();

@@ -7,7 +7,6 @@ use crate::csv_map::CounterSpec;
 use navfuse_io::counter_clock::{fit_csv_counter, ClockFit, CounterClock, CounterColumn};
 use navfuse_io::csv_imu::{Col, CsvImuConfig};
 use navfuse_io::tag::TagFile;
-use std::io::BufRead;
 use std::path::Path;
 
 /// Largest |rate error| of a counter against its nominal tick that is still
@@ -63,7 +62,7 @@ fn header_index(imu: &Path, cfg: &CsvImuConfig, name: &str) -> Result<usize, Str
             "{file}:1: field `{name}`: counter column given by name but [input.csv] header = false"
         ));
     }
-    for (k, line) in rdr.lines().enumerate() {
+    for (k, line) in navfuse_io::text::capped_lines(rdr).enumerate() {
         let line = line.map_err(|e| format!("{file}:{}: I/O error: {e}", k + 1))?;
         let first = line.bytes().find(|b| !b.is_ascii_whitespace());
         if first.is_none() || first == cfg.comment {

@@ -234,7 +234,9 @@ fn filter(
     // batches, while the filter runs (output identical to a serial write).
     let (tx, rx) = std::sync::mpsc::sync_channel::<Vec<OutRow>>(4);
     let filtered = std::thread::scope(|scope| -> Result<()> {
-        let writer = scope.spawn(move || -> Result<()> {
+        // The files are committed only once the filter has finished without
+        // error: a failed run leaves no output (or the previous one).
+        let writer = scope.spawn(move || -> Result<[OutFile; 3]> {
             // Streamed through reused buffers (no file-sized allocations to fault in).
             let mut nav = OutFile::create(out_dir, "KF_GINS_Navresult.nav")?;
             let mut err = OutFile::create(out_dir, "KF_GINS_IMU_ERR.txt")?;
@@ -249,9 +251,10 @@ fn filter(
                     std.flush_if_full()?;
                 }
             }
-            nav.finish()?;
-            err.finish()?;
-            std.finish()
+            nav.write_out()?;
+            err.write_out()?;
+            std.write_out()?;
+            Ok([nav, err, std])
         });
         let mut batch = Vec::with_capacity(OutRow::BATCH);
         let mut result = Ok(());
@@ -303,12 +306,13 @@ fn filter(
                 "output writer thread panicked".into(),
             ))
         });
-        result.and(written)
+        result?;
+        written?.into_iter().try_for_each(OutFile::finish)
     });
     filtered?;
     let write = |name: &str, buf: &[u8]| {
         let p = out_dir.join(name);
-        std::fs::write(&p, buf).map_err(PipelineError::io(&p, "cannot write: "))
+        navfuse_io::atomic::write_atomic(&p, buf).map_err(PipelineError::io(&p, "cannot write: "))
     };
     let mut smoothed = Vec::new();
     if smooth {

@@ -4,6 +4,7 @@
 use crate::error::{PipelineError, Result};
 use navfuse_core::estimators::eskf::{ImuErrors, I_ATT, I_BA, I_BG, I_POS, I_SA, I_SG, I_VEL, NX};
 use navfuse_core::types::NavSolution;
+use navfuse_io::atomic::AtomicFile;
 use std::path::{Path, PathBuf};
 
 /// What one output line of the three files needs.
@@ -18,10 +19,11 @@ impl OutRow {
     pub const BATCH: usize = 1024;
 }
 
-/// An output file written in chunks from a reused buffer.
+/// An output file written in chunks from a reused buffer, whole or not at
+/// all ([`AtomicFile`]: it appears under its name at [`OutFile::finish`]).
 pub(crate) struct OutFile {
     path: PathBuf,
-    file: std::fs::File,
+    file: AtomicFile,
     pub buf: Vec<u8>,
 }
 
@@ -30,8 +32,7 @@ impl OutFile {
 
     pub fn create(dir: &Path, name: &str) -> Result<Self> {
         let path = dir.join(name);
-        let file =
-            std::fs::File::create(&path).map_err(PipelineError::io(&path, "cannot write: "))?;
+        let file = AtomicFile::create(&path).map_err(PipelineError::io(&path, "cannot write: "))?;
         Ok(OutFile {
             path,
             file,
@@ -39,7 +40,8 @@ impl OutFile {
         })
     }
 
-    fn write_out(&mut self) -> Result<()> {
+    /// Write the buffer out (the file stays uncommitted).
+    pub fn write_out(&mut self) -> Result<()> {
         use std::io::Write as _;
         self.file
             .write_all(&self.buf)
@@ -57,7 +59,10 @@ impl OutFile {
     }
 
     pub fn finish(mut self) -> Result<()> {
-        self.write_out()
+        self.write_out()?;
+        self.file
+            .commit()
+            .map_err(PipelineError::io(&self.path, "cannot write: "))
     }
 }
 

@@ -17,7 +17,7 @@ pub struct RunInput {
 }
 
 fn read(path: &Path) -> Result<String> {
-    std::fs::read_to_string(path).map_err(PipelineError::io(path, "cannot read: "))
+    navfuse_io::text::read_text_capped(path, u64::MAX).map_err(input_err)
 }
 
 fn fields<const N: usize>(

@@ -92,7 +92,7 @@ pub(crate) fn run_other(name: &str, r: &OtherRun) -> Result<RunOutcome> {
     let p = r.out_dir.join("summary.json");
     let json =
         serde_json::to_string_pretty(&summary).map_err(|e| PipelineError::Output(e.to_string()))?;
-    std::fs::write(&p, json).map_err(PipelineError::io(&p, ""))?;
+    navfuse_io::atomic::write_atomic(&p, json).map_err(PipelineError::io(&p, ""))?;
     let message = format!(
         "navfuse run: {} ({}) {} solutions from {} IMU samples and {gnss_fed} GNSS fixes; summary {}",
         est.name(),

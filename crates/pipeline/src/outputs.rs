@@ -13,8 +13,7 @@ pub fn write_innovations(path: &Path, log: &[UpdateLog]) -> Result<String> {
     use std::io::Write as _;
     let io = PipelineError::io(path, "");
     let write = || -> std::io::Result<()> {
-        let f = std::fs::File::create(path)?;
-        let mut w = std::io::BufWriter::new(f);
+        let mut w = navfuse_io::atomic::AtomicFile::create(path)?;
         writeln!(w, "t,kind,nis,dof,accepted")?;
         for u in log {
             writeln!(
@@ -27,7 +26,7 @@ pub fn write_innovations(path: &Path, log: &[UpdateLog]) -> Result<String> {
                 u.accepted as u8
             )?;
         }
-        w.flush()
+        w.commit()
     };
     write().map_err(io)?;
     Ok(path.display().to_string())

@@ -87,7 +87,11 @@ pub fn run(cfg: &RunConfig, base_dir: &Path, opts: &RunOptions) -> Result<RunOut
         gnss_time_base: cfg.input.gnss_time_base,
         imu_tag: imu_tag.as_deref(),
     })
-    .map_err(|e| cfg.err(e.to_string()))?;
+    .map_err(|e| match e {
+        // The data's fault (exit code 3), named after the configuration.
+        PipelineError::Input(m) => PipelineError::Input(format!("{}: {m}", cfg.name())),
+        e => cfg.err(e.to_string()),
+    })?;
     let mut kept = if passes {
         crate::offset_passes::decide_on_loaded(cfg, base_dir, &mut loaded, !opts.no_std)?
     } else {
@@ -207,7 +211,7 @@ pub fn run(cfg: &RunConfig, base_dir: &Path, opts: &RunOptions) -> Result<RunOut
     let p = out_dir.join("summary.json");
     let json =
         serde_json::to_string_pretty(&summary).map_err(|e| PipelineError::Output(e.to_string()))?;
-    std::fs::write(&p, json).map_err(PipelineError::io(&p, ""))?;
+    navfuse_io::atomic::write_atomic(&p, json).map_err(PipelineError::io(&p, ""))?;
     let st = &r.stats;
     let message = format!(
         "navfuse run: {} solutions, GNSS used {} / gated {}; {}; summary {}",

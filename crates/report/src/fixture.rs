@@ -195,7 +195,7 @@ pub fn write_fixture(dir: &Path) -> Result<(), String> {
         let _ = writeln!(s, "{:.3},nhc,{nis:.4},2,1", t.t);
     }
     let p = dir.join("eskf.innovations.csv");
-    std::fs::write(&p, s).map_err(|e| io(&p, e))?;
+    navfuse_io::atomic::write_atomic(&p, s).map_err(|e| io(&p, e))?;
 
     // States at 1 Hz: gyro bias [°/h], accelerometer bias [mg], time offset [s].
     let mut s = String::from(
@@ -219,7 +219,7 @@ pub fn write_fixture(dir: &Path) -> Result<(), String> {
         );
     }
     let p = dir.join("eskf.states.csv");
-    std::fs::write(&p, s).map_err(|e| io(&p, e))?;
+    navfuse_io::atomic::write_atomic(&p, s).map_err(|e| io(&p, e))?;
 
     let summary = serde_json::json!({
         "estimator": "eskf (synthetic fixture)",
@@ -230,13 +230,13 @@ pub fn write_fixture(dir: &Path) -> Result<(), String> {
         "outages": OUTAGES.iter().map(|(a, b)| [t_gps(*a), t_gps(*b)]).collect::<Vec<_>>(),
     });
     let p = dir.join("summary.json");
-    std::fs::write(
+    navfuse_io::atomic::write_atomic(
         &p,
         serde_json::to_string_pretty(&summary).map_err(|e| io(&p, e))? + "\n",
     )
     .map_err(|e| io(&p, e))?;
     // A file the report must ignore (eval's error CSV).
     let p = dir.join("errors.csv");
-    std::fs::write(&p, "t,north_m\n1,2\n").map_err(|e| io(&p, e))?;
+    navfuse_io::atomic::write_atomic(&p, "t,north_m\n1,2\n").map_err(|e| io(&p, e))?;
     Ok(())
 }

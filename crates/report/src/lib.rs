@@ -135,7 +135,7 @@ pub struct LoadOptions {
 /// Whitespace-separated numeric rows of a KF-GINS text output with at least
 /// `min` columns; errors name file, line and column.
 fn read_columns(path: &Path, min: usize) -> Result<Vec<Vec<f64>>, String> {
-    let text = std::fs::read_to_string(path).map_err(|e| format!("{}: {e}", path.display()))?;
+    let text = navfuse_io::text::read_text_capped(path, u64::MAX).map_err(|e| e.to_string())?;
     let mut rows = Vec::new();
     for (ln, line) in text.lines().enumerate() {
         let t = line.trim();
@@ -293,9 +293,8 @@ pub fn read_trajectory(path: &Path, name: &str, txt_is_gnss: bool) -> Result<Tra
 
 /// First non-empty, non-comment line of a text file.
 fn first_line(path: &Path) -> Result<String, String> {
-    use std::io::BufRead;
     let f = std::fs::File::open(path).map_err(|e| format!("{}: {e}", path.display()))?;
-    for l in std::io::BufReader::new(f).lines() {
+    for l in navfuse_io::text::capped_lines(std::io::BufReader::new(f)) {
         let l = l.map_err(|e| format!("{}: {e}", path.display()))?;
         let t = l.trim();
         if !t.is_empty() && !t.starts_with('#') {
@@ -323,7 +322,7 @@ pub fn read_innovations(
     path: &Path,
     default_estimator: &str,
 ) -> Result<Vec<InnovationSet>, String> {
-    let text = std::fs::read_to_string(path).map_err(|e| format!("{}: {e}", path.display()))?;
+    let text = navfuse_io::text::read_text_capped(path, u64::MAX).map_err(|e| e.to_string())?;
     let name = path.display().to_string();
     let mut lines = text
         .lines()
@@ -410,7 +409,7 @@ pub fn read_innovations(
 
 /// Read a states CSV (see the crate doc).
 pub fn read_states(path: &Path, estimator: &str) -> Result<StateSet, String> {
-    let text = std::fs::read_to_string(path).map_err(|e| format!("{}: {e}", path.display()))?;
+    let text = navfuse_io::text::read_text_capped(path, u64::MAX).map_err(|e| e.to_string())?;
     let name = path.display().to_string();
     let mut lines = text
         .lines()
@@ -515,7 +514,8 @@ pub fn load_run_dir(dir: &Path, opt: &LoadOptions) -> Result<Inputs, String> {
         let ext = n.rsplit('.').next().unwrap_or("").to_string();
         let st = n.split('.').next().unwrap_or("").to_string();
         if n == "summary.json" {
-            let text = std::fs::read_to_string(p).map_err(|e| format!("{}: {e}", p.display()))?;
+            let text =
+                navfuse_io::text::read_text_capped(p, u64::MAX).map_err(|e| e.to_string())?;
             let v: serde_json::Value = serde_json::from_str(&text)
                 .map_err(|e| format!("{}:{}: field `<json>`: {e}", p.display(), e.line()))?;
             inp.summary = Some(v);
@@ -566,7 +566,8 @@ pub fn load_run_dir(dir: &Path, opt: &LoadOptions) -> Result<Inputs, String> {
                     .push(format!("{} (CSV without a trajectory header)", p.display()));
             }
         } else if ext == "toml" || ext == "yaml" || ext == "yml" {
-            let text = std::fs::read_to_string(p).map_err(|e| format!("{}: {e}", p.display()))?;
+            let text =
+                navfuse_io::text::read_text_capped(p, u64::MAX).map_err(|e| e.to_string())?;
             let mut text: String = text.chars().take(20_000).collect();
             if text.len() >= 20_000 {
                 text.push_str("\n…");
@@ -843,11 +844,12 @@ pub fn write_report_with(
     for (name, doc) in &r.svgs {
         let p = plots_dir.join(name);
         let text = format!("<?xml version=\"1.0\" encoding=\"UTF-8\"?>\n{doc}\n");
-        std::fs::write(&p, text).map_err(|e| format!("{}: {e}", p.display()))?;
+        navfuse_io::atomic::write_atomic(&p, text).map_err(|e| format!("{}: {e}", p.display()))?;
         svgs.push(p);
     }
     let html = out_dir.join("index.html");
-    std::fs::write(&html, &r.html).map_err(|e| format!("{}: {e}", html.display()))?;
+    navfuse_io::atomic::write_atomic(&html, &r.html)
+        .map_err(|e| format!("{}: {e}", html.display()))?;
     Ok(ReportSummary {
         html,
         svgs,

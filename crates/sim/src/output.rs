@@ -21,16 +21,13 @@ use navfuse_core::NavSolution;
 use navfuse_io::time::week_tow;
 use navfuse_io::writers::{KfGinsNavWriter, TrajectoryWriter};
 use std::fmt::Write as _;
-use std::io::Write;
 use std::path::Path;
 
 const R2D: f64 = 180.0 / core::f64::consts::PI;
 
 fn write(dir: &Path, name: &str, text: &str) -> Result<(), SimError> {
     let p = dir.join(name);
-    let mut f =
-        std::fs::File::create(&p).map_err(|e| SimError::Io(format!("{}: {e}", p.display())))?;
-    f.write_all(text.as_bytes())
+    navfuse_io::atomic::write_atomic(&p, text)
         .map_err(|e| SimError::Io(format!("{}: {e}", p.display())))
 }
 
@@ -109,9 +106,8 @@ pub fn write_run(run: &SimRun, dir: &Path) -> Result<(), SimError> {
 
     let nav_path = dir.join("truth.nav");
     let nav_err = |e: std::io::Error| SimError::Io(format!("{}: {e}", nav_path.display()));
-    let mut nav = KfGinsNavWriter::new(std::io::BufWriter::new(
-        std::fs::File::create(&nav_path).map_err(nav_err)?,
-    ));
+    let mut nav_file = navfuse_io::atomic::AtomicFile::create(&nav_path).map_err(nav_err)?;
+    let mut nav = KfGinsNavWriter::new(&mut nav_file);
     let mut csv = String::from(
         "t_gps_s,lat_deg,lon_deg,h_m,vn_m_s,ve_m_s,vd_m_s,roll_deg,pitch_deg,yaw_deg,w_ib_x_rad_s,w_ib_y_rad_s,w_ib_z_rad_s,f_x_m_s2,f_y_m_s2,f_z_m_s2\n",
     );
@@ -135,6 +131,7 @@ pub fn write_run(run: &SimRun, dir: &Path) -> Result<(), SimError> {
         );
     }
     nav.finish().map_err(nav_err)?;
+    nav_file.commit().map_err(nav_err)?;
     write(dir, "truth.csv", &csv)?;
 
     #[derive(serde::Serialize)]

@@ -99,8 +99,8 @@ impl Scenario {
 
     /// Read a scenario file: `.toml`, or a gnss-ins-sim motion-definition `.csv`.
     pub fn from_file(path: &Path) -> Result<Self, SimError> {
-        let text = std::fs::read_to_string(path)
-            .map_err(|e| SimError::Io(format!("{}: {e}", path.display())))?;
+        let text = navfuse_io::text::read_text_capped(path, navfuse_io::text::MAX_CONFIG_BYTES)
+            .map_err(|e| SimError::Io(e.to_string()))?;
         let origin = path.display().to_string();
         if path
             .extension()

@@ -21,7 +21,6 @@ use navfuse_io::kfgins::{KfGinsImuOptions, KfGinsImuReader};
 use navfuse_io::ReadError;
 use navfuse_sim::allan::{fit, overlapping_adev, AdevPoint, NoiseFit};
 use std::fmt::Write as _;
-use std::io::BufRead;
 use std::path::Path;
 
 const R2D: f64 = 180.0 / core::f64::consts::PI;
@@ -39,9 +38,10 @@ pub struct AllanResult {
 
 fn detect(path: &Path) -> Result<&'static str, String> {
     let (mut r, name) = navfuse_io::open(path).map_err(|e| e.to_string())?;
-    let mut first = String::new();
-    r.read_line(&mut first)
-        .map_err(|e| format!("{name}:1: cannot read: {e}"))?;
+    let first = match navfuse_io::text::capped_lines(&mut r).next() {
+        Some(l) => l.map_err(|e| format!("{name}:1: cannot read: {e}"))?,
+        None => String::new(),
+    };
     Ok(if first.contains("IMU::UncompGyro") {
         "vn310"
     } else if first.contains("dtheta_x_rad") {

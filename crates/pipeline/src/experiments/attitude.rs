@@ -295,8 +295,8 @@ pub fn run(args: Options) -> Result<(), ToolError> {
     };
     let run = run_scene(&scene, &cfg, fcfg, Some(fix));
     if let Some(p) = &args.out {
-        let f = std::fs::File::create(p).map_err(|e| format!("{}: {e}", p.display()))?;
-        let mut w = std::io::BufWriter::new(f);
+        let mut w = navfuse_io::atomic::AtomicFile::create(p)
+            .map_err(|e| format!("{}: {e}", p.display()))?;
         let io = |e: std::io::Error| format!("{}: {e}", p.display());
         writeln!(
             w,
@@ -329,6 +329,7 @@ pub fn run(args: Options) -> Result<(), ToolError> {
             )
             .map_err(io)?;
         }
+        w.commit().map_err(io)?;
     }
     let stat = |m: Method| -> [f64; 3] {
         let mut e = [Vec::new(), Vec::new(), Vec::new()];

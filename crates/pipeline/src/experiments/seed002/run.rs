@@ -287,7 +287,8 @@ pub fn run(args: Options) -> Result<(), ToolError> {
             "config": format!("{cfg:?}"),
         });
         let text = serde_json::to_string_pretty(&v).map_err(|e| e.to_string())?;
-        std::fs::write(path, text).map_err(|e| format!("{}: cannot write: {e}", path.display()))?;
+        navfuse_io::atomic::write_atomic(path, text)
+            .map_err(|e| format!("{}: cannot write: {e}", path.display()))?;
         println!("wrote {}", path.display());
     }
     if let Some(dir) = &args.report {

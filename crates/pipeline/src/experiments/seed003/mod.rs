@@ -240,7 +240,7 @@ pub fn run(a: Options) -> Result<(), ToolError> {
     if let Some(p) = &a.json {
         let s = serde_json::to_string_pretty(&serde_json::Value::Object(json))
             .map_err(|e| e.to_string())?;
-        std::fs::write(p, s).map_err(|e| format!("{}: {e}", p.display()))?;
+        navfuse_io::atomic::write_atomic(p, s).map_err(|e| format!("{}: {e}", p.display()))?;
         println!("\nwrote {}", p.display());
     }
     Ok(())

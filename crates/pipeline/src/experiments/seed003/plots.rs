@@ -1,6 +1,7 @@
 //! CSVs and SVG charts for the paper's figs. 4–6.
 
 use super::*;
+use navfuse_io::atomic::AtomicFile;
 
 /// CSVs for the paper's figs. 4–6 (seed 1000, 2 mm): attitude error,
 /// ambiguity error with √P, and the ambiguity of the first risen satellite.
@@ -41,7 +42,7 @@ pub(super) fn write_plots(
         Some((-2.0, 2.0)),
     )?;
     let p4 = dir.join("fig4_attitude_error.csv");
-    let mut w = std::fs::File::create(&p4).map_err(|e| io(&p4, e))?;
+    let mut w = AtomicFile::create(&p4).map_err(|e| io(&p4, e))?;
     writeln!(w, "epoch,pitch_err_deg,roll_err_deg,yaw_err_deg,pitch_fixed_err_deg,roll_fixed_err_deg,yaw_fixed_err_deg").map_err(|e| io(&p4, e))?;
     for (k, r) in run.rows.iter().enumerate() {
         let e = |v: f64, t: f64| wrap_deg((v - t).to_degrees());
@@ -58,6 +59,7 @@ pub(super) fn write_plots(
         )
         .map_err(|e| io(&p4, e))?;
     }
+    w.commit().map_err(|e| io(&p4, e))?;
     let mut e5 = Vec::new();
     let mut sd5 = Vec::new();
     let mut msd5 = Vec::new();
@@ -77,13 +79,14 @@ pub(super) fn write_plots(
         Some((-0.5, 0.5)),
     )?;
     let p5 = dir.join("fig5_ambiguity_error.csv");
-    let mut w = std::fs::File::create(&p5).map_err(|e| io(&p5, e))?;
+    let mut w = AtomicFile::create(&p5).map_err(|e| io(&p5, e))?;
     writeln!(w, "epoch,prn_a,prn_b,err_m,sqrt_p_m").map_err(|e| io(&p5, e))?;
     for (k, r) in run.rows.iter().enumerate() {
         for (pa, pb, e, sd) in &r.amb {
             writeln!(w, "{k},{pa},{pb},{e:.6},{sd:.6}").map_err(|e| io(&p5, e))?;
         }
     }
+    w.commit().map_err(|e| io(&p5, e))?;
     // Fig. 6: the first satellite that rises after the start.
     let first: Vec<u8> = scene[0].epoch.prn[..scene[0].epoch.n_sats].to_vec();
     let mut seen = first.clone();
@@ -101,7 +104,7 @@ pub(super) fn write_plots(
         seen.extend_from_slice(&s.epoch.prn[..s.epoch.n_sats]);
     }
     let p6 = dir.join("fig6_rising_satellite.csv");
-    let mut w = std::fs::File::create(&p6).map_err(|e| io(&p6, e))?;
+    let mut w = AtomicFile::create(&p6).map_err(|e| io(&p6, e))?;
     writeln!(w, "epoch,prn_rising,prn_other,err_m,sqrt_p_m").map_err(|e| io(&p6, e))?;
     if let Some((k0, prn)) = risen {
         let mut e6 = Vec::new();
@@ -133,7 +136,7 @@ pub(super) fn write_plots(
             dir.display()
         );
     }
-    Ok(())
+    w.commit().map_err(|e| io(&p6, e))
 }
 
 /// A minimal line chart as SVG (one polyline per series).
@@ -226,5 +229,5 @@ pub(super) fn write_svg(
         );
     }
     svg += "</svg>\n";
-    std::fs::write(path, svg).map_err(|e| format!("{}: {e}", path.display()))
+    navfuse_io::atomic::write_atomic(path, svg).map_err(|e| format!("{}: {e}", path.display()))
 }

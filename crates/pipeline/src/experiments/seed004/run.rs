@@ -219,7 +219,7 @@ pub fn run(args: Options) -> Result<(), ToolError> {
             "rows": rows_json(&t3, &PAPER_T3),
             "real": t4.as_deref().map_or(serde_json::Value::Null, |t| rows_json(t, &PAPER_T4)),
         });
-        std::fs::write(path, serde_json::to_string_pretty(&doc).expect("json"))
+        navfuse_io::atomic::write_atomic(path, serde_json::to_string_pretty(&doc).expect("json"))
             .map_err(|e| format!("{}: cannot write: {e}", path.display()))?;
         println!("wrote {}", path.display());
     }
