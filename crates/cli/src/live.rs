@@ -220,7 +220,8 @@ pub fn run(args: Args) -> Result<(), String> {
     eprint!("{}", inputs.summary_text(&drv, &seq, &end));
     if let Some(p) = &args.summary_json {
         let j = inputs.summary_json(&drv, &seq, &end);
-        std::fs::write(p, format!("{j}\n")).map_err(|e| format!("{}: {e}", p.display()))?;
+        navfuse_io::atomic::write_atomic(p, format!("{j}\n"))
+            .map_err(|e| format!("{}: {e}", p.display()))?;
     }
     Ok(())
 }

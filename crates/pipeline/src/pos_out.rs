@@ -66,8 +66,9 @@ pub fn write_pos(
     coast_after_s: f64,
 ) -> Result<String> {
     let write = || -> std::io::Result<()> {
-        let f = std::fs::File::create(path)?;
-        let mut w = PosWriter::new(std::io::BufWriter::with_capacity(1 << 16, f));
+        // Whole or absent: a temp file beside `path`, renamed on success.
+        let mut f = navfuse_io::atomic::AtomicFile::create(path)?;
+        let mut w = PosWriter::new(std::io::BufWriter::with_capacity(1 << 16, &mut f));
         for (k, s) in sols.iter().enumerate() {
             let row = std.get(k).filter(|r| (r.t - s.t).abs() <= 1e-6);
             let status = row.and_then(|r| r.status).or_else(|| {
@@ -85,7 +86,9 @@ pub fn write_pos(
             };
             w.write_epoch(s, &e)?;
         }
-        navfuse_io::writers::TrajectoryWriter::finish(&mut w)
+        navfuse_io::writers::TrajectoryWriter::finish(&mut w)?;
+        drop(w);
+        f.commit()
     };
     write().map_err(PipelineError::io(path, ""))?;
     Ok(path.display().to_string())

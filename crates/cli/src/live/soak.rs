@@ -240,7 +240,7 @@ pub fn run(a: Args) -> Result<(), String> {
         "samples_wall_s_rss_kib_cpu_s": samples,
     });
     let text = serde_json::to_string_pretty(&report).map_err(|e| e.to_string())?;
-    std::fs::write(a.out.join("soak.json"), &text).map_err(|e| e.to_string())?;
+    navfuse_io::atomic::write_atomic(&a.out.join("soak.json"), &text).map_err(|e| e.to_string())?;
     println!(
         "soak: {:.2} h of stream in {:.0} s wall ({} passes); live exit {}",
         stream_s / 3600.0,
