@@ -1,18 +1,21 @@
 #!/usr/bin/env bash
 # Hostile inputs against every batch command (convert, run, kf-gins, eval,
-# baseline, allan): truncated file, binary garbage, a 10 MB single line, a
+# baseline, allan) and live: truncated file, binary garbage, a 10 MB single line, a
 # 1 GB file without a newline (sparse), an empty file, the wrong format for
 # the extension, NaN/inf values, time going backwards, duplicate stamps.
 # For each: exit code, the first line of the message, max RSS
 # (/usr/bin/time -v) and the outputs left behind. Writes docs/hostile.md.
 #
 #   tools/hostile.sh [NAVFUSE_BINARY]      (default target/release/navfuse)
+#   ONLY="live eval" tools/hostile.sh      (those sections; rows appended)
 #
 # Needs /usr/bin/time (apt-get install time) and $NAVFUSE_DATA (default
 # ../shared/data) for the good halves of each case (drive_0708, GEONET RINEX).
 # Targets: no panic (exit 70/101), no hang (timeout 120 s), max RSS ≤ 64 MiB
 # for the 1 GB case, no output left by a failed command.
 set -u
+only=${ONLY:-all}
+want() { [ "$only" = all ] || [[ " $only " == *" $1 "* ]]; }
 here=$(cd "$(dirname "$0")/.." && pwd)
 bin=${1:-$here/target/release/navfuse}
 bin=$(cd "$(dirname "$bin")" && pwd)/$(basename "$bin")
@@ -60,7 +63,7 @@ run_case() {
     local cmd=$1 case=$2 outdir=$3
     shift 4
     rm -rf "$outdir"; mkdir -p "$outdir"
-    timeout 120 /usr/bin/time -v -o time.txt "$bin" "$@" > stdout.txt 2> stderr.txt
+    timeout 120 /usr/bin/time -v -o time.txt "$bin" "$@" < "${STDIN:-/dev/null}" > stdout.txt 2> stderr.txt
     local rc=$?
     local rss; rss=$(awk -F': ' '/Maximum resident/ { printf "%.1f", $2 / 1024 }' time.txt)
     # The error line on failure (warnings may precede it), else the first line.
@@ -69,6 +72,10 @@ run_case() {
         msg=$(grep '^navfuse: ' stderr.txt | head -n 1)
     else
         msg=$(head -n 1 stderr.txt)
+    fi
+    # live ends with a summary: its IMU accounting line says the most.
+    if [ "$cmd" = live ] && grep -q 'IMU input' stderr.txt; then
+        msg=$(grep -m1 'IMU input' stderr.txt | sed 's/^ *//')
     fi
     msg=$(echo "$msg" | cut -c1-150 | sed 's/|/\\|/g')
     [ -z "$msg" ] && msg="(stdout) $(head -n 1 stdout.txt | cut -c1-120 | sed 's/|/\\|/g')"
@@ -84,12 +91,15 @@ run_case() {
 }
 
 # convert: an RTKLIB .pos → CSV.
+if want convert; then
 mkdir -p convert && cd convert
 make_variants ../good.pos pos ../good.nav
 for c in $cases; do run_case convert "$c" out -- convert "h_$c.pos" out/out.csv; done
 cd ..
+fi
 
 # kf-gins: the drive's YAML with the IMU file replaced.
+if want kfgins; then
 mkdir -p kfgins && cd kfgins
 make_variants ../good_imu.txt txt ../good_gnss.txt
 for c in $cases; do
@@ -98,8 +108,10 @@ for c in $cases; do
     run_case kf-gins "$c" out -- kf-gins "k_$c.yaml" --enhanced
 done
 cd ..
+fi
 
 # run: a TOML on the same IMU variants (KF-GINS text) and GNSS.
+if want run; then
 mkdir -p run && cd run
 make_variants ../good_imu.txt txt ../good_gnss.txt
 for c in $cases; do
@@ -107,26 +119,45 @@ for c in $cases; do
     run_case run "$c" out -- run "r_$c.toml"
 done
 cd ..
+fi
 
 # eval: a KF-GINS .nav solution against the drive's truth.
+if want eval; then
 mkdir -p eval && cd eval
 make_variants ../good.nav nav ../good.pos
 for c in $cases; do run_case eval "$c" out -- eval "h_$c.nav" --truth "$K/truth.nav" --csv out/errors.csv --json out/eval.json; done
 cd ..
+fi
 
 # allan: a KF-GINS IMU log.
+if want allan; then
 mkdir -p allan && cd allan
 make_variants ../good_imu.txt txt ../good_gnss.txt
 for c in $cases; do run_case allan "$c" out -- allan "h_$c.txt" --format kfgins --out out; done
 cd ..
+fi
 
 # baseline: the GEONET rover observation file replaced.
+if want baseline; then
 mkdir -p baseline && cd baseline
 head -n 4000 "$R/07590920.05o" > good.obs
 make_variants good.obs 05o "$R/07590920.05n"
 for c in $cases; do run_case baseline "$c" out -- baseline --rover "h_$c.05o" --base "$R/30400920.05o" --nav "$R/07590920.05n" --out out/b.csv; done
 cd ..
+fi
 
+# live: the IMU stream on stdin (KF-GINS lines), no GNSS; the solution
+# stream is written as it goes (a live log), the summary at the end.
+if want live; then
+mkdir -p live && cd live
+make_variants ../good_imu.txt txt ../good_gnss.txt
+for c in $cases; do
+    STDIN="h_$c.txt" run_case live "$c" out -- live --platform car --imu - --gnss none --gps-week 2374 --out out/sol.jsonl --summary-json out/summary.json
+done
+cd ..
+fi
+
+if [ "$only" != all ]; then printf '%s\n' "${rows[@]}" >> "$out_md"; echo "appended to $out_md"; exit 0; fi
 {
     echo "# Hostile inputs"
     echo

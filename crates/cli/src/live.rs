@@ -218,6 +218,22 @@ pub fn run(args: Args) -> Result<(), String> {
     }
     end.wall_s = t0.elapsed().as_secs_f64();
     eprint!("{}", inputs.summary_text(&drv, &seq, &end));
+    // An empty or all-rejected IMU stream is an error, never a silent
+    // success; the (empty) solution stream is removed and no summary file
+    // claims a finished run.
+    let st = inputs.imu_stats();
+    if st.used == 0 {
+        drop(out);
+        if let Some(p) = &args.out {
+            let _ = std::fs::remove_file(p);
+        }
+        return Err(format!(
+            "live: no usable IMU records from {} ({} lines, {} rejected)",
+            args.imu,
+            st.lines,
+            st.rejected.iter().map(|r| r.1).sum::<u64>()
+        ));
+    }
     if let Some(p) = &args.summary_json {
         let j = inputs.summary_json(&drv, &seq, &end);
         navfuse_io::atomic::write_atomic(p, format!("{j}\n"))

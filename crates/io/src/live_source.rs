@@ -139,16 +139,29 @@ fn pump_lines(
     let mut buf = Vec::with_capacity(256);
     loop {
         buf.clear();
-        // Bound a line's length: a line longer than 64 KiB is cut (and will be rejected).
-        let n = (&mut r).take(1 << 16).read_until(b'\n', &mut buf)?;
-        if n == 0 {
-            return Ok(true);
+        // Bound a line's length without holding it: a line longer than
+        // 64 KiB is skipped to its newline and stands for one rejected line
+        // (the placeholder fails to parse and is counted with its reason),
+        // so memory is bounded by the channel's capacity × 64 KiB at most
+        // and by a few bytes per line for endless lines.
+        match crate::text::fill_line(&mut r, &mut buf, LIVE_MAX_LINE)? {
+            crate::text::Fill::Eof => return Ok(true),
+            crate::text::Fill::Line => {}
+            crate::text::Fill::TooLong => {
+                crate::text::skip_line(&mut r)?;
+                buf.clear();
+                buf.extend_from_slice(b"<line longer than 65536 bytes>\n");
+            }
         }
         if tx.send(mk(buf.clone(), Instant::now())).is_err() {
             return Ok(false);
         }
     }
 }
+
+/// Longest live line kept [bytes]: 64 KiB, a hundred times a gpsd JSON
+/// report or an IMU line.
+const LIVE_MAX_LINE: usize = 1 << 16;
 
 /// Pump lines, turning an error into a note; false when the receiver is gone.
 fn pump_noting(
