@@ -144,6 +144,31 @@ pub enum TimeOffsetReason {
 }
 
 impl TimeOffsetReason {
+    /// The decision for an estimate `tau` ± `std` [s] from a scan over
+    /// ±`max_lag_s` in `grid_step_s` steps: at the scan's edge, too
+    /// uncertain (σ above `max_std_s` or NaN), significant (|τ| >
+    /// `k_sigma`·σ) or not. Shared by every offset estimator.
+    pub fn classify(
+        tau: f64,
+        std: f64,
+        max_lag_s: f64,
+        grid_step_s: f64,
+        max_std_s: f64,
+        k_sigma: f64,
+    ) -> Self {
+        if max_lag_s - tau.abs() < grid_step_s {
+            TimeOffsetReason::AtScanEdge
+        } else if std.is_nan() || std > max_std_s {
+            TimeOffsetReason::TooUncertain
+        } else if tau.abs() > k_sigma * std {
+            TimeOffsetReason::Significant
+        } else {
+            TimeOffsetReason::NotSignificant
+        }
+    }
+}
+
+impl TimeOffsetReason {
     /// One-line explanation for logs.
     pub fn describe(self) -> &'static str {
         match self {
@@ -592,15 +617,14 @@ pub fn estimate(imu: &[ImuSample], gnss: &[GnssFix], cfg: &TimeOffsetConfig) -> 
         return none(obs.len(), outliers);
     };
     let tau = p[0];
-    let reason = if cfg.max_lag_s - tau.abs() < cfg.grid_step_s {
-        TimeOffsetReason::AtScanEdge
-    } else if std.is_nan() || std > cfg.max_std_s {
-        TimeOffsetReason::TooUncertain
-    } else if tau.abs() > cfg.k_sigma * std {
-        TimeOffsetReason::Significant
-    } else {
-        TimeOffsetReason::NotSignificant
-    };
+    let reason = TimeOffsetReason::classify(
+        tau,
+        std,
+        cfg.max_lag_s,
+        cfg.grid_step_s,
+        cfg.max_std_s,
+        cfg.k_sigma,
+    );
     let significant = reason == TimeOffsetReason::Significant;
     TimeOffsetEstimate {
         tau_s: Some(tau),

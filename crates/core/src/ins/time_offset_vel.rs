@@ -481,15 +481,14 @@ pub fn estimate_from_velocity(
     let Some((tau, std, lever_b)) = result else {
         return none(obs.len(), outliers);
     };
-    let reason = if cfg.max_lag_s - tau.abs() < cfg.grid_step_s {
-        TimeOffsetReason::AtScanEdge
-    } else if std.is_nan() || std > cfg.max_std_s {
-        TimeOffsetReason::TooUncertain
-    } else if tau.abs() > cfg.k_sigma * std {
-        TimeOffsetReason::Significant
-    } else {
-        TimeOffsetReason::NotSignificant
-    };
+    let reason = TimeOffsetReason::classify(
+        tau,
+        std,
+        cfg.max_lag_s,
+        cfg.grid_step_s,
+        cfg.max_std_s,
+        cfg.k_sigma,
+    );
     VelOffsetEstimate {
         tau_s: Some(tau),
         std_s: std,
