@@ -21,6 +21,7 @@
 
 pub mod soak;
 
+use crate::fail::Fail;
 use clap::Args as ClapArgs;
 use navfuse_io::live::Sequencer;
 use navfuse_io::live_source::{spawn_gnss, spawn_imu, Msg};
@@ -152,18 +153,23 @@ fn estimator(
     })
 }
 
-pub fn run(args: Args) -> Result<(), String> {
+pub fn run(args: Args) -> Result<(), Fail> {
     if args.gnss == "nmea:-" && args.imu == "-" {
-        return Err("--gnss nmea:- and --imu - cannot both read stdin".into());
+        return Err(Fail::usage(
+            "--gnss nmea:- and --imu - cannot both read stdin",
+        ));
     }
     if !(args.max_wait.is_finite() && args.max_wait >= 0.0) {
-        return Err(format!("--max-wait {}: must be ≥ 0", args.max_wait));
+        return Err(Fail::usage(format!(
+            "--max-wait {}: must be ≥ 0",
+            args.max_wait
+        )));
     }
     if args.reconnect_for.is_nan() || args.reconnect_for < 0.0 {
-        return Err(format!(
+        return Err(Fail::usage(format!(
             "--reconnect-for {}: must be ≥ 0",
             args.reconnect_for
-        ));
+        )));
     }
     let (est, frame) = estimator(&args)?;
     let sink: Box<dyn Write> = match &args.out {
@@ -209,10 +215,12 @@ pub fn run(args: Args) -> Result<(), String> {
         }
         let mut write = |s: &navfuse_core::types::NavSolution| out.write(s);
         let nows = secs(Instant::now());
-        drv.release(&mut seq, nows, &|| secs(Instant::now()), &mut write)?;
+        drv.release(&mut seq, nows, &|| secs(Instant::now()), &mut write)
+            .map_err(|e| Fail::from(e.to_string()))?;
         if seq.imu_ended() && seq.queued().0 == 0 {
             // Remaining GNSS fixes (if any) go to the estimator too, then stop.
-            drv.finish(&mut seq, &mut write)?;
+            drv.finish(&mut seq, &mut write)
+                .map_err(|e| Fail::from(e.to_string()))?;
             break;
         }
     }
@@ -227,12 +235,12 @@ pub fn run(args: Args) -> Result<(), String> {
         if let Some(p) = &args.out {
             let _ = std::fs::remove_file(p);
         }
-        return Err(format!(
+        return Err(Fail::input(format!(
             "live: no usable IMU records from {} ({} lines, {} rejected)",
             args.imu,
             st.lines,
             st.rejected.iter().map(|r| r.1).sum::<u64>()
-        ));
+        )));
     }
     if let Some(p) = &args.summary_json {
         let j = inputs.summary_json(&drv, &seq, &end);
