@@ -367,11 +367,12 @@ pub fn run_eskf(
         Some(TimeOffsetCfg::Seconds(s)) => TimeOffset::parse(&s.to_string())?,
         Some(TimeOffsetCfg::Named(n)) => TimeOffset::parse(n)?,
     };
-    // With GNSS velocities the offset comes from filter passes, which assume
-    // nothing about course and heading: every platform, named `auto` or
-    // left unset (`crate::offset_passes`).
+    // With GNSS velocities, on platforms whose course is not their heading,
+    // the offset comes from filter passes, which assume nothing about course
+    // and heading (`crate::offset_passes`); where the course follows the
+    // heading the course estimate stays ([`crate::offset_passes::serves`]).
     let passes = match (&cfg.input.imu_time_offset, mode) {
-        (None, _) | (_, TimeOffset::Auto) => crate::offset_passes::has_velocity(gnss),
+        (None, _) | (_, TimeOffset::Auto) => crate::offset_passes::serves(cfg, gnss),
         _ => false,
     };
     if passes {

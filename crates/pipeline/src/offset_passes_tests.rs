@@ -34,11 +34,6 @@ fn check(platform: Platform, seed: u64) {
 }
 
 #[test]
-fn car_offsets_recovered_within_10_ms() {
-    check(Platform::Car, 1);
-}
-
-#[test]
 fn uav_offsets_recovered_within_10_ms() {
     check(Platform::Uav, 2);
 }
