@@ -95,7 +95,7 @@ def test_errors_are_navfuse_errors_with_file_line_field(tmp_path):
     with pytest.raises(navfuse.NavfuseError, match="missing column"):
         navfuse.run({"input": {"imu": "a", "gnss": "b"}}, imu=pd.DataFrame({"t_s": [1.0]}),
                     gnss=np.zeros((1, 7)))
-    with pytest.raises(navfuse.NavfuseError, match="cannot read"):
+    with pytest.raises(navfuse.NavfuseError, match=r"none\.yaml:0: field `<file>`: cannot open"):
         navfuse.kf_gins(tmp_path / "none.yaml")
     bad = {"input": {"imu": "a", "gnss": "b"}, "filter": {"preset": "nope"}, "typo": 1}
     with pytest.raises(navfuse.NavfuseError, match="typo"):
