@@ -365,19 +365,32 @@ fn reject_gross(c: &[Obs], cfg: &TimeOffsetConfig) -> (Vec<Obs>, usize) {
     (kept, n)
 }
 
+/// Numbers (from 1) the segments of time-ordered epochs `(t, &mut seg)`:
+/// a new segment after a gap over `max_gap_s` or once the current one spans
+/// `max_segment_s`. Shared by both offset estimators.
+pub(crate) fn assign_segments<'a>(
+    epochs: impl Iterator<Item = (f64, &'a mut usize)>,
+    max_gap_s: f64,
+    max_segment_s: f64,
+) {
+    let (mut seg, mut start, mut last) = (0, f64::NEG_INFINITY, f64::NEG_INFINITY);
+    for (t, s) in epochs {
+        if t - last > max_gap_s || t - start > max_segment_s {
+            seg += 1;
+            start = t;
+        }
+        last = t;
+        *s = seg;
+    }
+}
+
 /// Assigns segments, drops short ones, unwraps ψ onto Θ(t) per segment.
 fn segment(obs: &mut Vec<Obs>, head: &Heading, cfg: &TimeOffsetConfig) {
-    let mut seg = 0;
-    let mut start = f64::NEG_INFINITY;
-    let mut last = f64::NEG_INFINITY;
-    for o in obs.iter_mut() {
-        if o.t - last > cfg.max_gap_s || o.t - start > cfg.max_segment_s {
-            seg += 1;
-            start = o.t;
-        }
-        last = o.t;
-        o.seg = seg;
-    }
+    assign_segments(
+        obs.iter_mut().map(|o| (o.t, &mut o.seg)),
+        cfg.max_gap_s,
+        cfg.max_segment_s,
+    );
     // Segments with < 3 epochs give ≤ 1 dof after their constant: drop.
     let mut i = 0;
     let mut out = Vec::with_capacity(obs.len());

@@ -283,15 +283,11 @@ fn profile(obs: &[Obs], track: &Track, tau: f64, fit_lever: bool) -> Option<Prof
 /// Assigns segments (gap / length limits) and drops segments of < 4 epochs
 /// (their constant and drift leave ≤ 1 dof per axis).
 fn segment(obs: &mut Vec<Obs>, cfg: &VelOffsetConfig) {
-    let (mut seg, mut start, mut last) = (0, f64::NEG_INFINITY, f64::NEG_INFINITY);
-    for o in obs.iter_mut() {
-        if o.t - last > cfg.max_gap_s || o.t - start > cfg.max_segment_s {
-            seg += 1;
-            start = o.t;
-        }
-        last = o.t;
-        o.seg = seg;
-    }
+    super::time_offset::assign_segments(
+        obs.iter_mut().map(|o| (o.t, &mut o.seg)),
+        cfg.max_gap_s,
+        cfg.max_segment_s,
+    );
     let mut keep = Vec::with_capacity(obs.len());
     let mut i = 0;
     while i < obs.len() {
