@@ -214,13 +214,12 @@ pub fn decide_on_loaded(
     Ok(kept)
 }
 
-/// Whether `navfuse run` loads without an offset and leaves it to
-/// [`decide_on_loaded`]: `[input] imu_time_offset` unset or `"auto"`.
 /// Whether the velocity passes decide the offset: the fixes carry
-/// velocities and the platform's course is not its heading (pedestrian,
-/// uav, marine: [`crate::time_offset::default_mode`] is `None` there).
-/// Where the course follows the heading (car, robot, no platform) the course
-/// estimate ([`crate::time_offset::auto_estimate`]) stays: on drive_0708's
+/// velocities and the platform's course does not follow its heading (uav,
+/// marine, static: [`crate::time_offset::default_mode`] is `None` there).
+/// Where the course follows the heading (car, robot, pedestrian, no
+/// platform) the course estimate ([`crate::time_offset::auto_estimate`])
+/// stays: on drive_0708's
 /// raw log (stamps ≈ 0.2 s late) the passes found +0.03 s where the course
 /// estimate finds −0.15…−0.21 s, and on 90 s car runs starting in motion
 /// they applied offsets of up to 0.5 s where the truth is 0
@@ -230,6 +229,8 @@ pub fn serves(cfg: &crate::config::RunConfig, gnss: &[GnssFix]) -> bool {
         && crate::time_offset::default_mode(cfg) == crate::time_offset::TimeOffset::None
 }
 
+/// Whether `navfuse run` loads without an offset and leaves it to
+/// [`decide_on_loaded`]: `[input] imu_time_offset` unset or `"auto"`.
 pub fn wants_passes(cfg: &crate::config::RunConfig) -> bool {
     use crate::time_offset::TimeOffsetCfg;
     match &cfg.input.imu_time_offset {
