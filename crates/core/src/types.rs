@@ -53,11 +53,117 @@ pub struct GnssFix {
     pub num_sats: u8,
 }
 
+/// Wheel speed / odometer measurement (issue 17).
+///
+/// The mean forward speed over `(t − dt, t]` along the body x axis (FRD) of
+/// the wheel `wheel`, signed (negative when reversing). A source that gives a
+/// distance increment `Δs` over `dt` reports `speed_mps = Δs / dt`; an
+/// instantaneous speed has `dt = 0`.
+#[derive(Clone, Copy, Debug, PartialEq, Default)]
+pub struct OdometerSample {
+    /// GPS time at the end of the interval [s].
+    pub t: f64,
+    /// Interval the speed is averaged over [s] (0: instantaneous).
+    pub dt: f64,
+    /// Signed forward speed [m/s] (before any scale-factor correction).
+    pub speed_mps: f64,
+    /// 1-σ of `speed_mps` [m/s] as the source knows it (0: unknown, the
+    /// estimator's configured σ applies).
+    pub std_mps: f64,
+    /// Which wheel: 0 = the vehicle reference (e.g. rear-axle centre or a
+    /// CAN vehicle speed), 1.. = individual wheels mapped to lever arms by
+    /// the configuration.
+    pub wheel: u8,
+}
+
+/// Where a [`HeadingFix`] comes from.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+pub enum HeadingSource {
+    /// Two-antenna GNSS baseline (UBX NAV-RELPOSNED, NMEA HDT/THS, a simulator).
+    #[default]
+    DualAntenna,
+    /// Multi-antenna carrier-phase attitude (CP-ATT, seed 003).
+    CpAtt,
+    /// Magnetometer heading (after declination).
+    Magnetometer,
+}
+
+/// Heading (and optionally pitch) of a known body-fixed direction, usually an
+/// antenna baseline master → slave (issue 17).
+///
+/// Angles in NED: `heading_rad` clockwise from true north, `pitch_rad`
+/// positive when the baseline points up. The baseline's mounting (its body
+/// frame direction) is configuration, not part of the measurement.
+#[derive(Clone, Copy, Debug, PartialEq, Default)]
+pub struct HeadingFix {
+    /// GPS time [s].
+    pub t: f64,
+    /// Heading, clockwise from true north [rad], in (−π, π].
+    pub heading_rad: f64,
+    /// Pitch of the baseline [rad]; NaN when the source gives none.
+    pub pitch_rad: f64,
+    /// 1-σ heading [rad] (> 0).
+    pub std_heading_rad: f64,
+    /// 1-σ pitch [rad]; NaN when there is no pitch.
+    pub std_pitch_rad: f64,
+    /// Baseline length [m]; NaN when unknown.
+    pub baseline_m: f64,
+    /// Producer of the measurement.
+    pub source: HeadingSource,
+}
+
+/// Three-axis magnetometer sample, body frame FRD [T] (issue 17).
+#[derive(Clone, Copy, Debug, PartialEq, Default)]
+pub struct MagSample {
+    /// GPS time [s].
+    pub t: f64,
+    /// Measured field in the body frame [T] (1 µT = 1e-6 T).
+    pub m_b: Vec3,
+}
+
+/// Largest number of antenna baselines in a [`CarrierPhaseSat`] record.
+pub const MAX_CP_BASELINES: usize = 4;
+
+/// One satellite's carrier phases on every antenna baseline at one epoch,
+/// for multi-antenna attitude (CP-ATT, seed 003; issue 17).
+///
+/// An epoch streams as one record per satellite, ordered by decreasing
+/// elevation, the last one flagged `last_in_epoch`; this keeps [`Event`]
+/// small and copyable (the estimator assembles the epoch in a fixed buffer).
+#[derive(Clone, Copy, Debug, PartialEq, Default)]
+pub struct CarrierPhaseSat {
+    /// GPS time of the epoch [s].
+    pub t: f64,
+    /// Satellite PRN.
+    pub prn: u8,
+    /// Number of baselines with data (≤ [`MAX_CP_BASELINES`]).
+    pub n_baselines: u8,
+    /// True on the epoch's last satellite.
+    pub last_in_epoch: bool,
+    /// ENU unit line of sight master → satellite.
+    pub los_enu: Vec3,
+    /// Undifferenced phase σ [m].
+    pub sigma_m: f64,
+    /// Single differences `φ_master − φ_slave` [m] per baseline.
+    pub sd_phase_m: [f64; MAX_CP_BASELINES],
+}
+
 /// Time-ordered input to an estimator.
+///
+/// An estimator ignores the variants it has no model for (and counts them if
+/// it reports statistics); adding a measurement type adds one variant here.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum Event {
     Imu(ImuSample),
     Gnss(GnssFix),
+    /// Wheel speed / odometer.
+    Odometer(OdometerSample),
+    /// GNSS heading from an antenna baseline (or CP-ATT, or a magnetometer).
+    Heading(HeadingFix),
+    /// Magnetometer.
+    Mag(MagSample),
+    /// One satellite of a multi-antenna carrier-phase epoch.
+    CarrierPhase(CarrierPhaseSat),
 }
 
 impl Event {
@@ -66,6 +172,10 @@ impl Event {
         match self {
             Event::Imu(s) => s.t,
             Event::Gnss(g) => g.t,
+            Event::Odometer(o) => o.t,
+            Event::Heading(h) => h.t,
+            Event::Mag(m) => m.t,
+            Event::CarrierPhase(c) => c.t,
         }
     }
 }
@@ -121,4 +231,26 @@ pub trait Estimator {
     fn name(&self) -> &'static str;
     /// Feed one event; maybe get a solution for its epoch.
     fn push(&mut self, ev: &Event) -> Option<NavSolution>;
+}
+
+#[cfg(test)]
+mod event_size_tests {
+    use super::*;
+
+    /// The aiding variants must not make every IMU sample's event bigger:
+    /// `GnssFix` stays the largest variant (multi-antenna carrier phase
+    /// streams per satellite for this reason).
+    #[test]
+    fn aiding_variants_do_not_grow_the_event() {
+        let largest = core::mem::size_of::<GnssFix>();
+        for s in [
+            core::mem::size_of::<OdometerSample>(),
+            core::mem::size_of::<HeadingFix>(),
+            core::mem::size_of::<MagSample>(),
+            core::mem::size_of::<CarrierPhaseSat>(),
+        ] {
+            assert!(s <= largest, "{s} > {largest}");
+        }
+        assert!(core::mem::size_of::<Event>() <= largest + 8);
+    }
 }

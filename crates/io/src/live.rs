@@ -587,6 +587,7 @@ mod tests {
             v.push(match e {
                 Event::Imu(s) => ('i', s.t),
                 Event::Gnss(g) => ('g', g.t),
+                other => ('o', other.t()),
             });
         }
         v

@@ -121,6 +121,7 @@ impl Estimator for HoldLastFix {
                 n.v_n = navfuse_core::types::Vec3::repeat(f64::NAN);
                 n
             }),
+            _ => None,
         }
     }
 }
@@ -257,6 +258,8 @@ impl KfGinsFrame {
                     Ok(Event::Gnss(f))
                 }
             }
+            // kf-gins mode fuses IMU + GNSS only (the KF-GINS model).
+            _ => Err("not an IMU or GNSS record (kf-gins uses IMU + GNSS only)"),
         }
     }
 }
@@ -330,6 +333,7 @@ impl LiveDriver {
                     match ev {
                         Event::Imu(_) => self.lat.add(secs_now() - arr),
                         Event::Gnss(_) => self.n_gnss_sol += 1,
+                        _ => {}
                     }
                 }
                 None => {

@@ -165,10 +165,7 @@ impl Estimator for AligningEskf {
     /// Before alignment: buffer, and at most once per [`RETRY_S`] try to
     /// align (the solution returned is then the newest replayed one).
     fn push(&mut self, ev: &Event) -> Option<NavSolution> {
-        let t = match ev {
-            Event::Imu(s) => s.t,
-            Event::Gnss(f) => f.t,
-        };
+        let t = ev.t();
         let mut ev = *ev;
         if let Some((t_last, dt_last)) = self.last_imu {
             if t - t_last > REALIGN_GAP_S {
@@ -213,6 +210,8 @@ impl Estimator for AligningEskf {
                 }
                 None
             }
+            // Other aiding is not used for the alignment itself.
+            _ => None,
         }
     }
 }

@@ -856,6 +856,8 @@ impl Estimator for AccelDr {
         match ev {
             Event::Imu(s) => self.push_imu(s),
             Event::Gnss(f) => self.push_fix(f),
+            // No model for the other aiding types (seed 004 uses IMU + GNSS only).
+            _ => None,
         }
     }
 }
@@ -899,6 +901,7 @@ impl Estimator for GpsHold {
                 }
                 self.solution(f.t)
             }
+            _ => None,
         }
     }
 }

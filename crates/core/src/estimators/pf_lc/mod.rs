@@ -239,6 +239,8 @@ impl Estimator for PfLc {
         match ev {
             Event::Imu(s) => self.push_imu(s),
             Event::Gnss(f) => self.push_gnss(f),
+            // Seed 002 fuses IMU + GNSS only.
+            _ => None,
         }
     }
 }

@@ -186,6 +186,7 @@ pub(super) fn run_methods(
                 errs.push(e);
                 times.push(f.t);
             }
+            _ => {}
         }
     }
     // Common epochs: after the warm-up and once every method has an output.
