@@ -15,6 +15,13 @@ use rand_distr::StandardNormal;
 const STREAM_WHEEL: u64 = 20;
 const STREAM_HEADING: u64 = 21;
 const STREAM_MAG: u64 = 22;
+const STREAM_SCALE: u64 = 23;
+
+/// A per-seed true odometer scale error, uniform in `[−max, max]` (its own
+/// stream: the same seed gives the same wheel whatever else is simulated).
+pub fn draw_scale_error(seed: u64, max: f64) -> f64 {
+    rng(seed, STREAM_SCALE).gen_range(-max..=max)
+}
 
 /// Wheel-speed sensor (ABS tone ring or CAN vehicle speed).
 #[derive(Clone, Copy, Debug, PartialEq)]
