@@ -107,7 +107,13 @@ fn wheel_v_b(e: &TruthEpoch, l: &Vec3) -> Vec3 {
 }
 
 /// Random episodes `[start, end)` over `[t0, t1]` (Poisson onsets).
-fn episodes<R: Rng>(r: &mut R, t0: f64, t1: f64, rate: f64, dur: (f64, f64)) -> Vec<(f64, f64, f64)> {
+fn episodes<R: Rng>(
+    r: &mut R,
+    t0: f64,
+    t1: f64,
+    rate: f64,
+    dur: (f64, f64),
+) -> Vec<(f64, f64, f64)> {
     let mut v = Vec::new();
     if rate <= 0.0 {
         return v;
@@ -141,7 +147,10 @@ pub fn wheel_speed(traj: &Trajectory, spec: &WheelSpec, seed: u64) -> Vec<Odomet
     for w in tr.windows(2) {
         let v = wheel_v_b(&w[1], &spec.lever_arm_b).x;
         let tm = 0.5 * (w[0].t + w[1].t);
-        let slip = slips.iter().find(|s| tm >= s.0 && tm < s.1).map_or(0.0, |s| s.2 * spec.slip_max);
+        let slip = slips
+            .iter()
+            .find(|s| tm >= s.0 && tm < s.1)
+            .map_or(0.0, |s| s.2 * spec.slip_max);
         dist += 0.5 * (v + v_prev) * (w[1].t - w[0].t) * (1.0 + spec.scale_error) * (1.0 + slip);
         v_prev = v;
         if w[1].t + 1e-9 >= next {
@@ -168,7 +177,8 @@ pub fn wheel_speed(traj: &Trajectory, spec: &WheelSpec, seed: u64) -> Vec<Odomet
 /// Dual-antenna heading (and pitch) fixes at `rate_hz` (true GPS time).
 pub fn dual_antenna(traj: &Trajectory, spec: &DualAntennaSpec, seed: u64) -> Vec<HeadingFix> {
     let mut r = rng(seed, STREAM_HEADING);
-    let u_b = navfuse_core::measurements::heading::baseline_b(spec.mount_yaw_rad, spec.mount_pitch_rad);
+    let u_b =
+        navfuse_core::measurements::heading::baseline_b(spec.mount_yaw_rad, spec.mount_pitch_rad);
     let s = spec.heading_std();
     let every = (1.0 / (spec.rate_hz * traj.imu_dt)).round().max(1.0) as usize;
     let mut out = Vec::new();
@@ -198,8 +208,17 @@ pub fn magnetometer(traj: &Trajectory, spec: &MagSpec, seed: u64) -> Vec<MagSamp
     let mut g = || -> Vec3 { Vec3::from_fn(|_, _| r.sample::<f64, _>(StandardNormal)) };
     let bias = g() * spec.bias_t;
     let mut r2 = rng(seed, STREAM_MAG + 100);
-    let dist = episodes(&mut r2, t0, t1, spec.disturb_rate_hz, spec.disturb_duration_s);
-    let dirs: Vec<Vec3> = dist.iter().map(|_| g().normalize() * spec.disturb_t).collect();
+    let dist = episodes(
+        &mut r2,
+        t0,
+        t1,
+        spec.disturb_rate_hz,
+        spec.disturb_duration_s,
+    );
+    let dirs: Vec<Vec3> = dist
+        .iter()
+        .map(|_| g().normalize() * spec.disturb_t)
+        .collect();
     let every = (1.0 / (spec.rate_hz * traj.imu_dt)).round().max(1.0) as usize;
     let mut out = Vec::new();
     for e in tr.iter().step_by(every).skip(1) {
@@ -276,7 +295,10 @@ mod tests {
         assert_eq!(h.len(), 20);
         // Baseline across the car (to the right): heading = yaw + 90°.
         assert!((h[0].heading_rad.to_degrees() - 120.0).abs() < 1e-6);
-        let d = DualAntennaSpec { phase_std_m: 0.005, ..spec };
+        let d = DualAntennaSpec {
+            phase_std_m: 0.005,
+            ..spec
+        };
         assert!((d.heading_std() - 0.005 * 2f64.sqrt()).abs() < 1e-15);
     }
 

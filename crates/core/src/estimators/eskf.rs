@@ -1857,6 +1857,8 @@ impl Estimator for Eskf {
 #[cfg(test)]
 mod adaptive_tests;
 #[cfg(test)]
+mod aiding_tests;
+#[cfg(test)]
 mod aug_tests;
 
 #[cfg(test)]
@@ -1908,7 +1910,7 @@ mod tests {
         }
     }
 
-    fn start() -> NavState {
+    pub(super) fn start() -> NavState {
         NavState {
             lat: LAT,
             lon: -1.8,
@@ -1928,7 +1930,7 @@ mod tests {
     }
 
     /// Static IMU increments with biases `bg`, `ba` and small noise.
-    fn static_sample(k: u64, dt: f64, bg: &Vec3, ba: &Vec3) -> ImuSample {
+    pub(super) fn static_sample(k: u64, dt: f64, bg: &Vec3, ba: &Vec3) -> ImuSample {
         let s = start();
         let c_nb = s.c_bn().transpose();
         let w = c_nb * earth::omega_ie_n(LAT) + bg;
@@ -1942,7 +1944,7 @@ mod tests {
         }
     }
 
-    fn fix_at(s: &NavState, t: f64, lever: &Vec3, off_n: Vec3) -> GnssFix {
+    pub(super) fn fix_at(s: &NavState, t: f64, lever: &Vec3, off_n: Vec3) -> GnssFix {
         let (rm, rn) = earth::radii(s.lat);
         let l = s.c_bn() * lever + off_n;
         GnssFix {

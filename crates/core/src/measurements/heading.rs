@@ -17,9 +17,9 @@
 //! The yaw of the vehicle (ZYX Euler) is the heading of `u_b = (1, 0, 0)`,
 //! which the magnetometer model uses ([`super::magnetometer`]).
 
+use crate::estimators::eskf::{I_ATT, NX};
 #[allow(unused_imports)]
 use crate::prelude::*;
-use crate::estimators::eskf::{I_ATT, NX};
 use crate::{HeadingFix, Mat3, Vec3};
 use nalgebra::{SMatrix, SVector};
 
@@ -64,7 +64,11 @@ pub fn angles_and_rows(u_n: &Vec3) -> (f64, f64, [f64; 3], [f64; 3]) {
     let psi = u_n.y.atan2(u_n.x);
     let theta = (-u_n.z).atan2(rho);
     let d_psi = Vec3::new(-u_n.y / rho2, u_n.x / rho2, 0.0);
-    let d_theta = Vec3::new(u_n.x * u_n.z / (rho * n2), u_n.y * u_n.z / (rho * n2), -rho / n2);
+    let d_theta = Vec3::new(
+        u_n.x * u_n.z / (rho * n2),
+        u_n.y * u_n.z / (rho * n2),
+        -rho / n2,
+    );
     let s = skew(u_n);
     let hp = s.transpose() * d_psi;
     let ht = s.transpose() * d_theta;
@@ -126,7 +130,9 @@ mod tests {
 
     #[test]
     fn level_body_x_baseline_reads_the_yaw_and_its_row_is_minus_one() {
-        let c = quat_from_rotvec(&Vec3::new(0.0, 0.0, 3.0)).to_rotation_matrix().into_inner();
+        let c = quat_from_rotvec(&Vec3::new(0.0, 0.0, 3.0))
+            .to_rotation_matrix()
+            .into_inner();
         let (dz, h, r) = rows::<1>(&c, &baseline_b(0.0, 0.0), &fix(-3.0, 0.0), 0.0);
         // 3 − (−3) = 6 wraps to 6 − 2π.
         assert!((dz[0] - (6.0 - 2.0 * core::f64::consts::PI)).abs() < 1e-12);
@@ -136,7 +142,9 @@ mod tests {
 
     #[test]
     fn jacobian_matches_numerical_differences() {
-        let c = quat_from_rotvec(&Vec3::new(0.1, -0.2, 1.0)).to_rotation_matrix().into_inner();
+        let c = quat_from_rotvec(&Vec3::new(0.1, -0.2, 1.0))
+            .to_rotation_matrix()
+            .into_inner();
         let u_b = baseline_b(1.2, 0.3);
         let (dz0, h, _) = rows::<2>(&c, &u_b, &fix(0.0, 0.0), 0.0);
         let e = 1e-7;
@@ -147,7 +155,11 @@ mod tests {
             let (dz, _, _) = rows::<2>(&c_hat, &u_b, &fix(0.0, 0.0), 0.0);
             for r in 0..2 {
                 let num = (dz[r] - dz0[r]) / e;
-                assert!((num - h[(r, I_ATT + k)]).abs() < 1e-5, "{r} {k}: {num} {}", h[(r, I_ATT + k)]);
+                assert!(
+                    (num - h[(r, I_ATT + k)]).abs() < 1e-5,
+                    "{r} {k}: {num} {}",
+                    h[(r, I_ATT + k)]
+                );
             }
         }
     }

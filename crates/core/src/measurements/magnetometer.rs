@@ -21,11 +21,11 @@
 //! direction by ≤ ε rad), `k = √χ²₁(p)` with the filter's gate probability.
 //! A distorted field that keeps magnitude and dip is left to the χ² gate.
 
-#[allow(unused_imports)]
-use crate::prelude::*;
 use super::heading::angles_and_rows;
 use super::wmm::Field;
 use crate::estimators::eskf::{I_ATT, NX};
+#[allow(unused_imports)]
+use crate::prelude::*;
 use crate::{Mat3, Vec3};
 use nalgebra::SMatrix;
 
@@ -119,7 +119,9 @@ mod tests {
     #[test]
     fn heading_error_shows_as_the_innovation_and_disturbances_are_gated() {
         let w = wmm::field(0.53, 1.99, 25.0, 2026.9).unwrap();
-        let c_true = quat_from_rotvec(&Vec3::new(0.05, 0.02, 1.0)).to_rotation_matrix().into_inner();
+        let c_true = quat_from_rotvec(&Vec3::new(0.05, 0.02, 1.0))
+            .to_rotation_matrix()
+            .into_inner();
         let m_b = c_true.transpose() * w.b_n;
         // Filter yaw 2° too large: Ĉ = R_z(2°) C.
         let c_hat = quat_from_rotvec(&Vec3::new(0.0, 0.0, 2f64.to_radians()))

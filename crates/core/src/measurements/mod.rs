@@ -37,7 +37,13 @@ mod tests {
 
     #[test]
     fn wrap_pi_lands_in_the_half_open_interval() {
-        for (a, w) in [(0.0, 0.0), (PI, PI), (-PI, PI), (3.0 * PI, PI), (0.5 - 4.0 * PI, 0.5)] {
+        for (a, w) in [
+            (0.0, 0.0),
+            (PI, PI),
+            (-PI, PI),
+            (3.0 * PI, PI),
+            (0.5 - 4.0 * PI, 0.5),
+        ] {
             assert!((wrap_pi(a) - w).abs() < 1e-12, "{a} -> {}", wrap_pi(a));
         }
     }

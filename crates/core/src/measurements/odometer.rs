@@ -27,9 +27,9 @@
 //! `∂v̂_w/∂δv = Ĉ_nb`, `∂v̂_w/∂φ = −Ĉ_nb [v̂_n×]`, `∂v̂_w/∂δb_g = [l_b×]`
 //! (ω̂ = ω̃ − b̂_g, so ω̂ × l = −[l×] ω̂), `∂ẑ/∂δs = v̂_w,x`.
 
+use crate::estimators::eskf::{I_ATT, I_BG, I_VEL, NX};
 #[allow(unused_imports)]
 use crate::prelude::*;
-use crate::estimators::eskf::{I_ATT, I_BG, I_VEL, NX};
 use crate::{Mat3, Vec3};
 use nalgebra::{SMatrix, SVector};
 
@@ -69,12 +69,18 @@ impl OdometerConfig {
 
 /// Predicted wheel velocity `v̂_w^b` [m/s] and its Jacobian over the
 /// 21 error states (see the module documentation).
-pub fn wheel_velocity(c_bn: &Mat3, v_n: &Vec3, w_ib_b: &Vec3, lever_b: &Vec3) -> (Vec3, SMatrix<f64, 3, NX>) {
+pub fn wheel_velocity(
+    c_bn: &Mat3,
+    v_n: &Vec3,
+    w_ib_b: &Vec3,
+    lever_b: &Vec3,
+) -> (Vec3, SMatrix<f64, 3, NX>) {
     let c_nb = c_bn.transpose();
     let v_b = c_nb * v_n + w_ib_b.cross(lever_b);
     let mut h = SMatrix::<f64, 3, NX>::zeros();
     h.fixed_view_mut::<3, 3>(0, I_VEL).copy_from(&c_nb);
-    h.fixed_view_mut::<3, 3>(0, I_ATT).copy_from(&(-(c_nb * skew(v_n))));
+    h.fixed_view_mut::<3, 3>(0, I_ATT)
+        .copy_from(&(-(c_nb * skew(v_n))));
     h.fixed_view_mut::<3, 3>(0, I_BG).copy_from(&skew(lever_b));
     (v_b, h)
 }

@@ -187,7 +187,8 @@ pub fn field(lat: f64, lon: f64, h: f64, year: f64) -> Option<Field> {
                 dp[i] = sp * dp[j] - cp * p[j];
             } else {
                 let (j, k) = (idx(n - 1, m), idx(n - 2, m));
-                let kk = (((n - 1) * (n - 1) - m * m) as f64) / (((2 * n - 1) * (2 * n - 3)) as f64);
+                let kk =
+                    (((n - 1) * (n - 1) - m * m) as f64) / (((2 * n - 1) * (2 * n - 3)) as f64);
                 p[i] = sp * p[j] - kk * p[k];
                 dp[i] = sp * dp[j] - cp * p[j] - kk * dp[k];
             }
@@ -269,7 +270,10 @@ mod tests {
             let f = field(lat.to_radians(), lon.to_radians(), h_km * 1000.0, y).unwrap();
             let got = f.declination.to_degrees();
             // Published to 0.01°: half a unit of rounding plus float slack.
-            assert!((got - d).abs() <= 0.006, "{y} {h_km} {lat} {lon}: {got} vs {d}");
+            assert!(
+                (got - d).abs() <= 0.006,
+                "{y} {h_km} {lat} {lon}: {got} vs {d}"
+            );
         }
     }
 

@@ -39,15 +39,15 @@ use super::ExperimentError;
 use crate::profile::Platform as Profile;
 use crate::sensors::imu_noise_preset;
 use crate::ToolError;
-use navfuse_core::estimators::eskf::{
-    AidingConfig, Eskf, EskfConfig, ImuErrors, InitStd, I_ATT,
-};
+use navfuse_core::estimators::eskf::{AidingConfig, Eskf, EskfConfig, ImuErrors, InitStd, I_ATT};
 use navfuse_core::ins::mech::{q_bn_from_rpy, NavState};
 use navfuse_core::measurements::heading::HeadingConfig;
 use navfuse_core::measurements::odometer::OdometerConfig;
 use navfuse_core::measurements::wrap_pi;
 use navfuse_core::{Estimator, Event, Vec3};
-use navfuse_sim::aiding::{draw_scale_error, dual_antenna, wheel_speed, DualAntennaSpec, WheelSpec};
+use navfuse_sim::aiding::{
+    draw_scale_error, dual_antenna, wheel_speed, DualAntennaSpec, WheelSpec,
+};
 use navfuse_sim::gnss_model::gnss_preset;
 use navfuse_sim::imu_model::imu_preset;
 use navfuse_sim::platform::{
@@ -272,7 +272,9 @@ fn odo_seed(seed: u64) -> Result<OdoSeed, String> {
         &with_ev,
     )?;
     let (e_without, m_without, _, _, _) = score(AidingConfig::default(), &plain_ev)?;
-    let a = f_with.augmented().ok_or("odometer filter without its scale state")?;
+    let a = f_with
+        .augmented()
+        .ok_or("odometer filter without its scale state")?;
     let pct = |x: f64| 100.0 * x / dist.max(1e-9);
     let st = f_with.stats().aiding;
     Ok(OdoSeed {
@@ -295,9 +297,7 @@ fn stand_seed(seed: u64) -> Result<StandSeed, String> {
     let opts = sensors_opts(DRIVE_S, Outages::None);
     let mut sc = platform_scenario(Platform::Car, seed, &opts).map_err(|e| e.to_string())?;
     sc.segment.push(Segment::Stop { decel: 2.0 });
-    sc.segment.push(Segment::Hold {
-        duration_s: PARK_S,
-    });
+    sc.segment.push(Segment::Hold { duration_s: PARK_S });
     let imu = imu_preset(ImuGrade::Consumer.preset()).map_err(|e| e.to_string())?;
     let gnss = gnss_preset(GnssGrade::Consumer.preset()).map_err(|e| e.to_string())?;
     let run = navfuse_sim::simulate(&sc, seed, Some(imu), Some(gnss)).map_err(|e| e.to_string())?;
@@ -318,12 +318,17 @@ fn stand_seed(seed: u64) -> Result<StandSeed, String> {
         let mut f = filter(&run, aid)?;
         let (mut err, mut at_stop) = (f64::NAN, f64::NAN);
         drive(&mut f, ev, traj, |f, k| {
-            err = wrap_pi(f.nav().rpy().z - traj.truth[k].rpy.z).abs().to_degrees();
+            err = wrap_pi(f.nav().rpy().z - traj.truth[k].rpy.z)
+                .abs()
+                .to_degrees();
             if at_stop.is_nan() && traj.truth[k].t >= t_stop {
                 at_stop = err;
             }
         });
-        let sd = f.covariance()[(I_ATT + 2, I_ATT + 2)].max(0.0).sqrt().to_degrees();
+        let sd = f.covariance()[(I_ATT + 2, I_ATT + 2)]
+            .max(0.0)
+            .sqrt()
+            .to_degrees();
         Ok((err, sd, at_stop))
     };
     let hcfg = HeadingConfig {
@@ -364,7 +369,9 @@ fn max(v: impl Iterator<Item = f64>) -> f64 {
 /// Run both blocks over `seeds` seeds from `seed0` (rayon over seeds).
 pub fn run_aiding(seed0: u64, seeds: u64) -> Result<AidingReport, ExperimentError> {
     if seeds == 0 {
-        return Err(ExperimentError::Options("aiding: --seeds must be >= 1".into()));
+        return Err(ExperimentError::Options(
+            "aiding: --seeds must be >= 1".into(),
+        ));
     }
     let ids: Vec<u64> = (seed0..seed0 + seeds).collect();
     let res: Vec<(u64, Result<OdoSeed, String>, Result<StandSeed, String>)> = ids
@@ -457,7 +464,10 @@ mod tests {
         assert!(d.drift_pct_of_distance < d.drift_pct_without, "{d:#?}");
         assert!(d.scale_error_pct <= 0.2, "{d:#?}");
         let s = &r.standstill;
-        assert!(s.max_yaw_err_deg_with < 0.2 && s.max_yaw_std_deg_with < 0.2, "{s:#?}");
+        assert!(
+            s.max_yaw_err_deg_with < 0.2 && s.max_yaw_std_deg_with < 0.2,
+            "{s:#?}"
+        );
         assert!(s.yaw_std_deg_without > s.yaw_std_deg_with, "{s:#?}");
     }
 }

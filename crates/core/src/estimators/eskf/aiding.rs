@@ -10,12 +10,12 @@
 //! expected in time order with the IMU (as every reader merges them).
 
 use super::{Eskf, UpdateKind, UpdateReject, IA_ODO, NA, NX};
-#[allow(unused_imports)]
-use crate::prelude::*;
 use crate::measurements::heading::{self, HeadingConfig};
 use crate::measurements::magnetometer::{self, MagConfig, MagReject};
 use crate::measurements::odometer::{self, OdometerConfig};
 use crate::measurements::wmm;
+#[allow(unused_imports)]
+use crate::prelude::*;
 use crate::types::{HeadingFix, HeadingSource, MagSample, OdometerSample};
 use crate::Vec3;
 use nalgebra::{SMatrix, SVector};
@@ -79,17 +79,29 @@ impl Eskf {
             return;
         }
         let c_bn = self.nav.c_bn();
-        let (v_b, h_v) = odometer::wheel_velocity(&c_bn, &self.nav.v_n, &self.w_ib_b, &cfg.lever_arm_b);
+        let (v_b, h_v) =
+            odometer::wheel_velocity(&c_bn, &self.nav.v_n, &self.w_ib_b, &cfg.lever_arm_b);
         let e = crate::ins::mech::EarthAt::new(self.nav.lat, self.nav.h);
         let a_fwd = (self.f_b + c_bn.transpose() * Vec3::new(0.0, 0.0, e.g)).x;
         let scale = self.aug.as_ref().map_or(0.0, |a| a.x[IA_ODO]);
-        let std = if o.std_mps > 0.0 { o.std_mps } else { cfg.std_mps };
+        let std = if o.std_mps > 0.0 {
+            o.std_mps
+        } else {
+            cfg.std_mps
+        };
         let res = match cfg.nhc_std {
             Some(n) => {
                 let r = odometer::rows::<3>(&v_b, &h_v, scale, o.speed_mps, std, n, a_fwd, o.dt);
                 let mut h_a = SMatrix::<f64, 3, NA>::zeros();
                 h_a.set_column(IA_ODO, &r.h_scale);
-                let res = self.update_aug(&r.h, &h_a, &SMatrix::from_diagonal(&r.r_diag), &r.dz, true, UpdateKind::Odometer);
+                let res = self.update_aug(
+                    &r.h,
+                    &h_a,
+                    &SMatrix::from_diagonal(&r.r_diag),
+                    &r.dz,
+                    true,
+                    UpdateKind::Odometer,
+                );
                 if res.is_ok() {
                     self.aiding.last_odo_nhc = Some(self.t);
                 }
@@ -99,7 +111,14 @@ impl Eskf {
                 let r = odometer::rows::<1>(&v_b, &h_v, scale, o.speed_mps, std, 0.0, a_fwd, o.dt);
                 let mut h_a = SMatrix::<f64, 1, NA>::zeros();
                 h_a[(0, IA_ODO)] = r.h_scale[0];
-                self.update_aug(&r.h, &h_a, &SMatrix::from_diagonal(&r.r_diag), &r.dz, true, UpdateKind::Odometer)
+                self.update_aug(
+                    &r.h,
+                    &h_a,
+                    &SMatrix::from_diagonal(&r.r_diag),
+                    &r.dz,
+                    true,
+                    UpdateKind::Odometer,
+                )
             }
         };
         match res {
@@ -145,10 +164,22 @@ impl Eskf {
             && f.std_pitch_rad > 0.0;
         let res = if with_pitch {
             let (dz, h, r) = heading::rows::<2>(&c_bn, &u_b, f, cfg.std_floor_rad);
-            self.update(&h, &SMatrix::from_diagonal(&r), &dz, true, UpdateKind::Heading)
+            self.update(
+                &h,
+                &SMatrix::from_diagonal(&r),
+                &dz,
+                true,
+                UpdateKind::Heading,
+            )
         } else {
             let (dz, h, r) = heading::rows::<1>(&c_bn, &u_b, f, cfg.std_floor_rad);
-            self.update(&h, &SMatrix::from_diagonal(&r), &dz, true, UpdateKind::Heading)
+            self.update(
+                &h,
+                &SMatrix::from_diagonal(&r),
+                &dz,
+                true,
+                UpdateKind::Heading,
+            )
         };
         match res {
             Ok(_) => self.stats.aiding.heading_used += 1,
@@ -171,7 +202,13 @@ impl Eskf {
             self.stats.aiding.mag_rejected_bad += 1;
             return;
         }
-        if self.aiding.last_mag.is_some_and(|t| self.t - t < cfg.interval_s) {
+        // Half an IMU interval of slack: a 10 Hz stream on a 100 Hz filter
+        // must not lose every other sample to rounding.
+        if self
+            .aiding
+            .last_mag
+            .is_some_and(|t| self.t - t < cfg.interval_s - 0.5 * self.last_dt)
+        {
             return;
         }
         let Some(w) = wmm::field(self.nav.lat, self.nav.lon, self.nav.h, cfg.decimal_year) else {

@@ -38,9 +38,9 @@
 //! Error signs follow the position state: `δa = â − a`, feedback `â ← â − δa`.
 
 use super::{FSparse, UpdateReject, NX};
+use crate::measurements::odometer::OdometerConfig;
 #[allow(unused_imports)]
 use crate::prelude::*;
-use crate::measurements::odometer::OdometerConfig;
 use crate::Vec3;
 use nalgebra::{SMatrix, SVector};
 
