@@ -366,6 +366,9 @@ fn max(v: impl Iterator<Item = f64>) -> f64 {
     v.fold(0.0, f64::max)
 }
 
+/// One seed's two blocks (a failure is that block's message).
+type SeedResult = (u64, Result<OdoSeed, String>, Result<StandSeed, String>);
+
 /// Run both blocks over `seeds` seeds from `seed0` (rayon over seeds).
 pub fn run_aiding(seed0: u64, seeds: u64) -> Result<AidingReport, ExperimentError> {
     if seeds == 0 {
@@ -374,7 +377,7 @@ pub fn run_aiding(seed0: u64, seeds: u64) -> Result<AidingReport, ExperimentErro
         ));
     }
     let ids: Vec<u64> = (seed0..seed0 + seeds).collect();
-    let res: Vec<(u64, Result<OdoSeed, String>, Result<StandSeed, String>)> = ids
+    let res: Vec<SeedResult> = ids
         .par_iter()
         .map(|&s| (s, odo_seed(s), stand_seed(s)))
         .collect();

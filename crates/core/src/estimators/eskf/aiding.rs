@@ -92,16 +92,7 @@ impl Eskf {
         let res = match cfg.nhc_std {
             Some(n) => {
                 let r = odometer::rows::<3>(&v_b, &h_v, scale, o.speed_mps, std, n, a_fwd, o.dt);
-                let mut h_a = SMatrix::<f64, 3, NA>::zeros();
-                h_a.set_column(IA_ODO, &r.h_scale);
-                let res = self.update_aug(
-                    &r.h,
-                    &h_a,
-                    &SMatrix::from_diagonal(&r.r_diag),
-                    &r.dz,
-                    true,
-                    UpdateKind::Odometer,
-                );
+                let res = self.odometer_rows(&r);
                 if res.is_ok() {
                     self.aiding.last_odo_nhc = Some(self.t);
                 }
@@ -109,23 +100,34 @@ impl Eskf {
             }
             None => {
                 let r = odometer::rows::<1>(&v_b, &h_v, scale, o.speed_mps, std, 0.0, a_fwd, o.dt);
-                let mut h_a = SMatrix::<f64, 1, NA>::zeros();
-                h_a[(0, IA_ODO)] = r.h_scale[0];
-                self.update_aug(
-                    &r.h,
-                    &h_a,
-                    &SMatrix::from_diagonal(&r.r_diag),
-                    &r.dz,
-                    true,
-                    UpdateKind::Odometer,
-                )
+                self.odometer_rows(&r)
             }
         };
-        match res {
-            Ok(_) => self.stats.aiding.odometer_used += 1,
-            Err(UpdateReject::Gate) => self.stats.aiding.odometer_rejected_gate += 1,
-            Err(UpdateReject::Singular) => {}
-        }
+        tally(
+            res,
+            &mut self.stats.aiding.odometer_used,
+            &mut self.stats.aiding.odometer_rejected_gate,
+        );
+    }
+
+    /// Apply odometer rows (1: speed; 3: speed + NHC) with the scale column.
+    fn odometer_rows<const M: usize>(
+        &mut self,
+        r: &odometer::OdometerRows<M>,
+    ) -> Result<f64, UpdateReject> {
+        let mut h_a = SMatrix::<f64, M, NA>::zeros();
+        h_a.set_column(IA_ODO, &r.h_scale);
+        let rr = SMatrix::from_diagonal(&r.r_diag);
+        self.update_aug(&r.h, &h_a, &rr, &r.dz, true, UpdateKind::Odometer)
+    }
+
+    /// Apply heading rows `(dz, H, R diagonal)` (1: heading; 2: + pitch).
+    fn heading_rows<const M: usize>(
+        &mut self,
+        (dz, h, r): (SVector<f64, M>, SMatrix<f64, M, NX>, SVector<f64, M>),
+    ) -> Result<f64, UpdateReject> {
+        let rr = SMatrix::from_diagonal(&r);
+        self.update(&h, &rr, &dz, true, UpdateKind::Heading)
     }
 
     /// Whether the odometer's NHC rows were applied recently, so the plain
@@ -163,29 +165,17 @@ impl Eskf {
             && f.std_pitch_rad.is_finite()
             && f.std_pitch_rad > 0.0;
         let res = if with_pitch {
-            let (dz, h, r) = heading::rows::<2>(&c_bn, &u_b, f, cfg.std_floor_rad);
-            self.update(
-                &h,
-                &SMatrix::from_diagonal(&r),
-                &dz,
-                true,
-                UpdateKind::Heading,
-            )
+            let rows = heading::rows::<2>(&c_bn, &u_b, f, cfg.std_floor_rad);
+            self.heading_rows(rows)
         } else {
-            let (dz, h, r) = heading::rows::<1>(&c_bn, &u_b, f, cfg.std_floor_rad);
-            self.update(
-                &h,
-                &SMatrix::from_diagonal(&r),
-                &dz,
-                true,
-                UpdateKind::Heading,
-            )
+            let rows = heading::rows::<1>(&c_bn, &u_b, f, cfg.std_floor_rad);
+            self.heading_rows(rows)
         };
-        match res {
-            Ok(_) => self.stats.aiding.heading_used += 1,
-            Err(UpdateReject::Gate) => self.stats.aiding.heading_rejected_gate += 1,
-            Err(UpdateReject::Singular) => {}
-        }
+        tally(
+            res,
+            &mut self.stats.aiding.heading_used,
+            &mut self.stats.aiding.heading_rejected_gate,
+        );
     }
 
     /// Magnetometer heading update with the WMM declination at the filter's
@@ -228,15 +218,24 @@ impl Eskf {
                     true,
                     UpdateKind::Mag,
                 );
-                match res {
-                    Ok(_) => self.stats.aiding.mag_used += 1,
-                    Err(UpdateReject::Gate) => self.stats.aiding.mag_rejected_gate += 1,
-                    Err(UpdateReject::Singular) => {}
-                }
+                tally(
+                    res,
+                    &mut self.stats.aiding.mag_used,
+                    &mut self.stats.aiding.mag_rejected_gate,
+                );
             }
             Err(MagReject::Disturbed) => self.stats.aiding.mag_disturbed += 1,
             Err(MagReject::NoHorizontal) => self.stats.aiding.mag_rejected_bad += 1,
         }
+    }
+}
+
+/// Count an update's outcome (singular ones are counted by the filter).
+fn tally(res: Result<f64, UpdateReject>, used: &mut u64, gated: &mut u64) {
+    match res {
+        Ok(_) => *used += 1,
+        Err(UpdateReject::Gate) => *gated += 1,
+        Err(UpdateReject::Singular) => {}
     }
 }
 
