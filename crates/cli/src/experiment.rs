@@ -3,7 +3,7 @@
 //! of [`navfuse_pipeline::experiments`].
 
 use clap::{Args as ClapArgs, Subcommand};
-use navfuse_pipeline::experiments::{seed002, seed003, seed004};
+use navfuse_pipeline::experiments::{aiding, seed002, seed003, seed004};
 
 /// Reproduce a seed paper's experiment and print its table beside ours.
 #[derive(ClapArgs, Debug)]
@@ -24,6 +24,8 @@ pub enum Which {
     Generalise(crate::exp_platform::GeneraliseArgs),
     /// Alignment check: pedestrian and car starting in motion, default configuration.
     Align(crate::exp_platform::AlignArgs),
+    /// Issue 17: odometer drift in a 60 s outage and dual-antenna yaw at standstill (simulated car, consumer MEMS).
+    Aiding(aiding::Options),
     /// Soak `navfuse live` against a looping replay server: memory, CPU, latency, reconnects.
     Soak(crate::live::soak::Args),
 }
@@ -35,6 +37,7 @@ pub fn run(args: Args) -> Result<(), String> {
         Which::Seed004(a) => Ok(seed004::run(a)?),
         Which::Generalise(a) => crate::exp_platform::generalise(a),
         Which::Align(a) => crate::exp_platform::align(a),
+        Which::Aiding(a) => Ok(aiding::run(a)?),
         Which::Soak(a) => crate::live::soak::run(a),
     }
 }

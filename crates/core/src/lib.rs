@@ -26,6 +26,7 @@ pub mod gnss;
 pub mod ins;
 pub mod kalman;
 pub mod lambda;
+pub mod measurements;
 pub mod types;
 
 /// Float math methods (`sin`, `sqrt`, …) for `f64` in `no_std` builds.

@@ -248,6 +248,7 @@ impl KfGinsConfig {
             nhc: None,
             zupt: None,
             smoother_every: 0,
+            aiding: Default::default(),
         }
     }
 }

@@ -74,6 +74,7 @@ fn eskf_for(run: &SimRun) -> Option<Eskf> {
         }),
         zupt: None,
         smoother_every: 0,
+        aiding: Default::default(),
         ..EskfConfig::seed001()
     };
     let t = &run.traj.truth[0];

@@ -6,6 +6,7 @@
 //! comes from ChaCha12 seeded with the run's seed, one stream per error
 //! source, so the same scenario and seed give byte-identical files.
 
+pub mod aiding;
 pub mod allan;
 pub mod carrier_phase;
 pub mod filter_noise;

@@ -14,7 +14,7 @@ use super::eskf::{UpdateKind, UpdateLog};
 use crate::kalman::chi2_quantile;
 
 /// Number of [`UpdateKind`]s (array size of the per-type statistics).
-pub const N_KINDS: usize = 6;
+pub const N_KINDS: usize = 9;
 
 /// Every update kind, in the index order of [`kind_index`].
 pub const KINDS: [UpdateKind; N_KINDS] = [
@@ -24,6 +24,9 @@ pub const KINDS: [UpdateKind; N_KINDS] = [
     UpdateKind::Zupt,
     UpdateKind::Zaru,
     UpdateKind::Nhc,
+    UpdateKind::Odometer,
+    UpdateKind::Heading,
+    UpdateKind::Mag,
 ];
 
 /// Index of `k` in [`KINDS`].
@@ -35,6 +38,9 @@ pub fn kind_index(k: UpdateKind) -> usize {
         UpdateKind::Zupt => 3,
         UpdateKind::Zaru => 4,
         UpdateKind::Nhc => 5,
+        UpdateKind::Odometer => 6,
+        UpdateKind::Heading => 7,
+        UpdateKind::Mag => 8,
     }
 }
 

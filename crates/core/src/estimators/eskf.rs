@@ -48,11 +48,13 @@ use crate::types::{Estimator, Event, GnssFix, ImuSample, NavSolution};
 use crate::{Mat3, Vec3};
 use nalgebra::{SMatrix, SVector};
 
+mod aiding;
 mod aug;
+pub use aiding::{AidingConfig, AidingStats, MAX_LAG_S};
 use aug::{gated_update, Aug};
 pub use aug::{
     AugConfigError, AugSmootherRecord, AugmentedEstimate, AugmentedStates, GnssErrorStates,
-    TimeOffsetState, IA_GNSS, IA_TAU, NA, NF,
+    TimeOffsetState, IA_GNSS, IA_ODO, IA_TAU, NA, NF,
 };
 
 /// Number of error states.
@@ -198,6 +200,8 @@ pub struct EskfConfig {
     /// Keep a checkpoint every this many IMU samples for the RTS smoother
     /// (and at every update); 0: no smoother records.
     pub smoother_every: usize,
+    /// Odometer, baseline heading, magnetometer (issue 17; default: none).
+    pub aiding: AidingConfig,
 }
 
 impl EskfConfig {
@@ -227,6 +231,7 @@ impl EskfConfig {
             nhc: None,
             zupt: None,
             smoother_every: 0,
+            aiding: AidingConfig::default(),
         }
     }
 }
@@ -257,6 +262,8 @@ pub struct EskfStats {
     pub zaru_used: u64,
     /// Updates skipped because the innovation covariance was not invertible.
     pub singular: u64,
+    /// Odometer, heading and magnetometer updates.
+    pub aiding: AidingStats,
 }
 
 /// One checkpoint of the forward filter for the RTS smoother (Rauch, Tung &
@@ -647,10 +654,14 @@ pub enum UpdateKind {
     Zupt,
     Zaru,
     Nhc,
+    Odometer,
+    Heading,
+    Mag,
 }
 
 impl UpdateKind {
-    /// Short stable name (`gnss_pos`, `gnss_vel`, `height`, `zupt`, `zaru`, `nhc`).
+    /// Short stable name (`gnss_pos`, `gnss_vel`, `height`, `zupt`, `zaru`,
+    /// `nhc`, `odometer`, `heading`, `mag`).
     pub fn name(self) -> &'static str {
         match self {
             UpdateKind::GnssPosition => "gnss_pos",
@@ -659,6 +670,9 @@ impl UpdateKind {
             UpdateKind::Zupt => "zupt",
             UpdateKind::Zaru => "zaru",
             UpdateKind::Nhc => "nhc",
+            UpdateKind::Odometer => "odometer",
+            UpdateKind::Heading => "heading",
+            UpdateKind::Mag => "mag",
         }
     }
 }
@@ -734,6 +748,7 @@ pub struct Eskf {
     adapt: Adaptive,
     /// Augmented states (`None`: the 21-state filter).
     aug: Option<Aug>,
+    aiding: aiding::AidingState,
 }
 
 /// The adaptive parts of the filter (all `None` by default).
@@ -866,8 +881,24 @@ impl Eskf {
             scratch_m: Cov::zeros(),
             adapt: Adaptive::default(),
             aug: None,
+            aiding: aiding::AidingState::default(),
             cfg,
         }
+        .with_odometer_scale()
+    }
+
+    /// The odometer's scale-factor state lives in the augmented block
+    /// ([`aug`]): create it when odometer aiding is configured (an invalid
+    /// odometer configuration leaves the filter without it; the pipeline
+    /// validates first).
+    fn with_odometer_scale(mut self) -> Self {
+        if let Some(o) = &self.cfg.aiding.odometer {
+            self.aug = Aug::new(AugmentedStates::default(), Some(o)).ok();
+            if let Some(g) = &mut self.aug {
+                g.reset_record();
+            }
+        }
+        self
     }
 
     /// Adapt the noise of the constraint updates named in `a` from their
@@ -904,7 +935,12 @@ impl Eskf {
     /// offset τ [s] (true time = IMU stamp + τ). `a` all off (the default)
     /// changes nothing.
     pub fn with_augmented_states(mut self, a: AugmentedStates) -> Result<Self, AugConfigError> {
-        self.aug = if a.is_off() { None } else { Some(Aug::new(a)?) };
+        let odo = self.cfg.aiding.odometer;
+        self.aug = if a.is_off() && odo.is_none() {
+            None
+        } else {
+            Some(Aug::new(a, odo.as_ref())?)
+        };
         if let Some(g) = &mut self.aug {
             g.reset_record();
         }
@@ -1535,6 +1571,7 @@ impl Eskf {
         }
         if let Some(n) = self.cfg.nhc {
             if self.standstill
+                || self.odometer_nhc_recent()
                 || t - self.last_nhc < n.interval
                 || self.nav.v_n.norm() < n.min_speed
             {
@@ -1798,15 +1835,29 @@ impl Estimator for Eskf {
                 self.push_gnss(g);
                 None
             }
-            // Odometer, heading, magnetometer: models land with issue 17;
-            // until then they are ignored. Carrier phase is CP-ATT's input.
-            Event::Odometer(_) | Event::Heading(_) | Event::Mag(_) | Event::CarrierPhase(_) => None,
+            // Issue 17 aiding (module `aiding`; ignored unless configured).
+            Event::Odometer(o) => {
+                self.push_odometer(o);
+                None
+            }
+            Event::Heading(h) => {
+                self.push_heading(h);
+                None
+            }
+            Event::Mag(m) => {
+                self.push_mag(m);
+                None
+            }
+            // Carrier phase is CP-ATT's input.
+            Event::CarrierPhase(_) => None,
         }
     }
 }
 
 #[cfg(test)]
 mod adaptive_tests;
+#[cfg(test)]
+mod aiding_tests;
 #[cfg(test)]
 mod aug_tests;
 
@@ -1855,10 +1906,11 @@ mod tests {
             nhc: None,
             zupt: None,
             smoother_every: 0,
+            aiding: Default::default(),
         }
     }
 
-    fn start() -> NavState {
+    pub(super) fn start() -> NavState {
         NavState {
             lat: LAT,
             lon: -1.8,
@@ -1878,7 +1930,7 @@ mod tests {
     }
 
     /// Static IMU increments with biases `bg`, `ba` and small noise.
-    fn static_sample(k: u64, dt: f64, bg: &Vec3, ba: &Vec3) -> ImuSample {
+    pub(super) fn static_sample(k: u64, dt: f64, bg: &Vec3, ba: &Vec3) -> ImuSample {
         let s = start();
         let c_nb = s.c_bn().transpose();
         let w = c_nb * earth::omega_ie_n(LAT) + bg;
@@ -1892,7 +1944,7 @@ mod tests {
         }
     }
 
-    fn fix_at(s: &NavState, t: f64, lever: &Vec3, off_n: Vec3) -> GnssFix {
+    pub(super) fn fix_at(s: &NavState, t: f64, lever: &Vec3, off_n: Vec3) -> GnssFix {
         let (rm, rn) = earth::radii(s.lat);
         let l = s.c_bn() * lever + off_n;
         GnssFix {

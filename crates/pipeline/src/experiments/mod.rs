@@ -11,6 +11,7 @@
 //! scenario definitions are fixed before the runs (the numbers);
 //! nothing here is tuned to make a cell pass.
 
+pub mod aiding;
 pub mod align_check;
 pub mod attitude;
 pub mod baseline;

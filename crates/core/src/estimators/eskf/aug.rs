@@ -1,7 +1,7 @@
 //! Augmented error states of the ESKF, off by default (then nothing of this
 //! module runs and every output is bit-identical to the 21-state filter).
 //!
-//! Four states after the 21 of [`super::NX`], kept outside the 21×21
+//! Five states after the 21 of [`super::NX`], kept outside the 21×21
 //! covariance so the per-sample cost of the plain filter does not change:
 //! `P = [[P_xx, P_xa], [P_xaᵀ, P_aa]]`, with `P_xx` the filter's own `Cov`.
 //! The model has no coupling from these states into the INS error dynamics
@@ -31,22 +31,30 @@
 //!   stays exact through a turn's onset where `v τ̂`, `a τ̂` do not; a fix valid
 //!   after the filter time (`τ̂ < 0`) is extrapolated to first order.
 //!
+//! * `s` (1): odometer scale-factor error, a random walk with PSD
+//!   `scale_rw_psd` from the odometer configuration (active only when the
+//!   filter has odometer aiding, [`crate::measurements::odometer`]).
+//!
 //! Error signs follow the position state: `δa = â − a`, feedback `â ← â − δa`.
 
 use super::{FSparse, UpdateReject, NX};
+use crate::measurements::odometer::OdometerConfig;
 #[allow(unused_imports)]
 use crate::prelude::*;
 use crate::Vec3;
 use nalgebra::{SMatrix, SVector};
 
 /// Number of augmented states.
-pub const NA: usize = 4;
+pub const NA: usize = 5;
 /// Full dimension with the augmented states.
 pub const NF: usize = NX + NA;
 /// Index (within the augmented states) of the GNSS position error `b`, NED.
 pub const IA_GNSS: usize = 0;
 /// Index (within the augmented states) of the time offset `τ`.
 pub const IA_TAU: usize = 3;
+/// Index (within the augmented states) of the odometer scale-factor error
+/// `s` (measured speed = (1 + s) · true speed; [`crate::measurements::odometer`]).
+pub const IA_ODO: usize = 4;
 
 /// First-order Gauss–Markov GNSS position-error states.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -96,6 +104,10 @@ pub struct AugmentedEstimate {
     /// Time offset [s] and its 1-σ (zero when not estimated).
     pub time_offset_s: f64,
     pub time_offset_std_s: f64,
+    /// Odometer scale-factor error (fraction) and its 1-σ (zero when no
+    /// odometer aiding).
+    pub odometer_scale: f64,
+    pub odometer_scale_std: f64,
 }
 
 /// Why [`super::Eskf::with_augmented_states`] refused a configuration.
@@ -105,6 +117,8 @@ pub enum AugConfigError {
     GnssError,
     /// Time-offset state: need finite initial value, σ > 0, PSD ≥ 0.
     TimeOffset,
+    /// Odometer: see [`OdometerConfig::is_valid`].
+    Odometer,
 }
 
 impl core::fmt::Display for AugConfigError {
@@ -119,6 +133,11 @@ impl core::fmt::Display for AugConfigError {
             AugConfigError::TimeOffset => write!(
                 f,
                 "time-offset state: need a finite initial value, std > 0 and a random-walk PSD >= 0"
+            ),
+            AugConfigError::Odometer => write!(
+                f,
+                "odometer: need a finite lever arm, sigma > 0, scale std > 0, scale PSD >= 0, \
+                 NHC sigma > 0 and max_age_s > 0"
             ),
         }
     }
@@ -170,7 +189,11 @@ pub(super) struct Aug {
 }
 
 impl Aug {
-    pub(super) fn new(cfg: AugmentedStates) -> Result<Self, AugConfigError> {
+    /// `odo`: the odometer configuration (activates the scale state).
+    pub(super) fn new(
+        cfg: AugmentedStates,
+        odo: Option<&OdometerConfig>,
+    ) -> Result<Self, AugConfigError> {
         let mut x = SVector::<f64, NA>::zeros();
         let mut p_aa = SMatrix::<f64, NA, NA>::zeros();
         let mut beta = SVector::<f64, NA>::zeros();
@@ -211,6 +234,14 @@ impl Aug {
             var[IA_TAU] = t.rw_psd;
             p_aa[(IA_TAU, IA_TAU)] = t.std_s * t.std_s;
             active[IA_TAU] = true;
+        }
+        if let Some(o) = odo {
+            if !o.is_valid() {
+                return Err(AugConfigError::Odometer);
+            }
+            var[IA_ODO] = o.scale_rw_psd;
+            p_aa[(IA_ODO, IA_ODO)] = o.scale_std * o.scale_std;
+            active[IA_ODO] = true;
         }
         Ok(Aug {
             cfg,
@@ -355,6 +386,8 @@ impl Aug {
             gnss_error_std: Vec3::new(sd(IA_GNSS), sd(IA_GNSS + 1), sd(IA_GNSS + 2)),
             time_offset_s: self.x[IA_TAU],
             time_offset_std_s: sd(IA_TAU),
+            odometer_scale: self.x[IA_ODO],
+            odometer_scale_std: sd(IA_ODO),
         }
     }
 

@@ -85,6 +85,7 @@ fn off_is_bit_identical_forward_and_smoothed() {
     let d = drive(1, 90.0, (50.0, 60.0));
     let c = EskfConfig {
         smoother_every: 10,
+        aiding: Default::default(),
         ..cfg()
     };
     let run = |aug: Option<AugmentedStates>| {
@@ -302,6 +303,7 @@ fn smoother_handles_augmented_states() {
     };
     let c = EskfConfig {
         smoother_every: 10,
+        aiding: Default::default(),
         ..cfg()
     };
     let mut f = Eskf::new(c, start_state(&d), ImuErrors::default(), &init_std())
