@@ -51,6 +51,7 @@ pub mod smooth_gps;
 mod summary;
 pub mod template;
 pub mod time_offset;
+pub mod ubx_input;
 mod tool_error;
 mod yaw_bank;
 

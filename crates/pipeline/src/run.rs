@@ -86,6 +86,13 @@ pub fn run(cfg: &RunConfig, base_dir: &Path, opts: &RunOptions) -> Result<RunOut
         imu_time_base: cfg.input.imu_time_base,
         gnss_time_base: cfg.input.gnss_time_base,
         imu_tag: imu_tag.as_deref(),
+        ubx: cfg.input.ubx.as_deref().map(rel).as_deref(),
+        ubx_cfg: crate::ubx_input::events_config(
+            cfg.input.ubx_metres_per_tick,
+            cfg.input.ubx_esf_tick_s,
+            cfg.input.imu_rate,
+        )
+        .map_err(|e| cfg.err(e))?,
     })
     .map_err(|e| match e {
         // The data's fault (exit code 3), named after the configuration.
