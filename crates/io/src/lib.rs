@@ -32,6 +32,7 @@ pub mod kfgins_yaml;
 pub mod live;
 pub mod live_source;
 pub mod live_stats;
+pub mod live_ubx;
 pub mod navcsv;
 pub mod nmea;
 #[cfg(feature = "parquet")]

@@ -266,3 +266,11 @@ fn speed_type_is_signed_millimetres_per_second() {
     };
     assert_eq!((o.speed_mps, o.dt, o.wheel), (-1.234, 0.0, 0));
 }
+
+/// For other modules' tests: the drive of this file and its bytes.
+pub(crate) fn drive_for_tests(secs: usize) -> Vec<Event> {
+    drive(secs)
+}
+pub(crate) fn to_bytes_for_tests(ev: &[Event]) -> Vec<u8> {
+    to_bytes(ev, None)
+}

@@ -447,7 +447,18 @@ fn load_inner(spec: &InputSpec) -> Result<Loaded, String> {
     let time_base = align_time_bases(&imu, &mut gnss);
     warnings.extend(check_overlap(spec.imu, &imu, spec.gnss, &gnss)?);
     // Default `auto`: estimated with its σ, applied only when significant.
-    finish_load(spec, imu, gnss, (imu_report, gnss_report), time_base, aux, warnings, imu_resolved, gnss_fmt, gnss_base.name())
+    finish_load(
+        spec,
+        imu,
+        gnss,
+        (imu_report, gnss_report),
+        time_base,
+        aux,
+        warnings,
+        imu_resolved,
+        gnss_fmt,
+        gnss_base.name(),
+    )
 }
 
 /// `[input] ubx`: both streams (and the aiding events) from one log.
@@ -459,9 +470,21 @@ fn load_ubx(spec: &InputSpec, path: &Path) -> Result<Loaded, String> {
     let file = path.display().to_string();
     let resolved = serde_json::json!({"file": file, "format": "ubx",
         "esf_tick_s": spec.ubx_cfg.esf_tick_s, "metres_per_tick": spec.ubx_cfg.metres_per_tick});
-    let warnings = check_overlap(path, &log.imu, path, &log.gnss)?.into_iter().collect();
-    let mut l = finish_load(spec, log.imu, log.gnss, (log.imu_report, log.gnss_report),
-        "one receiver clock (UBX log)".into(), None, warnings, resolved.clone(), "ubx", "gps_seconds")?;
+    let warnings = check_overlap(path, &log.imu, path, &log.gnss)?
+        .into_iter()
+        .collect();
+    let mut l = finish_load(
+        spec,
+        log.imu,
+        log.gnss,
+        (log.imu_report, log.gnss_report),
+        "one receiver clock (UBX log)".into(),
+        None,
+        warnings,
+        resolved.clone(),
+        "ubx",
+        "gps_seconds",
+    )?;
     l.aiding = log.aiding;
     Ok(l)
 }

@@ -51,8 +51,8 @@ pub mod smooth_gps;
 mod summary;
 pub mod template;
 pub mod time_offset;
-pub mod ubx_input;
 mod tool_error;
+pub mod ubx_input;
 mod yaw_bank;
 
 #[cfg(test)]

@@ -17,6 +17,7 @@ pub mod platform;
 pub mod rot;
 pub mod scenario;
 pub mod trajectory;
+pub mod ubx_out;
 
 pub use scenario::Scenario;
 
