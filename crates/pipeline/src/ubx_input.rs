@@ -96,3 +96,15 @@ pub fn read_ubx_log(path: &Path, cfg: UbxEventsConfig) -> Result<UbxLog, String>
         gnss_report,
     })
 }
+
+/// Odometer and heading event counts (`summary.json` inputs), null when none.
+pub fn aiding_counts(ev: &[Event]) -> serde_json::Value {
+    if ev.is_empty() {
+        return serde_json::Value::Null;
+    }
+    let n = |f: fn(&Event) -> bool| ev.iter().filter(|e| f(e)).count();
+    serde_json::json!({
+        "odometer": n(|e| matches!(e, Event::Odometer(_))),
+        "heading": n(|e| matches!(e, Event::Heading(_))),
+    })
+}
