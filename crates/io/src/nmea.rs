@@ -2,7 +2,7 @@
 //! sentence parser, a streaming reader that joins epochs into [`GnssFix`],
 //! and a writer of fused solutions as GGA + RMC (+ GST).
 //!
-//! Sentences: GGA, RMC, VTG, GST, GSA, GSV, ZDA, HDT, GNS; talkers GP (GPS),
+//! Sentences: GGA, RMC, VTG, GST, GSA, GSV, ZDA, HDT, THS, GNS; talkers GP (GPS),
 //! GN (multi-GNSS), GL (GLONASS), GA (Galileo), GB/BD (BeiDou), GQ (QZSS),
 //! GI (NavIC). The `*hh` checksum (XOR of the bytes between `$` and `*`) is
 //! required and checked.
@@ -165,6 +165,10 @@ pub enum Sentence {
     Zda(Zda),
     /// HDT heading, true [rad].
     Hdt(f64),
+    /// THS true heading [rad] (NaN when empty) and its mode indicator:
+    /// `A` autonomous, `E` estimated (dead reckoning), `M` manual input,
+    /// `S` simulator, `V` not valid (NMEA 0183 v4).
+    Ths(f64, u8),
 }
 
 /// Why a line is not a usable sentence: a reason (counted) and the field.
@@ -570,6 +574,28 @@ pub fn parse_sentence(line: &[u8]) -> Result<Sentence, NmeaError> {
                 ));
             }
             Sentence::Hdt(h.to_radians())
+        }
+        "THS" => {
+            need(&f, 2)?;
+            let mode = match f[1].as_bytes() {
+                [m @ (b'A' | b'E' | b'M' | b'S' | b'V')] => *m,
+                _ => {
+                    return Err(err(
+                        REASON_MALFORMED,
+                        "mode",
+                        format!("mode {:?} not one of A, E, M, S, V", f[1]),
+                    ))
+                }
+            };
+            let h = opt_num(f[0], "heading")?;
+            if h.is_finite() && !(0.0..=360.0).contains(&h) {
+                return Err(err(
+                    REASON_MALFORMED,
+                    "heading",
+                    format!("{h} outside [0, 360]"),
+                ));
+            }
+            Sentence::Ths(h.to_radians(), mode)
         }
         other => return Err(err(REASON_TYPE, "<address>", format!("sentence {other:?}"))),
     })

@@ -450,6 +450,16 @@ fn run_ubx_events(b: &[u8]) -> usize {
     );
     n
 }
+fn run_nmea_heading(b: &[u8]) -> usize {
+    let mut r = navfuse_io::nmea_heading::NmeaHeadingReader::new(b, "f", 0.01);
+    let n = drain(r.by_ref(), b.len() + 16);
+    assert!(
+        r.stats().is_balanced(),
+        "NMEA heading accounting: {}",
+        r.stats()
+    );
+    n
+}
 fn run_gpsd(b: &[u8]) -> usize {
     let mut a = GpsdAssembler::new();
     let mut n = 0;
@@ -964,6 +974,26 @@ fn ubx_events_seed() -> Vec<Vec<u8>> {
     }
     s.push(all);
     s
+}
+
+#[test]
+fn fuzz_nmea_heading() {
+    let mut s = nmea_seed();
+    let body = |b: &str| format!("${b}*{:02X}\r\n", nmea::checksum(b.as_bytes()));
+    let mut burst = String::new();
+    for k in 0..20 {
+        burst += &body(&format!(
+            "GPRMC,1200{k:02}.00,A,4000.0000,N,10500.0000,W,0.0,0.0,010125,,,A"
+        ));
+        burst += &body(&format!("GPHDT,{}.5,T", k * 17 % 360));
+        burst += &body(&format!(
+            "GNTHS,{}.25,{}",
+            k * 7 % 360,
+            ["A", "E", "V", "M", "S"][k % 5]
+        ));
+    }
+    s.push(burst.into_bytes());
+    fuzz("nmea_heading", run_nmea_heading, s, Some(nmea_fixup));
 }
 
 #[test]
