@@ -167,10 +167,8 @@ impl UbxEvents {
     fn sensor_time(&self, ttag: u32) -> Option<(u32, f64)> {
         let (a_tag, week, tow) = self.anchor?;
         let d = f64::from(ttag.wrapping_sub(a_tag) as i32) * self.cfg.esf_tick_s;
-        if !(d.abs() <= MAX_EXTRAPOLATION_S) {
-            return None;
-        }
-        Some((week, tow + d))
+        // A NaN (from a NaN tick) fails the test too: no time.
+        (d.abs() <= MAX_EXTRAPOLATION_S).then_some((week, tow + d))
     }
 
     /// Convert one message, handing each event to `out` (time order within
