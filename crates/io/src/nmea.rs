@@ -171,6 +171,28 @@ pub enum Sentence {
     Ths(f64, u8),
 }
 
+impl Sentence {
+    /// Time of day [s] and UTC date (year, month, day) of an RMC or ZDA.
+    pub fn dated_time(&self) -> Option<(f64, (i32, u8, u8))> {
+        match *self {
+            Sentence::Rmc(Rmc {
+                sod,
+                year,
+                month,
+                day,
+                ..
+            })
+            | Sentence::Zda(Zda {
+                sod,
+                year,
+                month,
+                day,
+            }) => Some((sod, (year, month, day))),
+            _ => None,
+        }
+    }
+}
+
 /// Why a line is not a usable sentence: a reason (counted) and the field.
 #[derive(Clone, Debug, PartialEq)]
 pub struct NmeaError {
@@ -824,19 +846,10 @@ impl<R: BufRead> NmeaReader<R> {
                     p.gst = Some(g);
                 }
             }
-            Sentence::Rmc(Rmc {
-                sod,
-                year,
-                month,
-                day,
-                ..
-            })
-            | Sentence::Zda(Zda {
-                sod,
-                year,
-                month,
-                day,
-            }) => {
+            Sentence::Rmc(_) | Sentence::Zda(_) => {
+                let Some((sod, (year, month, day))) = s.dated_time() else {
+                    return Ok(true);
+                };
                 self.date = Some(((year, month, day), sod));
                 if self.same_epoch(sod) {
                     if let Some(p) = self.pending.as_mut() {

@@ -14,7 +14,7 @@
 //! kept; skipped = blank or other valid sentences; rejected by reason).
 
 use crate::error::{ReadError, RecordStats};
-use crate::nmea::{parse_sentence, Rmc, Sentence, Zda};
+use crate::nmea::{parse_sentence, Sentence};
 use crate::text::LineSource;
 use crate::time::{gps_from_calendar, Calendar, TimeSystem};
 use navfuse_core::types::{HeadingFix, HeadingSource};
@@ -113,21 +113,10 @@ impl<R: BufRead> NmeaHeadingReader<R> {
                 self.src.stats.used += 1;
                 return None;
             }
-            Sentence::Rmc(Rmc {
-                sod,
-                year,
-                month,
-                day,
-                ..
-            })
-            | Sentence::Zda(Zda {
-                sod,
-                year,
-                month,
-                day,
-            }) => {
+            Sentence::Rmc(_) | Sentence::Zda(_) => {
+                let (sod, date) = s.dated_time()?;
                 self.sod = Some(sod);
-                self.date = Some((year, month, day));
+                self.date = Some(date);
                 self.src.stats.used += 1;
                 return None;
             }
