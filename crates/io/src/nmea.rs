@@ -319,7 +319,8 @@ fn date_ddmmyy(s: &str) -> Result<(i32, u8, u8), NmeaError> {
     Ok((y, m, d))
 }
 
-fn check_date(y: i32, m: u8, d: u8) -> Result<(), NmeaError> {
+/// GPS seconds of 00:00 UTC of the date (year, month, day).
+pub(crate) fn gps_of_utc_midnight((y, m, d): (i32, u8, u8)) -> Result<f64, String> {
     let c = Calendar {
         year: y,
         month: m,
@@ -329,6 +330,10 @@ fn check_date(y: i32, m: u8, d: u8) -> Result<(), NmeaError> {
         second: 0.0,
     };
     gps_from_calendar(&c, TimeSystem::Utc)
+}
+
+fn check_date(y: i32, m: u8, d: u8) -> Result<(), NmeaError> {
+    gps_of_utc_midnight((y, m, d))
         .map(|_| ())
         .map_err(|m| err(REASON_MALFORMED, "date", m))
 }

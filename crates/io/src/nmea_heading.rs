@@ -16,7 +16,6 @@
 use crate::error::{ReadError, RecordStats};
 use crate::nmea::{parse_sentence, Sentence};
 use crate::text::LineSource;
-use crate::time::{gps_from_calendar, Calendar, TimeSystem};
 use navfuse_core::types::{HeadingFix, HeadingSource};
 use std::f64::consts::PI;
 use std::io::BufRead;
@@ -68,18 +67,10 @@ impl<R: BufRead> NmeaHeadingReader<R> {
 
     /// The heading at the current epoch's time, or the reason it is none.
     fn fix(&self, hd: f64) -> Result<HeadingFix, &'static str> {
-        let (Some(sod), Some((y, m, d))) = (self.sod, self.date) else {
+        let (Some(sod), Some(date)) = (self.sod, self.date) else {
             return Err(REASON_NO_TIME);
         };
-        let c = Calendar {
-            year: y,
-            month: m,
-            day: d,
-            hour: 0,
-            minute: 0,
-            second: 0.0,
-        };
-        let t = gps_from_calendar(&c, TimeSystem::Utc).map_err(|_| REASON_NO_TIME)? + sod;
+        let t = crate::nmea::gps_of_utc_midnight(date).map_err(|_| REASON_NO_TIME)? + sod;
         if t <= self.last_t {
             return Err(REASON_TIME_BACK);
         }
@@ -175,6 +166,7 @@ impl<R: BufRead> Iterator for NmeaHeadingReader<R> {
 mod tests {
     use super::*;
     use crate::nmea::checksum;
+    use crate::time::{gps_from_calendar, Calendar, TimeSystem};
 
     fn s(body: &str) -> String {
         format!("${body}*{:02X}\r\n", checksum(body.as_bytes()))
