@@ -25,6 +25,7 @@ use crate::fail::Fail;
 use clap::Args as ClapArgs;
 use navfuse_io::live::Sequencer;
 use navfuse_io::live_source::{spawn_gnss, spawn_imu, Msg};
+use navfuse_io::live_ubx::spawn_ubx;
 use navfuse_pipeline::live::{
     aligning_eskf, kfgins_eskf, make_estimator, Format, LiveDriver, LiveEst, Out,
 };
@@ -49,9 +50,23 @@ pub struct Args {
     /// `tcp:HOST:PORT`.
     #[arg(long, default_value = "-")]
     pub imu: String,
-    /// GPS week of the IMU time-of-week stamps.
+    /// GPS week of the IMU time-of-week stamps (not needed with `--ubx`,
+    /// whose data carry their date).
+    #[arg(long, required_unless_present = "ubx")]
+    pub gps_week: Option<u32>,
+    /// A u-blox UBX stream carrying IMU (ESF-RAW/ESF-MEAS), GNSS (NAV-PVT),
+    /// wheel ticks and dual-antenna heading (NAV-RELPOSNED) in place of
+    /// `--imu` and `--gnss`: `-` (stdin), `tcp:HOST:PORT`, a serial device
+    /// (configured beforehand, e.g. with stty) or a file / FIFO.
+    #[arg(long, conflicts_with_all = ["imu", "gnss"])]
+    pub ubx: Option<String>,
+    /// With `--ubx`: distance per wheel tick [m] (without it tick data are
+    /// rejected and counted).
     #[arg(long)]
-    pub gps_week: u32,
+    pub ubx_metres_per_tick: Option<f64>,
+    /// With `--ubx`: the ESF sensor time tag unit [s].
+    #[arg(long)]
+    pub ubx_esf_tick_s: Option<f64>,
     /// Nominal IMU rate [Hz] (gives the first sample's interval).
     #[arg(long, default_value_t = 100.0)]
     pub imu_rate: f64,
@@ -134,7 +149,7 @@ fn estimator(
 ) -> Result<(LiveEst, Option<navfuse_pipeline::live::KfGinsFrame>), String> {
     Ok(match (&args.kfgins_config, args.estimator.as_str()) {
         (Some(p), "eskf") => {
-            let (e, f) = kfgins_eskf(p, args.enhanced, args.gps_week)?;
+            let (e, f) = kfgins_eskf(p, args.enhanced, args.gps_week.unwrap_or(0))?;
             (LiveEst::Boxed(e), Some(f))
         }
         (Some(_), other) => {
@@ -183,13 +198,23 @@ pub fn run(args: Args) -> Result<(), Fail> {
 
     let mut drv = LiveDriver::new(est, frame);
     let (tx, rx) = sync_channel::<Msg>(4096);
-    spawn_gnss(&args.gnss, args.reconnect_for, tx.clone())?;
-    spawn_imu(&args.imu, args.idle, args.reconnect_for, tx);
+    if let Some(spec) = &args.ubx {
+        let cfg = navfuse_pipeline::ubx_input::events_config(
+            args.ubx_metres_per_tick,
+            args.ubx_esf_tick_s,
+            args.imu_rate,
+        )
+        .map_err(Fail::usage)?;
+        spawn_ubx(spec, cfg, args.reconnect_for, tx)?;
+    } else {
+        spawn_gnss(&args.gnss, args.reconnect_for, tx.clone())?;
+        spawn_imu(&args.imu, args.idle, args.reconnect_for, tx);
+    }
 
     let t0 = Instant::now();
     let secs = |i: Instant| i.saturating_duration_since(t0).as_secs_f64();
     let mut seq = Sequencer::new(args.max_wait, 1 << 17);
-    let mut inputs = Inputs::new(args.gps_week, args.imu_rate);
+    let mut inputs = Inputs::new(args.gps_week.unwrap_or(0), args.imu_rate);
     let mut end = End::default();
     loop {
         let msg = rx.recv_timeout(Duration::from_millis(5));
@@ -237,7 +262,7 @@ pub fn run(args: Args) -> Result<(), Fail> {
         }
         return Err(Fail::input(format!(
             "live: no usable IMU records from {} ({} lines, {} rejected)",
-            args.imu,
+            args.ubx.as_deref().unwrap_or(&args.imu),
             st.lines,
             st.rejected.iter().map(|r| r.1).sum::<u64>()
         )));
@@ -301,7 +326,10 @@ mod tests {
         let args = Args {
             gnss: format!("nmea:{}", dir.join("gnss.nmea").display()),
             imu: dir.join("imu.txt").display().to_string(),
-            gps_week: week,
+            gps_week: Some(week),
+            ubx: None,
+            ubx_metres_per_tick: None,
+            ubx_esf_tick_s: None,
             imu_rate: 100.0,
             estimator: "hold".into(),
             kfgins_config: None,

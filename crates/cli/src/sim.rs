@@ -36,6 +36,14 @@ pub struct Args {
     /// Monte Carlo: number of runs (seeds seed … seed+runs−1), in parallel.
     #[arg(long, default_value_t = 1)]
     pub runs: u64,
+    /// Also write the run as a u-blox UBX stream (ESF-RAW IMU and wheel
+    /// ticks, NAV-PVT, NAV-RELPOSNED heading) to this file (single run only).
+    #[arg(long)]
+    pub ubx: Option<PathBuf>,
+    /// With `--ubx`: distance per wheel tick [m] (default 0.02: an ABS tone
+    /// wheel of 48 teeth, both edges counted, on a 1.9 m tyre circumference).
+    #[arg(long, default_value_t = 0.02)]
+    pub ubx_metres_per_tick: f64,
     /// List the IMU and GNSS presets and exit.
     #[arg(long)]
     pub list_presets: bool,
@@ -73,6 +81,9 @@ pub fn run(args: Args) -> Result<(), String> {
     if args.runs == 0 {
         return Err("--runs must be ≥ 1".into());
     }
+    if args.ubx.is_some() && args.runs > 1 {
+        return Err("--ubx writes a single run (not with --runs)".into());
+    }
     let t0 = Instant::now();
     let traj = trajectory::generate(&sc.start, &sc.segment, sc.imu.rate_hz, sc.imu.substeps)
         .map_err(|e| format!("{}: {e}", path.display()))?;
@@ -80,6 +91,10 @@ pub fn run(args: Args) -> Result<(), String> {
         let run = simulate_sensors(&sc, args.seed, imu_spec, gnss_spec, traj)
             .map_err(|e| e.to_string())?;
         output::write_run(&run, &args.out).map_err(|e| e.to_string())?;
+        if let Some(p) = &args.ubx {
+            navfuse_sim::ubx_out::write_ubx(&run, p, args.ubx_metres_per_tick)
+                .map_err(|e| e.to_string())?;
+        }
         println!("{}", run.summary());
         println!(
             "wrote {} in {:.2} s",

@@ -17,6 +17,9 @@
 //! - [`pos_writer`]: RTKLIB `.pos` with σ, cross covariances and quality
 //! - [`parquet_out`] (feature `parquet`, default): Parquet tables of solutions and the update journal
 //! - [`trajectory`]: formats by name/extension (used by `navfuse convert`)
+//! - [`nmea_heading`]: NMEA HDT / THS → dual-antenna `HeadingFix` (σ from configuration)
+//! - [`ubx_events`]: a UBX stream (NAV-PVT, ESF-RAW/MEAS, NAV-RELPOSNED) → IMU, GNSS, odometer, heading events
+//! - [`ubx_write`]: events → a UBX stream (simulated receivers, tests)
 //! - [`time`]: GPS week/TOW ↔ GPS seconds ↔ GPST/UTC calendar
 
 pub mod atomic;
@@ -30,8 +33,10 @@ pub mod kfgins_yaml;
 pub mod live;
 pub mod live_source;
 pub mod live_stats;
+pub mod live_ubx;
 pub mod navcsv;
 pub mod nmea;
+pub mod nmea_heading;
 #[cfg(feature = "parquet")]
 pub mod parquet_out;
 pub mod pos;
@@ -45,6 +50,10 @@ pub mod time;
 pub mod timebase;
 pub mod trajectory;
 pub mod ubx;
+pub mod ubx_events;
+#[cfg(test)]
+mod ubx_events_tests;
+pub mod ubx_write;
 pub mod writers;
 pub mod yuma;
 

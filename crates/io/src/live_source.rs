@@ -17,7 +17,7 @@
 
 use crate::nmea::{NmeaOptions, NmeaReader};
 use crate::RecordStats;
-use navfuse_core::types::GnssFix;
+use navfuse_core::types::{Event, GnssFix};
 use std::io::{self, BufRead, BufReader, Read, Write};
 use std::net::TcpStream;
 use std::sync::mpsc::SyncSender;
@@ -39,8 +39,16 @@ pub enum Msg {
     GnssStats(RecordStats),
     GnssNote(String),
     GnssEnd,
-    /// A lost source was opened again (`imu`, `nmea`, `gpsd`).
+    /// A lost source was opened again (`imu`, `nmea`, `gpsd`, `ubx`).
     Reconnect(&'static str),
+    /// One event of a UBX source ([`crate::live_ubx`]) and its arrival time.
+    UbxEvent(Event, Instant),
+    /// A UBX source's counts so far: frames (per connection, summed by the
+    /// receiver) and the converter's items (cumulative, replaces the last).
+    UbxStats {
+        frames: RecordStats,
+        items: RecordStats,
+    },
 }
 
 /// Exponential backoff between reconnection attempts: starts at
@@ -81,7 +89,7 @@ impl Default for Backoff {
 /// again with [`Backoff`]; gives up after `give_up_after` seconds without a
 /// successful open. `serve` returns false to stop (receiver gone). Every
 /// open after the first is reported as `Msg::Reconnect(what)`.
-fn reconnecting<S>(
+pub(crate) fn reconnecting<S>(
     what: &'static str,
     give_up_after: f64,
     tx: &SyncSender<Msg>,
@@ -116,14 +124,14 @@ fn reconnecting<S>(
     }
 }
 
-fn connect(addr: &str) -> io::Result<TcpStream> {
+pub(crate) fn connect(addr: &str) -> io::Result<TcpStream> {
     let s = TcpStream::connect(addr)?;
     s.set_nodelay(true).ok();
     Ok(s)
 }
 
 /// Whether `path` is a character device (a serial port).
-fn is_char_device(path: &str) -> bool {
+pub(crate) fn is_char_device(path: &str) -> bool {
     use std::os::unix::fs::FileTypeExt;
     std::fs::metadata(path).is_ok_and(|m| m.file_type().is_char_device())
 }

@@ -2,7 +2,7 @@
 //! sentence parser, a streaming reader that joins epochs into [`GnssFix`],
 //! and a writer of fused solutions as GGA + RMC (+ GST).
 //!
-//! Sentences: GGA, RMC, VTG, GST, GSA, GSV, ZDA, HDT, GNS; talkers GP (GPS),
+//! Sentences: GGA, RMC, VTG, GST, GSA, GSV, ZDA, HDT, THS, GNS; talkers GP (GPS),
 //! GN (multi-GNSS), GL (GLONASS), GA (Galileo), GB/BD (BeiDou), GQ (QZSS),
 //! GI (NavIC). The `*hh` checksum (XOR of the bytes between `$` and `*`) is
 //! required and checked.
@@ -165,6 +165,32 @@ pub enum Sentence {
     Zda(Zda),
     /// HDT heading, true [rad].
     Hdt(f64),
+    /// THS true heading [rad] (NaN when empty) and its mode indicator:
+    /// `A` autonomous, `E` estimated (dead reckoning), `M` manual input,
+    /// `S` simulator, `V` not valid (NMEA 0183 v4).
+    Ths(f64, u8),
+}
+
+impl Sentence {
+    /// Time of day [s] and UTC date (year, month, day) of an RMC or ZDA.
+    pub fn dated_time(&self) -> Option<(f64, (i32, u8, u8))> {
+        match *self {
+            Sentence::Rmc(Rmc {
+                sod,
+                year,
+                month,
+                day,
+                ..
+            })
+            | Sentence::Zda(Zda {
+                sod,
+                year,
+                month,
+                day,
+            }) => Some((sod, (year, month, day))),
+            _ => None,
+        }
+    }
 }
 
 /// Why a line is not a usable sentence: a reason (counted) and the field.
@@ -293,7 +319,8 @@ fn date_ddmmyy(s: &str) -> Result<(i32, u8, u8), NmeaError> {
     Ok((y, m, d))
 }
 
-fn check_date(y: i32, m: u8, d: u8) -> Result<(), NmeaError> {
+/// GPS seconds of 00:00 UTC of the date (year, month, day).
+pub(crate) fn gps_of_utc_midnight((y, m, d): (i32, u8, u8)) -> Result<f64, String> {
     let c = Calendar {
         year: y,
         month: m,
@@ -303,6 +330,10 @@ fn check_date(y: i32, m: u8, d: u8) -> Result<(), NmeaError> {
         second: 0.0,
     };
     gps_from_calendar(&c, TimeSystem::Utc)
+}
+
+fn check_date(y: i32, m: u8, d: u8) -> Result<(), NmeaError> {
+    gps_of_utc_midnight((y, m, d))
         .map(|_| ())
         .map_err(|m| err(REASON_MALFORMED, "date", m))
 }
@@ -571,6 +602,28 @@ pub fn parse_sentence(line: &[u8]) -> Result<Sentence, NmeaError> {
             }
             Sentence::Hdt(h.to_radians())
         }
+        "THS" => {
+            need(&f, 2)?;
+            let mode = match f[1].as_bytes() {
+                [m @ (b'A' | b'E' | b'M' | b'S' | b'V')] => *m,
+                _ => {
+                    return Err(err(
+                        REASON_MALFORMED,
+                        "mode",
+                        format!("mode {:?} not one of A, E, M, S, V", f[1]),
+                    ))
+                }
+            };
+            let h = opt_num(f[0], "heading")?;
+            if h.is_finite() && !(0.0..=360.0).contains(&h) {
+                return Err(err(
+                    REASON_MALFORMED,
+                    "heading",
+                    format!("{h} outside [0, 360]"),
+                ));
+            }
+            Sentence::Ths(h.to_radians(), mode)
+        }
         other => return Err(err(REASON_TYPE, "<address>", format!("sentence {other:?}"))),
     })
 }
@@ -798,19 +851,10 @@ impl<R: BufRead> NmeaReader<R> {
                     p.gst = Some(g);
                 }
             }
-            Sentence::Rmc(Rmc {
-                sod,
-                year,
-                month,
-                day,
-                ..
-            })
-            | Sentence::Zda(Zda {
-                sod,
-                year,
-                month,
-                day,
-            }) => {
+            Sentence::Rmc(_) | Sentence::Zda(_) => {
+                let Some((sod, (year, month, day))) = s.dated_time() else {
+                    return Ok(true);
+                };
                 self.date = Some(((year, month, day), sod));
                 if self.same_epoch(sod) {
                     if let Some(p) = self.pending.as_mut() {

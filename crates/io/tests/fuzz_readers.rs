@@ -425,6 +425,41 @@ fn run_ubx(b: &[u8]) -> usize {
     assert!(r.stats().is_balanced(), "UBX accounting: {}", r.stats());
     n
 }
+/// The UBX reader feeding the UBX → events converter (issue 17): every
+/// item accounted, every event finite in time, no panic.
+fn run_ubx_events(b: &[u8]) -> usize {
+    use navfuse_io::ubx_events::{UbxEvents, UbxEventsConfig};
+    let mut c = UbxEvents::new(UbxEventsConfig {
+        metres_per_tick: Some(0.02),
+        ..Default::default()
+    });
+    let mut n = 0usize;
+    let mut check = |e: navfuse_core::types::Event| {
+        assert!(e.t().is_finite(), "event with non-finite time: {e:?}");
+        n += 1;
+    };
+    let mut r = UbxReader::new(b, "f");
+    for m in r.by_ref().take(b.len() + 16).flatten() {
+        c.push(&m, &mut check);
+    }
+    c.finish(&mut check);
+    assert!(
+        c.stats().is_balanced(),
+        "UBX events accounting: {}",
+        c.stats()
+    );
+    n
+}
+fn run_nmea_heading(b: &[u8]) -> usize {
+    let mut r = navfuse_io::nmea_heading::NmeaHeadingReader::new(b, "f", 0.01);
+    let n = drain(r.by_ref(), b.len() + 16);
+    assert!(
+        r.stats().is_balanced(),
+        "NMEA heading accounting: {}",
+        r.stats()
+    );
+    n
+}
 fn run_gpsd(b: &[u8]) -> usize {
     let mut a = GpsdAssembler::new();
     let mut n = 0;
@@ -882,6 +917,93 @@ fn fuzz_nmea() {
 #[test]
 fn fuzz_ubx() {
     fuzz("ubx", run_ubx, ubx_seed(), Some(ubx_fixup));
+}
+
+/// Seeds: a simulated receiver stream (ubx_write) with IMU, wheel ticks,
+/// NAV-PVT and NAV-RELPOSNED, whole and in windows, plus the plain seeds.
+fn ubx_events_seed() -> Vec<Vec<u8>> {
+    use navfuse_core::types::*;
+    let mut w = navfuse_io::ubx_write::UbxStreamWriter::new(Vec::new(), 0.02);
+    let t0 = navfuse_io::time::gps_seconds(2374, 243_300.0);
+    for k in 1..=300 {
+        let t = t0 + k as f64 * 0.01;
+        let ev = [
+            Event::Imu(ImuSample {
+                t,
+                dt: 0.01,
+                dtheta_b: Vec3::new(1e-4, 0.0, 1e-3),
+                dvel_b: Vec3::new(0.0, 0.0, -0.098),
+            }),
+            Event::Odometer(OdometerSample {
+                t,
+                dt: 0.01,
+                speed_mps: 3.0,
+                std_mps: 0.0,
+                wheel: 0,
+            }),
+            Event::Gnss(GnssFix {
+                t,
+                lat: 0.7,
+                lon: 0.2,
+                h: 10.0,
+                std_ned: Vec3::repeat(1.0),
+                quality: 1,
+                ..Default::default()
+            }),
+            Event::Heading(HeadingFix {
+                t,
+                heading_rad: 1.0,
+                pitch_rad: 0.0,
+                std_heading_rad: 0.01,
+                std_pitch_rad: 0.02,
+                baseline_m: 1.0,
+                source: HeadingSource::DualAntenna,
+            }),
+        ];
+        for (i, e) in ev.iter().enumerate() {
+            if i == 0 || k % (10 * i) == 0 {
+                w.write(e).unwrap();
+            }
+        }
+    }
+    let all = w.into_inner();
+    let mut s = ubx_seed();
+    for k in 0..40 {
+        let a = (k * 997) % all.len();
+        s.push(all[a..(a + 2000).min(all.len())].to_vec());
+    }
+    s.push(all);
+    s
+}
+
+#[test]
+fn fuzz_nmea_heading() {
+    let mut s = nmea_seed();
+    let body = |b: &str| format!("${b}*{:02X}\r\n", nmea::checksum(b.as_bytes()));
+    let mut burst = String::new();
+    for k in 0..20 {
+        burst += &body(&format!(
+            "GPRMC,1200{k:02}.00,A,4000.0000,N,10500.0000,W,0.0,0.0,010125,,,A"
+        ));
+        burst += &body(&format!("GPHDT,{}.5,T", k * 17 % 360));
+        burst += &body(&format!(
+            "GNTHS,{}.25,{}",
+            k * 7 % 360,
+            ["A", "E", "V", "M", "S"][k % 5]
+        ));
+    }
+    s.push(burst.into_bytes());
+    fuzz("nmea_heading", run_nmea_heading, s, Some(nmea_fixup));
+}
+
+#[test]
+fn fuzz_ubx_events() {
+    fuzz(
+        "ubx_events",
+        run_ubx_events,
+        ubx_events_seed(),
+        Some(ubx_fixup),
+    );
 }
 
 #[test]

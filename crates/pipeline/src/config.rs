@@ -102,6 +102,9 @@ impl RunConfig {
                 imu_tag: None,
                 imu_time_base: None,
                 gnss_time_base: None,
+                ubx: None,
+                ubx_metres_per_tick: None,
+                ubx_esf_tick_s: None,
             },
             init: InitCfg::default(),
             filter,
@@ -155,6 +158,8 @@ pub fn resolve_path(base_dir: &Path, p: &str) -> PathBuf {
 #[derive(Clone, Debug, Deserialize, Serialize)]
 #[serde(deny_unknown_fields)]
 pub struct InputCfg {
+    /// IMU file (empty with `ubx`).
+    #[serde(default)]
     pub imu: String,
     /// "kf-gins" or "csv" (default: from the extension, see [`crate::input`]).
     pub imu_format: Option<String>,
@@ -162,6 +167,8 @@ pub struct InputCfg {
     pub imu_rate: f64,
     /// `[input.csv]`: the generic CSV IMU reader's preset or column map.
     pub csv: Option<CsvCfg>,
+    /// GNSS file (empty with `ubx`).
+    #[serde(default)]
     pub gnss: String,
     /// "kf-gins", "pos", "nmea" or "ubx" (default: from the extension).
     pub gnss_format: Option<String>,
@@ -187,6 +194,13 @@ pub struct InputCfg {
     /// The time base of the GNSS file: `gps_week_tow` for KF-GINS text,
     /// `gps_seconds` for `.pos`/NMEA/UBX (calendar dates); checked, not converted.
     pub gnss_time_base: Option<TimeBase>,
+    /// A u-blox UBX log as the source of IMU, GNSS, wheel ticks and heading
+    /// in place of `imu` and `gnss` ([`crate::ubx_input`]).
+    pub ubx: Option<String>,
+    /// With `ubx`: distance per wheel tick [m].
+    pub ubx_metres_per_tick: Option<f64>,
+    /// With `ubx`: the ESF sensor time tag unit [s] (default 0.001).
+    pub ubx_esf_tick_s: Option<f64>,
 }
 
 fn default_rate() -> f64 {

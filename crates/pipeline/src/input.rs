@@ -63,7 +63,7 @@ pub struct InputReport {
 }
 
 impl InputReport {
-    fn new(file: &Path, format: &'static str, st: &RecordStats, records: usize) -> Self {
+    pub(crate) fn new(file: &Path, format: &'static str, st: &RecordStats, records: usize) -> Self {
         InputReport {
             file: file.display().to_string(),
             format,
@@ -105,6 +105,8 @@ pub struct Loaded {
     pub warnings: Vec<String>,
     /// The effective reader configuration (summary.json `resolved_input`).
     pub resolved: serde_json::Value,
+    /// Odometer / heading events of a UBX log (`[input] ubx`), time order.
+    pub aiding: Vec<navfuse_core::types::Event>,
 }
 
 /// Magnetometer (body FRD, mounting applied) and AHRS yaw rows of a CSV IMU
@@ -412,6 +414,9 @@ pub struct InputSpec<'a> {
     pub gnss_time_base: Option<TimeBase>,
     /// `[input] imu_tag`: the RTKLIB time-tag file of a counter-timed CSV.
     pub imu_tag: Option<&'a Path>,
+    /// `[input] ubx`: a UBX log in place of `imu` and `gnss` ([`crate::ubx_input`]).
+    pub ubx: Option<&'a Path>,
+    pub ubx_cfg: navfuse_io::ubx_events::UbxEventsConfig,
 }
 
 /// Read both inputs, put them on the IMU's time base and apply the IMU time
@@ -421,13 +426,19 @@ pub fn load(spec: &InputSpec) -> Result<Loaded> {
 }
 
 fn load_inner(spec: &InputSpec) -> Result<Loaded, String> {
+    if let Some(path) = spec.ubx {
+        return load_ubx(spec, path);
+    }
+    if spec.imu.as_os_str().is_empty() || spec.gnss.as_os_str().is_empty() {
+        return Err("[input]: `imu` and `gnss` (or `ubx`) are required".into());
+    }
     let imu_fmt = imu_format(spec.imu, spec.imu_format)?;
     let gnss_fmt = gnss_format(spec.gnss, spec.gnss_format)?;
     let gnss_base = gnss_base(spec.gnss, gnss_fmt, spec.gnss_time_base)?;
     let ImuRead {
-        mut imu,
+        imu,
         report: imu_report,
-        mut aux,
+        aux,
         resolved: imu_resolved,
         mut warnings,
     } = read_imu(spec, imu_fmt)?;
@@ -436,7 +447,65 @@ fn load_inner(spec: &InputSpec) -> Result<Loaded, String> {
     let time_base = align_time_bases(&imu, &mut gnss);
     warnings.extend(check_overlap(spec.imu, &imu, spec.gnss, &gnss)?);
     // Default `auto`: estimated with its σ, applied only when significant.
+    finish_load(
+        spec,
+        imu,
+        gnss,
+        (imu_report, gnss_report),
+        time_base,
+        aux,
+        warnings,
+        imu_resolved,
+        gnss_fmt,
+        gnss_base.name(),
+    )
+}
+
+/// `[input] ubx`: both streams (and the aiding events) from one log.
+fn load_ubx(spec: &InputSpec, path: &Path) -> Result<Loaded, String> {
+    if !(spec.imu.as_os_str().is_empty() && spec.gnss.as_os_str().is_empty()) {
+        return Err("[input] ubx replaces `imu` and `gnss`: give one or the other".into());
+    }
+    let log = crate::ubx_input::read_ubx_log(path, spec.ubx_cfg)?;
+    let file = path.display().to_string();
+    let resolved = serde_json::json!({"file": file, "format": "ubx",
+        "esf_tick_s": spec.ubx_cfg.esf_tick_s, "metres_per_tick": spec.ubx_cfg.metres_per_tick});
+    let warnings = check_overlap(path, &log.imu, path, &log.gnss)?
+        .into_iter()
+        .collect();
+    let mut l = finish_load(
+        spec,
+        log.imu,
+        log.gnss,
+        (log.imu_report, log.gnss_report),
+        "one receiver clock (UBX log)".into(),
+        None,
+        warnings,
+        resolved.clone(),
+        "ubx",
+        "gps_seconds",
+    )?;
+    l.aiding = log.aiding;
+    Ok(l)
+}
+
+/// The IMU time offset and the report of a load.
+#[allow(clippy::too_many_arguments)]
+fn finish_load(
+    spec: &InputSpec,
+    mut imu: Vec<ImuSample>,
+    gnss: Vec<GnssFix>,
+    (imu_report, gnss_report): (InputReport, InputReport),
+    time_base: String,
+    mut aux: Option<AuxSeries>,
+    warnings: Vec<String>,
+    imu_resolved: serde_json::Value,
+    gnss_fmt: &str,
+    gnss_base: &str,
+) -> Result<Loaded, String> {
     let mode = match spec.imu_time_offset {
+        // A UBX log's streams share the receiver clock.
+        None if spec.ubx.is_some() => Ok(TimeOffset::None),
         None => Ok(TimeOffset::Auto),
         Some(TimeOffsetCfg::Seconds(s)) => TimeOffset::parse(&s.to_string()),
         Some(TimeOffsetCfg::Named(n)) => TimeOffset::parse(n),
@@ -455,8 +524,8 @@ fn load_inner(spec: &InputSpec) -> Result<Loaded, String> {
     }
     let resolved = serde_json::json!({
         "imu": imu_resolved,
-        "gnss": {"file": spec.gnss.display().to_string(), "format": gnss_fmt,
-                 "time_base": gnss_base.name()},
+        "gnss": {"file": spec.ubx.unwrap_or(spec.gnss).display().to_string(), "format": gnss_fmt,
+                 "time_base": gnss_base},
         "joined": time_base,
         "imu_time_offset_s": imu_time_offset.as_ref().map(|o| o.0),
     });
@@ -470,6 +539,7 @@ fn load_inner(spec: &InputSpec) -> Result<Loaded, String> {
         aux,
         warnings,
         resolved,
+        aiding: Vec::new(),
     })
 }
 

@@ -52,6 +52,7 @@ mod summary;
 pub mod template;
 pub mod time_offset;
 mod tool_error;
+pub mod ubx_input;
 mod yaw_bank;
 
 #[cfg(test)]

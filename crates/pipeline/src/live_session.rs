@@ -5,9 +5,10 @@
 //! reconnects, notes — then writes that summary as text and JSON.
 
 use crate::live::{jnum, stats_json, LiveDriver};
-use navfuse_core::types::ImuSample;
+use navfuse_core::types::{Event, ImuSample};
 use navfuse_io::live::{GapCounter, GpsdAssembler, GpsdLine, ImuLineParser, Sequencer};
 use navfuse_io::live_source::Msg;
+use navfuse_io::live_ubx::UBX_PVT_LATENCY_S;
 use navfuse_io::RecordStats;
 use serde_json::{json, Value};
 use std::fmt::Write as _;
@@ -33,6 +34,13 @@ pub struct Inputs {
     /// The GNSS source has ended.
     pub gnss_ended: bool,
     samples: Vec<ImuSample>,
+    /// A UBX source ([`navfuse_io::live_ubx`]): frames (summed over
+    /// connections), converter items, and the odometer / heading events
+    /// (counted; the live estimators do not fuse them yet).
+    ubx_frames: RecordStats,
+    ubx_items: Option<RecordStats>,
+    pub ubx_odometer: u64,
+    pub ubx_heading: u64,
 }
 
 impl Inputs {
@@ -50,6 +58,10 @@ impl Inputs {
             notes_dropped: 0,
             gnss_ended: false,
             samples: Vec::with_capacity(2),
+            ubx_frames: RecordStats::default(),
+            ubx_items: None,
+            ubx_odometer: 0,
+            ubx_heading: 0,
         }
     }
 
@@ -63,12 +75,14 @@ impl Inputs {
 
     /// IMU line counts.
     pub fn imu_stats(&self) -> &RecordStats {
-        &self.imu.stats
+        self.ubx_items.as_ref().unwrap_or(&self.imu.stats)
     }
 
     /// GNSS record counts and their source (`NMEA` or `gpsd`).
     pub fn gnss_stats(&self) -> (&RecordStats, &'static str) {
-        if self.nmea_stats.lines > 0 {
+        if self.ubx_items.is_some() {
+            (&self.ubx_frames, "UBX frames")
+        } else if self.nmea_stats.lines > 0 {
             (&self.nmea_stats, "NMEA")
         } else {
             (&self.gpsd_stats, "gpsd")
@@ -128,16 +142,11 @@ impl Inputs {
                 self.gnss_gaps.push(f.t);
                 seq.push_gnss(f, secs(at));
             }
-            Msg::GnssStats(s) => {
-                let n = &mut self.nmea_stats;
-                n.lines += s.lines;
-                n.used += s.used;
-                n.skipped += s.skipped;
-                for (r, k) in s.rejected {
-                    for _ in 0..k {
-                        n.reject(r);
-                    }
-                }
+            Msg::GnssStats(s) => add_stats(&mut self.nmea_stats, s),
+            Msg::UbxEvent(e, at) => self.ubx_event(e, seq, secs(at)),
+            Msg::UbxStats { frames, items } => {
+                add_stats(&mut self.ubx_frames, frames);
+                self.ubx_items = Some(items);
             }
             Msg::GnssEnd => {
                 self.gnss_ended = true;
@@ -159,6 +168,26 @@ impl Inputs {
         }
     }
 
+    /// One event of a UBX source: IMU and GNSS to the sequencer (an IMU
+    /// sample also shows that no fix older than [`UBX_PVT_LATENCY_S`]
+    /// before it can still come), odometer and heading counted.
+    fn ubx_event(&mut self, e: Event, seq: &mut Sequencer, at: f64) {
+        match e {
+            Event::Imu(s) => {
+                self.imu_gaps.push(s.t);
+                seq.push_imu(s, at);
+                seq.gnss_time_seen(s.t - UBX_PVT_LATENCY_S);
+            }
+            Event::Gnss(f) => {
+                self.gnss_gaps.push(f.t);
+                seq.push_gnss(f, at);
+            }
+            Event::Odometer(_) => self.ubx_odometer += 1,
+            Event::Heading(_) => self.ubx_heading += 1,
+            _ => {}
+        }
+    }
+
     /// The run summary as JSON (one object; see `docs/live.md`).
     pub fn summary_json(&self, drv: &LiveDriver, seq: &Sequencer, end: &End) -> Value {
         let q = &seq.stats;
@@ -177,7 +206,7 @@ impl Inputs {
             "estimator": drv.est.name(),
             "wall_s": end.wall_s,
             "stopped_by": end.stopped_by,
-            "imu": stats(&self.imu.stats),
+            "imu": stats(self.imu_stats()),
             "gnss": stats(gnss),
             "gnss_source": label,
             "imu_gaps": gaps(&self.imu_gaps),
@@ -195,6 +224,8 @@ impl Inputs {
             "latency_p99_ms": ms(drv.lat.quantile(0.99)),
             "latency_max_ms": ms(drv.lat.max()),
             "latency_n": drv.lat.count(),
+            "ubx_odometer_events": self.ubx_odometer,
+            "ubx_heading_events": self.ubx_heading,
         })
     }
 
@@ -212,7 +243,14 @@ impl Inputs {
             drv.est.name(),
             end.wall_s
         );
-        let _ = writeln!(e, "  IMU input: {}", self.imu.stats);
+        let _ = writeln!(e, "  IMU input: {}", self.imu_stats());
+        if self.ubx_items.is_some() {
+            let _ = writeln!(
+                e,
+                "  UBX aiding events (not fused live yet): odometer {}, heading {}",
+                self.ubx_odometer, self.ubx_heading
+            );
+        }
         let open = if self.gnss_ended {
             ""
         } else {
@@ -271,6 +309,18 @@ impl Inputs {
             let _ = writeln!(e, "  ({} more notes not shown)", self.notes_dropped);
         }
         e
+    }
+}
+
+/// Add the counts of `s` to `n`.
+fn add_stats(n: &mut RecordStats, s: RecordStats) {
+    n.lines += s.lines;
+    n.used += s.used;
+    n.skipped += s.skipped;
+    for (r, k) in s.rejected {
+        for _ in 0..k {
+            n.reject(r);
+        }
     }
 }
 

@@ -234,6 +234,8 @@ pub fn serves(cfg: &crate::config::RunConfig, gnss: &[GnssFix]) -> bool {
 pub fn wants_passes(cfg: &crate::config::RunConfig) -> bool {
     use crate::time_offset::TimeOffsetCfg;
     match &cfg.input.imu_time_offset {
+        // One receiver clock stamps a UBX log's IMU and GNSS.
+        None if cfg.input.ubx.is_some() => false,
         None => true,
         Some(TimeOffsetCfg::Named(n)) => n == "auto",
         Some(TimeOffsetCfg::Seconds(_)) => false,

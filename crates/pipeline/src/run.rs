@@ -64,7 +64,9 @@ pub struct RunOutcome {
 pub fn run(cfg: &RunConfig, base_dir: &Path, opts: &RunOptions) -> Result<RunOutcome> {
     let rel = |p: &str| resolve_path(base_dir, p);
     let t_read = Instant::now();
-    let (imu_path, gnss_path) = (rel(&cfg.input.imu), rel(&cfg.input.gnss));
+    // Empty (not given, e.g. with `[input] ubx`) stays empty.
+    let rel_given = |p: &str| if p.is_empty() { PathBuf::new() } else { rel(p) };
+    let (imu_path, gnss_path) = (rel_given(&cfg.input.imu), rel_given(&cfg.input.gnss));
     let imu_tag = cfg.input.imu_tag.as_deref().map(rel);
     let none = TimeOffsetCfg::Named("none".into());
     // Unset or `auto`: loaded without an offset, decided below on the
@@ -86,6 +88,13 @@ pub fn run(cfg: &RunConfig, base_dir: &Path, opts: &RunOptions) -> Result<RunOut
         imu_time_base: cfg.input.imu_time_base,
         gnss_time_base: cfg.input.gnss_time_base,
         imu_tag: imu_tag.as_deref(),
+        ubx: cfg.input.ubx.as_deref().map(rel).as_deref(),
+        ubx_cfg: crate::ubx_input::events_config(
+            cfg.input.ubx_metres_per_tick,
+            cfg.input.ubx_esf_tick_s,
+            cfg.input.imu_rate,
+        )
+        .map_err(|e| cfg.err(e))?,
     })
     .map_err(|e| match e {
         // The data's fault (exit code 3), named after the configuration.
@@ -101,6 +110,7 @@ pub fn run(cfg: &RunConfig, base_dir: &Path, opts: &RunOptions) -> Result<RunOut
         "imu": loaded.imu_report,
         "gnss": loaded.gnss_report,
         "time_base": loaded.time_base,
+        "ubx_aiding_events": crate::ubx_input::aiding_counts(&loaded.aiding),
         "imu_time_offset_applied_s": loaded.imu_time_offset.as_ref().map(|o| o.0),
         "imu_time_offset_source": loaded.imu_time_offset.as_ref().map(|o| o.1.clone()),
     });

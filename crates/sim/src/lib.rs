@@ -18,6 +18,7 @@ pub mod platform;
 pub mod rot;
 pub mod scenario;
 pub mod trajectory;
+pub mod ubx_out;
 
 pub use scenario::Scenario;
 
