@@ -301,6 +301,34 @@ impl Estimator for CpAttStream {
     }
 }
 
+/// The per-satellite records of a whole epoch, in its satellite order, the
+/// last one flagged (the inverse of [`CpAttStream`]'s assembly).
+pub fn epoch_records(ep: &CpEpoch) -> impl Iterator<Item = CarrierPhaseSat> + '_ {
+    let nb = ep.n_baselines.min(MAX_CP_BASELINES);
+    (0..ep.n_sats).map(move |i| {
+        let mut sd = [0.0; MAX_CP_BASELINES];
+        for (k, v) in sd[..nb].iter_mut().enumerate() {
+            *v = ep.sd_phase[k][i];
+        }
+        CarrierPhaseSat {
+            t: ep.t,
+            prn: ep.prn[i],
+            n_baselines: nb as u8,
+            last_in_epoch: i + 1 == ep.n_sats,
+            los_enu: ep.los_enu[i],
+            sigma_m: ep.sigma[i],
+            sd_phase_m: sd,
+        }
+    })
+}
+
+/// The paper's (roll φ, pitch θ, yaw ψ) from [`body_rpy_ned`]'s angles
+/// under the default mounting (`c_ba` = [`T_ENU_NED`]): `(roll, pitch,
+/// −yaw)`, exact (module doc).
+pub fn paper_rpy_from_ned_default(rpy: &Vec3) -> Vec3 {
+    Vec3::new(rpy.x, rpy.y, -rpy.z)
+}
+
 /// ZYX roll/pitch/yaw of the IMU body (FRD) w.r.t. NED [rad] and their 1-σ
 /// from a CP-ATT estimate and the antenna → body DCM `c_ba` (module doc).
 pub fn body_rpy_ned(est: &AttEstimate, c_ba: &Mat3) -> (Vec3, Vec3) {
