@@ -46,7 +46,7 @@ pub(crate) fn run_other(name: &str, r: &OtherRun) -> Result<RunOutcome> {
         }
         other => {
             return Err(PipelineError::Estimator(format!(
-                "estimator {other:?}: expected eskf, pf-lc or gps-acc"
+                "estimator {other:?}: expected eskf, pf-lc, gps-acc or cp-att"
             )))
         }
     };

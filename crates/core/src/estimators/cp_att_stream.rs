@@ -359,12 +359,21 @@ fn euler_rate_matrix(rpy: &Vec3) -> Mat3 {
     Mat3::new(cp * cy, -sy, 0.0, cp * sy, cy, 0.0, -sp, 0.0, 1.0)
 }
 
+/// Largest |pitch| of a heading aid [rad] (80°: beyond it a 1 mrad
+/// attitude error is ≥ 5.8 mrad of heading, 1/cos 80°).
+pub const MAX_HEADING_PITCH_RAD: f64 = 80.0 * core::f64::consts::PI / 180.0;
+
 /// The heading aid of a CP-ATT solution (issue 17): heading and pitch of
 /// the IMU body x axis (FRD forward) in NED, i.e. yaw and pitch of `sol`,
 /// with their σ; `baseline_m` NaN (the geometry is the configuration's).
-/// `None` when the yaw or its σ is not finite.
+/// `None` when the yaw or its σ is not finite, or the pitch is beyond
+/// ±[`MAX_HEADING_PITCH_RAD`] (the x axis' heading is ill-defined near the
+/// vertical; an unconverged float solution lands there).
 pub fn heading_fix(sol: &NavSolution) -> Option<HeadingFix> {
-    let ok = sol.rpy.z.is_finite() && sol.std_rpy.z.is_finite() && sol.std_rpy.z > 0.0;
+    let ok = sol.rpy.z.is_finite()
+        && sol.std_rpy.z.is_finite()
+        && sol.std_rpy.z > 0.0
+        && sol.rpy.y.abs() <= MAX_HEADING_PITCH_RAD;
     ok.then(|| HeadingFix {
         t: sol.t,
         heading_rad: sol.rpy.z,

@@ -250,4 +250,6 @@ fn heading_fix_from_a_solution() {
     assert_eq!((h.t, h.heading_rad, h.pitch_rad), (5.0, -2.0, 0.02));
     assert_eq!((h.std_heading_rad, h.std_pitch_rad), (3e-3, 2e-3));
     assert_eq!(h.source, HeadingSource::CpAtt);
+    sol.rpy.y = 1.5; // near the vertical: no heading
+    assert!(heading_fix(&sol).is_none());
 }
