@@ -31,8 +31,8 @@ use navfuse_core::types::{CarrierPhaseSat, MAX_CP_BASELINES};
 use navfuse_core::Vec3;
 use std::io::{BufRead, Write};
 
-/// The columns before the single differences.
-const FIXED: [&str; 7] = [
+/// Every column: 7 fixed ones, then up to 4 single differences.
+const ALL: [&str; 11] = [
     "t_gps_s",
     "prn",
     "last_in_epoch",
@@ -40,18 +40,18 @@ const FIXED: [&str; 7] = [
     "los_n",
     "los_u",
     "sigma_m",
+    "sd1_m",
+    "sd2_m",
+    "sd3_m",
+    "sd4_m",
 ];
-const SD: [&str; MAX_CP_BASELINES] = ["sd1_m", "sd2_m", "sd3_m", "sd4_m"];
+/// Number of columns before the single differences.
+const N_FIXED: usize = 7;
 
 /// The header line for `n_baselines` single-difference columns.
 pub fn header(n_baselines: usize) -> String {
     let n = n_baselines.clamp(1, MAX_CP_BASELINES);
-    FIXED
-        .iter()
-        .chain(&SD[..n])
-        .copied()
-        .collect::<Vec<_>>()
-        .join(",")
+    ALL[..N_FIXED + n].join(",")
 }
 
 /// Streaming reader of carrier-phase CSV → [`CarrierPhaseSat`].
@@ -86,7 +86,7 @@ impl<R: BufRead> CpCsvReader<R> {
 
     fn read(&mut self) -> Result<Option<CarrierPhaseSat>, ReadError> {
         loop {
-            let min = self.n_baselines.map_or(0, |n| FIXED.len() + n);
+            let min = self.n_baselines.map_or(0, |n| N_FIXED + n);
             if !next_data_line(&mut self.src, min, Sep::Byte(b','), Some(b'#'))? {
                 return Ok(None);
             }
@@ -95,8 +95,8 @@ impl<R: BufRead> CpCsvReader<R> {
             }
             let s = &self.src;
             let n = s.n_fields();
-            let want_max = FIXED.len() + MAX_CP_BASELINES;
-            if n <= FIXED.len() || n > want_max {
+            let want_max = N_FIXED + MAX_CP_BASELINES;
+            if n <= N_FIXED || n > want_max {
                 return Err(s.err(
                     "<header>",
                     format!(
@@ -105,7 +105,7 @@ impl<R: BufRead> CpCsvReader<R> {
                     ),
                 ));
             }
-            for (i, want) in FIXED.iter().chain(&SD).take(n).enumerate() {
+            for (i, want) in ALL.iter().take(n).enumerate() {
                 let got = s.text(i, "<header>")?;
                 if got != *want {
                     return Err(s.err(
@@ -115,24 +115,11 @@ impl<R: BufRead> CpCsvReader<R> {
                 }
             }
             self.src.stats.skipped += 1;
-            self.n_baselines = Some(n - FIXED.len());
+            self.n_baselines = Some(n - N_FIXED);
         }
         let s = &self.src;
         let nb = self.n_baselines.expect("header read");
-        const ALL: [&str; 11] = [
-            "t_gps_s",
-            "prn",
-            "last_in_epoch",
-            "los_e",
-            "los_n",
-            "los_u",
-            "sigma_m",
-            "sd1_m",
-            "sd2_m",
-            "sd3_m",
-            "sd4_m",
-        ];
-        s.expect_fields(&ALL[..FIXED.len() + nb], false)?;
+        s.expect_fields(&ALL[..N_FIXED + nb], false)?;
         let t = s.f64(0, "t_gps_s")?;
         if t < self.t {
             return Err(s.err("t_gps_s", format!("time goes back: {t} after {}", self.t)));
@@ -158,7 +145,7 @@ impl<R: BufRead> CpCsvReader<R> {
         in_range(sigma, 1e-9, 10.0, "phase sigma [m]").map_err(|m| s.err("sigma_m", m))?;
         let mut sd = [0.0; MAX_CP_BASELINES];
         for (k, v) in sd[..nb].iter_mut().enumerate() {
-            *v = s.f64(FIXED.len() + k, SD[k])?;
+            *v = s.f64(N_FIXED + k, ALL[N_FIXED + k])?;
         }
         if t != self.t {
             self.t = t;

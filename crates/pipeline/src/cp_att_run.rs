@@ -243,28 +243,12 @@ pub(crate) fn run_cp_att(
         "outputs": &outputs,
         "note": "attitude only: position and velocity are NaN (carrier-phase records carry no position)",
     });
-    let p = out_dir.join("summary.json");
-    let json =
-        serde_json::to_string_pretty(&summary).map_err(|e| PipelineError::Output(e.to_string()))?;
-    navfuse_io::atomic::write_atomic(&p, json).map_err(PipelineError::io(&p, ""))?;
-    let message = format!(
-        "navfuse run: cp-att {} attitude solutions from {} epochs ({} records); summary {}",
-        sols.len(),
-        st.epochs,
-        st.records,
-        p.display()
-    );
-    Ok(RunOutcome {
-        out_dir: out_dir.to_path_buf(),
-        outputs,
-        summary_path: p,
-        summary,
-        solutions: sols.len(),
-        trajectory: sols,
-        smoothed: Vec::new(),
-        alignment: None,
-        stats: None,
-        message,
+    let (epochs, records) = (st.epochs, st.records);
+    crate::other::finish_run(out_dir, outputs, summary, sols, |p, n| {
+        format!(
+            "navfuse run: cp-att {n} attitude solutions from {epochs} epochs ({records} records); summary {}",
+            p.display()
+        )
     })
 }
 
