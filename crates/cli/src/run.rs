@@ -16,7 +16,7 @@ pub struct Args {
     /// Output folder (default: `output` from the config, else `./navfuse-out`).
     #[arg(long)]
     pub output: Option<PathBuf>,
-    /// Estimator (overrides `[filter] estimator`): eskf, pf-lc (seed 002), gps-acc (seed 004).
+    /// Estimator (overrides `[filter] estimator`): eskf, pf-lc (seed 002), gps-acc (seed 004), cp-att (seed 003: carrier-phase attitude from `[input] carrier_phase`).
     #[arg(long)]
     pub estimator: Option<String>,
     /// Also write the HTML report (OUTPUT/report/index.html and SVG plots).

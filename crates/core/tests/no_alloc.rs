@@ -345,6 +345,34 @@ fn cp_attitude_update_does_not_allocate() {
         fixed > 30 && smoothed > 25,
         "fixed {fixed}, smoothed {smoothed}"
     );
+    // The same epochs as per-satellite events through the streaming estimator.
+    use navfuse_core::estimators::cp_att_stream::{CpAttStream, CpAttStreamConfig};
+    use navfuse_core::types::{CarrierPhaseSat, Estimator, Event};
+    let events: Vec<Event> = epochs
+        .iter()
+        .flat_map(|ep| {
+            (0..ep.n_sats).map(move |i| {
+                let sd: [f64; 4] = core::array::from_fn(|k| ep.sd_phase[k][i]);
+                Event::CarrierPhase(CarrierPhaseSat {
+                    t: ep.t,
+                    prn: ep.prn[i],
+                    n_baselines: 3,
+                    last_in_epoch: i + 1 == ep.n_sats,
+                    los_enu: ep.los_enu[i],
+                    sigma_m: ep.sigma[i],
+                    sd_phase_m: sd,
+                })
+            })
+        })
+        .collect();
+    let mut stream = CpAttStream::new(CpAttStreamConfig::new(&b_b)).unwrap();
+    let before = allocs();
+    let mut sols = 0;
+    for ev in &events {
+        sols += stream.push(ev).is_some() as usize;
+    }
+    assert_eq!(allocs(), before, "CpAttStream::push allocated");
+    assert!(sols > 30, "{sols}");
 }
 
 #[test]

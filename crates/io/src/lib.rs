@@ -10,6 +10,7 @@
 //! - [`kfgins`]: KF-GINS IMU, GNSS and `.nav` text → `ImuSample`, `GnssFix`, `NavSolution`
 //! - [`pos`]: RTKLIB `.pos` → `GnssFix` (with NED velocity)
 //! - [`csv_imu`]: generic CSV IMU with column map, units, mounting; presets
+//! - [`carrier_phase`]: multi-antenna carrier-phase CSV ↔ `CarrierPhaseSat` (reader and writer)
 //! - [`navcsv`]: navfuse trajectory CSV → `NavSolution`
 //! - [`imu`]: the rules turning stamped records into intervals (`dt`, integration)
 //! - [`atomic`]: every output file written whole or not at all (temp + fsync + rename)
@@ -23,6 +24,7 @@
 //! - [`time`]: GPS week/TOW ↔ GPS seconds ↔ GPST/UTC calendar
 
 pub mod atomic;
+pub mod carrier_phase;
 pub mod counter_clock;
 pub mod csv_imu;
 pub mod data;

@@ -42,7 +42,7 @@ use std::path::{Path, PathBuf};
 /// magnetic_declination_deg = 8.1        # for the magnetometer heading
 ///
 /// [filter]
-/// estimator = "eskf"         # "eskf" | "pf-lc" | "gps-acc" (the others use their defaults)
+/// estimator = "eskf"         # "eskf" | "pf-lc" | "gps-acc" | "cp-att" (the others use their defaults)
 /// preset = "enhanced"        # "kf-gins" | "enhanced" | "seed001" (eskf)
 /// noise_yaml = "kf.yaml"     # optional: take the IMU noise from a KF-GINS YAML
 /// # or [filter.imu_noise]: arw = [8, 8, 8], vrw, gbstd, abstd, gsstd, asstd, corrtime
@@ -78,6 +78,10 @@ pub struct RunConfig {
     /// Extra solution formats (extensions) written besides `solution.nav`.
     #[serde(default)]
     pub formats: Vec<String>,
+    /// `[cp_att]`: multi-antenna carrier-phase attitude (seed 003,
+    /// [`crate::cp_att_run`]), for `estimator = "cp-att"` or
+    /// `[filter] heading_source = "cp-att"`.
+    pub cp_att: Option<crate::cp_att_run::CpAttCfg>,
     /// The file this configuration was read from ([`RunConfig::from_toml_file`]),
     /// named in error messages; not part of the TOML schema.
     #[serde(skip)]
@@ -105,12 +109,14 @@ impl RunConfig {
                 ubx: None,
                 ubx_metres_per_tick: None,
                 ubx_esf_tick_s: None,
+                carrier_phase: None,
             },
             init: InitCfg::default(),
             filter,
             outage: None,
             output: None,
             formats: Vec::new(),
+            cp_att: None,
             source,
         }
     }
@@ -201,6 +207,9 @@ pub struct InputCfg {
     pub ubx_metres_per_tick: Option<f64>,
     /// With `ubx`: the ESF sensor time tag unit [s] (default 0.001).
     pub ubx_esf_tick_s: Option<f64>,
+    /// Multi-antenna carrier-phase records (CSV, `navfuse_io::carrier_phase`)
+    /// for CP-ATT ([`crate::cp_att_run`]).
+    pub carrier_phase: Option<String>,
 }
 
 fn default_rate() -> f64 {
@@ -235,7 +244,8 @@ pub struct InitCfg {
 #[derive(Clone, Debug, Deserialize, Serialize)]
 #[serde(deny_unknown_fields)]
 pub struct FilterCfg {
-    /// "eskf" (default), "pf-lc" or "gps-acc".
+    /// "eskf" (default), "pf-lc", "gps-acc" or "cp-att" (carrier-phase
+    /// attitude alone, `[input] carrier_phase` + `[cp_att]`).
     #[serde(default)]
     pub estimator: Option<String>,
     #[serde(default = "default_preset")]
@@ -269,6 +279,9 @@ pub struct FilterCfg {
     /// or `"auto"` (on for platforms whose course does not follow the
     /// heading, uav and marine); default false.
     pub time_offset_state: Option<crate::gnss_error::BoolOrAuto>,
+    /// Heading aiding of the ESKF: `"none"` (default) or `"cp-att"` (the
+    /// attitude of CP-ATT on `[input] carrier_phase`, [`crate::cp_att_run`]).
+    pub heading_source: Option<crate::cp_att_run::HeadingSourceCfg>,
 }
 
 impl Default for FilterCfg {
@@ -286,6 +299,7 @@ impl Default for FilterCfg {
             zupt: None,
             gnss_error: None,
             time_offset_state: None,
+            heading_source: None,
         }
     }
 }

@@ -19,7 +19,7 @@ use navfuse_core::estimators::consistency::NisMonitor;
 use navfuse_core::estimators::eskf::{
     rts_smooth, Eskf, EskfConfig, EskfStats, InitStd, NhcConfig, UpdateLog,
 };
-use navfuse_core::types::{GnssFix, ImuSample, NavSolution};
+use navfuse_core::types::{Event, GnssFix, ImuSample, NavSolution};
 use navfuse_core::Vec3;
 use navfuse_io::kfgins_yaml::KfGinsConfig;
 use navfuse_io::stdfile::StdRow;
@@ -493,12 +493,24 @@ pub(crate) fn run_eskf_span(
             0,
         )
     };
+    // `[filter] heading_source`: heading aids from the start of the
+    // remaining IMU span on, merged with the fixes in time order.
+    let heads = crate::cp_att_run::heading_aids(cfg, base_dir)?;
+    let mut h = heads.partition_point(|x| x.t <= imu[k_next].t - imu[k_next].dt);
     for s in &imu[k_next..] {
-        let g1 = g;
+        let mut g1 = g;
         while g < gnss.len() && gnss[g].t <= s.t + 1e-3 {
             g += 1;
         }
         gnss_fed += g - g1;
+        while h < heads.len() && heads[h].t <= s.t {
+            while g1 < g && gnss[g1].t <= heads[h].t {
+                m.aid(&Event::Gnss(gnss[g1]));
+                g1 += 1;
+            }
+            m.aid(&Event::Heading(heads[h]));
+            h += 1;
+        }
         m.step(&gnss[g1..g], s);
     }
     let (eskf, sols, records, innovations) = (m.eskf, m.sols, m.records, m.innovations);

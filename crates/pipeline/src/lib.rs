@@ -18,6 +18,7 @@ pub mod align;
 pub mod allan;
 pub mod check;
 pub mod config;
+pub mod cp_att_run;
 pub mod csv_map;
 pub mod csv_sniff;
 pub mod demo;

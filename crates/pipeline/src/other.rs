@@ -8,7 +8,7 @@ use crate::outputs::write_solutions;
 use crate::run::RunOutcome;
 use navfuse_core::estimators::accel_dr::{AccelDr, AccelDrConfig};
 use navfuse_core::estimators::pf_lc::{PfLc, PfLcConfig};
-use navfuse_core::types::{Estimator, Event, GnssFix, ImuSample};
+use navfuse_core::types::{Estimator, Event, GnssFix, ImuSample, NavSolution};
 use navfuse_io::trajectory::OutFormat;
 use std::path::Path;
 use std::time::Instant;
@@ -46,7 +46,7 @@ pub(crate) fn run_other(name: &str, r: &OtherRun) -> Result<RunOutcome> {
         }
         other => {
             return Err(PipelineError::Estimator(format!(
-                "estimator {other:?}: expected eskf, pf-lc or gps-acc"
+                "estimator {other:?}: expected eskf, pf-lc, gps-acc or cp-att"
             )))
         }
     };
@@ -89,20 +89,33 @@ pub(crate) fn run_other(name: &str, r: &OtherRun) -> Result<RunOutcome> {
         "seconds_filter": seconds_filter,
         "outputs": &outputs,
     });
-    let p = r.out_dir.join("summary.json");
+    let name_used = est.name();
+    let n_imu = r.imu.len();
+    finish_run(r.out_dir, outputs, summary, sols, |p, n| {
+        format!(
+            "navfuse run: {name_used} ({name}) {n} solutions from {n_imu} IMU samples and {gnss_fed} GNSS fixes; summary {}",
+            p.display()
+        )
+    })
+}
+
+/// The end of a run of an estimator other than the ESKF: write `summary`
+/// as `OUT/summary.json` and return the outcome; `message(summary path,
+/// number of solutions)` is the one-line account.
+pub(crate) fn finish_run(
+    out_dir: &Path,
+    outputs: Vec<String>,
+    summary: serde_json::Value,
+    sols: Vec<NavSolution>,
+    message: impl FnOnce(&Path, usize) -> String,
+) -> Result<RunOutcome> {
+    let p = out_dir.join("summary.json");
     let json =
         serde_json::to_string_pretty(&summary).map_err(|e| PipelineError::Output(e.to_string()))?;
     navfuse_io::atomic::write_atomic(&p, json).map_err(PipelineError::io(&p, ""))?;
-    let message = format!(
-        "navfuse run: {} ({}) {} solutions from {} IMU samples and {gnss_fed} GNSS fixes; summary {}",
-        est.name(),
-        name,
-        sols.len(),
-        r.imu.len(),
-        p.display()
-    );
+    let message = message(&p, sols.len());
     Ok(RunOutcome {
-        out_dir: r.out_dir.to_path_buf(),
+        out_dir: out_dir.to_path_buf(),
         outputs,
         summary_path: p,
         summary,

@@ -25,7 +25,7 @@ pub struct RunOptions {
     /// Output folder (default: `output` of the config, relative to its
     /// folder, else `./navfuse-out`).
     pub output: Option<PathBuf>,
-    /// Estimator overriding `[filter] estimator`: `eskf`, `pf-lc`, `gps-acc`.
+    /// Estimator overriding `[filter] estimator`: `eskf`, `pf-lc`, `gps-acc`, `cp-att`.
     pub estimator: Option<String>,
     /// Do not write the σ files (`solution.std`, `solution_smoothed.std`);
     /// for measuring what they cost.
@@ -63,6 +63,21 @@ pub struct RunOutcome {
 /// solutions and `summary.json` into the output folder.
 pub fn run(cfg: &RunConfig, base_dir: &Path, opts: &RunOptions) -> Result<RunOutcome> {
     let rel = |p: &str| resolve_path(base_dir, p);
+    let out_dir = opts
+        .output
+        .clone()
+        .or(cfg.output.as_deref().map(rel))
+        .unwrap_or_else(|| PathBuf::from("navfuse-out"));
+    let formats = out_formats(&cfg.formats).map_err(|e| cfg.err(format!("formats: {e}")))?;
+    let estimator = opts
+        .estimator
+        .clone()
+        .or(cfg.filter.estimator.clone())
+        .unwrap_or_else(|| "eskf".into());
+    if estimator == "cp-att" {
+        // Carrier phase only: the IMU and GNSS files are not read.
+        return crate::cp_att_run::run_cp_att(cfg, base_dir, &out_dir, &formats);
+    }
     let t_read = Instant::now();
     // Empty (not given, e.g. with `[input] ubx`) stays empty.
     let rel_given = |p: &str| if p.is_empty() { PathBuf::new() } else { rel(p) };
@@ -119,17 +134,6 @@ pub fn run(cfg: &RunConfig, base_dir: &Path, opts: &RunOptions) -> Result<RunOut
     let mut resolved = loaded.resolved.clone();
     resolved["time_keys"] = time_keys_json(cfg, &loaded.imu);
     let warnings = &loaded.warnings;
-    let out_dir = opts
-        .output
-        .clone()
-        .or(cfg.output.as_deref().map(rel))
-        .unwrap_or_else(|| PathBuf::from("navfuse-out"));
-    let formats = out_formats(&cfg.formats).map_err(|e| cfg.err(format!("formats: {e}")))?;
-    let estimator = opts
-        .estimator
-        .clone()
-        .or(cfg.filter.estimator.clone())
-        .unwrap_or_else(|| "eskf".into());
     if estimator != "eskf" {
         return run_other(
             &estimator,

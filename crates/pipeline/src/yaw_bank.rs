@@ -129,6 +129,12 @@ impl Member {
         self.innovations.extend_from_slice(self.eskf.updates());
     }
 
+    /// Feed one aiding event (a GNSS fix, a heading, …) between IMU samples.
+    pub fn aid(&mut self, ev: &Event) {
+        self.eskf.push(ev);
+        self.take_updates();
+    }
+
     /// Feed the fixes `fixes` (all at or before `s.t`) and then the IMU sample `s`.
     pub fn step(&mut self, fixes: &[GnssFix], s: &ImuSample) {
         for f in fixes {

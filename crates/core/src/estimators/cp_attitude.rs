@@ -1205,6 +1205,11 @@ impl RigidAttFilter {
     pub fn c_nb(&self) -> Mat3 {
         self.c_bn.transpose()
     }
+
+    /// Covariance of the ENU rotation error `δθ` [rad²].
+    pub fn cov_att(&self) -> Mat3 {
+        self.p.fixed_view::<3, 3>(0, 0).into_owned()
+    }
 }
 
 /// Single-epoch ambiguity search constrained by the known baseline length
@@ -1364,6 +1369,61 @@ pub fn lambda_on_float(f: &BaselineFilter, cfg: &FixConfig) -> Option<BaselineFi
     })
 }
 
+/// Which of an epoch's attitude solutions (the `rpy_*` of [`CpAttSolution`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+pub enum CpAttOutput {
+    /// Float baselines, the paper's eq. 4 + eq. 2 (`rpy_float`).
+    Float = 0,
+    /// Float baselines, equal-weight Wahba (`rpy_float_wahba`).
+    FloatWahba = 1,
+    /// The fixed solution (`rpy_fixed`: the attitude filter, else the joint LS).
+    #[default]
+    Fixed = 2,
+    /// Per-epoch per-baseline fixed LS + weighted Wahba (`rpy_wahba`).
+    FixedWahba = 3,
+    /// Per-epoch joint LS on all fixed DDs (`rpy_joint`).
+    FixedJoint = 4,
+}
+
+/// Number of [`CpAttOutput`] variants.
+pub const CP_ATT_OUTPUTS: usize = 5;
+
+/// One attitude solution as a matrix: `c_nb` in the paper's direction
+/// (`b_b = c_nb b_n`, n = ENU; not orthonormal for eq. 4) and the
+/// covariance of its ENU rotation error `δθ` [rad²]
+/// (`c_bn,true = exp([δθ×]) c_bn`).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct AttEstimate {
+    pub c_nb: Mat3,
+    pub cov_n: Mat3,
+}
+
+/// Covariance of the nav-frame rotation error of a Wahba fit to the
+/// baselines `b_n` with errors of covariance `cov_b` (`δb_k = δθ × b_n,k`,
+/// `S_k = −[b_n,k×]`): `A⁻¹ (Σ S_kᵀ P_k S_k) A⁻¹`, `A = Σ S_kᵀ S_k` (the
+/// equal-weight fit; first order, also used for eq. 4).
+fn wahba_sandwich_cov(b_n: &[Vec3], cov_b: &[Mat3]) -> Option<Mat3> {
+    let (mut a, mut m) = (Mat3::zeros(), Mat3::zeros());
+    for (b, p) in b_n.iter().zip(cov_b) {
+        let s = -crate::attitude::skew(b);
+        a += s.transpose() * s;
+        m += s.transpose() * p * s;
+    }
+    let ai = a.try_inverse()?;
+    Some(ai * m * ai)
+}
+
+/// Covariance of the nav-frame rotation error of a Wahba fit weighted by
+/// the baseline information matrices `w`: `(Σ S_kᵀ W_k S_k)⁻¹`.
+fn wahba_info_cov(b_n: &[Vec3], w: &[Mat3]) -> Option<Mat3> {
+    let mut a = Mat3::zeros();
+    for (b, wk) in b_n.iter().zip(w) {
+        let s = crate::attitude::skew(b);
+        a += s.transpose() * wk * s;
+    }
+    a.try_inverse()
+}
+
 /// Attitude output of one epoch.
 #[derive(Clone, Copy, Debug, PartialEq, Default)]
 pub struct CpAttSolution {
@@ -1399,6 +1459,24 @@ pub struct CpAttSolution {
     pub fixes: [BaselineFix; MAX_BASELINES],
     /// Why the fix was rejected (0 none, 1 ratio/no candidate, 2 length, 3 angle).
     pub reject: u8,
+    /// The matrix and covariance behind each `rpy_*`, indexed by
+    /// [`CpAttOutput`] (`None` where that `rpy_*` is NaN/`None`; the
+    /// covariance is NaN where it cannot be formed).
+    pub att: [Option<AttEstimate>; CP_ATT_OUTPUTS],
+}
+
+impl CpAttSolution {
+    /// The estimate of `which` at this epoch.
+    pub fn estimate(&self, which: CpAttOutput) -> Option<AttEstimate> {
+        self.att[which as usize]
+    }
+
+    fn set(&mut self, which: CpAttOutput, c_nb: Mat3, cov_n: Option<Mat3>) {
+        self.att[which as usize] = Some(AttEstimate {
+            c_nb,
+            cov_n: cov_n.unwrap_or(Mat3::repeat(f64::NAN)),
+        });
+    }
 }
 
 /// The seed 003 estimator: one float filter per baseline and the paper's
@@ -1461,12 +1539,19 @@ impl CpAttitude {
             sol.b_n_float[k] = self.filters[k].baseline();
         }
         if nb >= 3 {
+            let mut cov_b = [Mat3::zeros(); MAX_BASELINES];
+            for k in 0..nb {
+                cov_b[k] = self.filters[k].p.fixed_view::<3, 3>(0, 0).into_owned();
+            }
+            let cov = wahba_sandwich_cov(&sol.b_n_float[..nb], &cov_b[..nb]);
             if let Some(c) = ls_dcm(&self.b_b[..nb], &sol.b_n_float[..nb]) {
                 sol.rpy_float = paper_euler(&c);
+                sol.set(CpAttOutput::Float, c, cov);
             }
             let ones = [1.0; MAX_BASELINES];
             if let Some(c) = wahba_nb(&self.b_b[..nb], &sol.b_n_float[..nb], &ones[..nb]) {
                 sol.rpy_float_wahba = paper_euler(&c);
+                sol.set(CpAttOutput::FloatWahba, c, cov);
             }
         }
         if let Some(fc) = self.fix {
@@ -1542,19 +1627,26 @@ impl CpAttitude {
             return;
         };
         sol.rpy_wahba = Some(paper_euler(&c_w));
+        let cov_w = wahba_info_cov(&b_use[..nb], &w_use[..nb]);
+        sol.set(CpAttOutput::FixedWahba, c_w, cov_w);
         // Joint LS on all fixed DDs of all baselines, exact correlated covariance.
         let Some(dds) = FixedDds::new(ep, nb, &sol.fixes[..nb], fc.lambda) else {
             sol.rpy_fixed = sol.rpy_wahba;
+            sol.set(CpAttOutput::Fixed, c_w, cov_w);
             return;
         };
         let b_b = &self.b_b[..nb];
         let Some((c_j, n_j)) = dds.solve(&c_w.transpose(), b_b) else {
             sol.rpy_fixed = sol.rpy_wahba;
+            sol.set(CpAttOutput::Fixed, c_w, cov_w);
             return;
         };
         sol.joint_ssr = dds.normal(&c_j, b_b).2;
         sol.rpy_joint = Some(paper_euler(&c_j.transpose()));
         sol.rpy_fixed = sol.rpy_joint;
+        let cov_j = n_j.try_inverse();
+        sol.set(CpAttOutput::FixedJoint, c_j.transpose(), cov_j);
+        sol.set(CpAttOutput::Fixed, c_j.transpose(), cov_j);
         let Some(ac) = fc.att_filter else { return };
         let mut predicted = false;
         if self.att.active {
@@ -1563,6 +1655,11 @@ impl CpAttitude {
             sol.att_nis = self.att.nis;
             if ok {
                 sol.rpy_fixed = Some(paper_euler(&self.att.c_nb()));
+                sol.set(
+                    CpAttOutput::Fixed,
+                    self.att.c_nb(),
+                    Some(self.att.cov_att()),
+                );
             }
             // Gate rejected: keep the epoch's joint LS and the filter's
             // prediction; restart after 3 rejections in a row.
@@ -1573,6 +1670,11 @@ impl CpAttitude {
                 return;
             }
             sol.rpy_fixed = Some(paper_euler(&self.att.c_nb()));
+            sol.set(
+                CpAttOutput::Fixed,
+                self.att.c_nb(),
+                Some(self.att.cov_att()),
+            );
         }
         if let Some((t, c_bn)) = self.smoother.push(&self.att, predicted, ac.smoother_lag) {
             sol.smoothed = Some((t, paper_euler(&c_bn.transpose())));

@@ -3,6 +3,7 @@
 pub mod accel_dr;
 pub mod adaptive;
 pub mod consistency;
+pub mod cp_att_stream;
 pub mod cp_attitude;
 pub mod eskf;
 pub mod pf_lc;

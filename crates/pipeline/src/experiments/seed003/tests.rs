@@ -21,6 +21,7 @@ fn seed003_end_to_end_json() {
         skip_geonet: false,
         json: Some(json.clone()),
         plots: None,
+        via_estimator: false,
     })
     .unwrap();
     let v: serde_json::Value =
@@ -52,4 +53,86 @@ fn seed003_end_to_end_json() {
     assert!(v["geonet"]["fixed_error_m"].as_f64().unwrap() < 0.01);
     assert!(v["geonet"]["fix_rate"].as_f64().unwrap() >= 0.95);
     std::fs::remove_file(&json).ok();
+}
+
+/// Table 1's per-seed RMS of every method, batch and through the `cp-att`
+/// Estimator, for `seeds` at both noise levels: equal as `f64`.
+fn table1_batch_equals_estimator(
+    orbits: &[navfuse_core::gnss::KeplerOrbit],
+    base: &SceneConfig,
+    seeds: std::ops::Range<u64>,
+) -> usize {
+    let mut compared = 0;
+    for sigma in [0.002, 0.0005] {
+        for seed in seeds.clone() {
+            let cfg = SceneConfig {
+                sigma_phase: sigma,
+                seed,
+                ..base.clone()
+            };
+            let scene = simulate(&cfg, orbits);
+            let fix = Some(FixConfig::default());
+            let batch = run_scene(&scene, &cfg, CpAttConfig::default(), fix);
+            let est = stream::run_scene_via_estimator(&scene, &cfg, CpAttConfig::default(), fix);
+            let exact = CpAttConfig {
+                dd_noise: navfuse_core::gnss::dd::DdNoise::Exact,
+                ..Default::default()
+            };
+            let batch_e = run_scene(&scene, &cfg, exact, None);
+            let est_e = stream::run_scene_via_estimator(&scene, &cfg, exact, None);
+            let after = 150.min(cfg.n_epochs / 2);
+            for m in [
+                Method::Float,
+                Method::FloatWahba,
+                Method::Fixed,
+                Method::FixedWahba,
+                Method::FixedJoint,
+            ] {
+                let (b, e) = (rms_after(&batch, after, m), rms_after(&est, after, m));
+                assert!(b.iter().all(|x| x.is_finite()), "{m:?} {b:?}");
+                assert_eq!(b, e, "σ {sigma} seed {seed} {m:?}");
+                compared += 1;
+            }
+            let (b, e) = (
+                rms_after(&batch_e, after, Method::Float),
+                rms_after(&est_e, after, Method::Float),
+            );
+            assert_eq!(b, e, "σ {sigma} seed {seed} exact DD cov");
+            // Same epochs fixed, epoch by epoch.
+            for (rb, re) in batch.rows.iter().zip(&est.rows) {
+                assert_eq!(rb.rpy_fixed, re.rpy_fixed, "t {}", rb.t);
+            }
+        }
+    }
+    compared
+}
+
+/// Must show 3 of issue 17 (synthetic sky, runs without data): the seed 003
+/// numbers through the streaming `cp-att` Estimator equal the batch
+/// experiment's exactly, every method, both noise levels.
+#[test]
+fn estimator_reproduces_table1_exactly_synthetic_sky() {
+    let base = SceneConfig {
+        n_epochs: 200,
+        ..Default::default()
+    };
+    let orbits = navfuse_sim::carrier_phase::synthetic_constellation(base.t0);
+    assert_eq!(
+        table1_batch_equals_estimator(&orbits, &base, 1000..1002),
+        20
+    );
+}
+
+/// Must show 3 on the experiment's own sky (the shared YUMA almanac), full
+/// length (500 epochs, RMS after 150), seeds 1000–1002.
+#[test]
+#[ignore = "real data: run with `cargo test --release -- --ignored`"]
+fn estimator_reproduces_table1_exactly_real_almanac() {
+    let alm = navfuse_io::data::require("gnss/almanac/yuma_week1011.alm");
+    let orbits = navfuse_io::yuma::read_yuma(&alm, 1).unwrap();
+    let base = SceneConfig::default();
+    assert_eq!(
+        table1_batch_equals_estimator(&orbits, &base, 1000..1003),
+        30
+    );
 }
