@@ -282,6 +282,10 @@ pub struct FilterCfg {
     /// Heading aiding of the ESKF: `"none"` (default) or `"cp-att"` (the
     /// attitude of CP-ATT on `[input] carrier_phase`, [`crate::cp_att_run`]).
     pub heading_source: Option<crate::cp_att_run::HeadingSourceCfg>,
+    /// `[filter.odometer]`, `[filter.heading]`, `[filter.mag]` ([`crate::aiding_cfg`]).
+    pub odometer: Option<crate::aiding_cfg::OdometerCfg>,
+    pub heading: Option<crate::aiding_cfg::HeadingCfg>,
+    pub mag: Option<crate::aiding_cfg::MagCfg>,
 }
 
 impl Default for FilterCfg {
@@ -300,6 +304,9 @@ impl Default for FilterCfg {
             gnss_error: None,
             time_offset_state: None,
             heading_source: None,
+            odometer: None,
+            heading: None,
+            mag: None,
         }
     }
 }

@@ -149,6 +149,12 @@ fn eskf_run_with_cp_att_heading_source() {
     };
     let out = run(&cfg, &dir, &opts).unwrap();
     assert!(out.solutions > 1000);
+    // The ESKF uses them: the heading model is on by default.
+    let st = out.stats.unwrap().aiding;
+    assert!(st.heading_used > 0, "{st:?}");
+    let h = &out.summary["used_rejected"]["aiding"]["heading"]["used"];
+    assert_eq!(h.as_u64(), Some(st.heading_used));
+    assert!(out.summary["filter"]["aiding"]["heading"].is_object());
     let bad = toml.replace("\"cp-att\"\n[cp_att]", "\"compass\"\n[cp_att]");
     std::fs::write(dir.join("bad.toml"), bad).unwrap();
     let e = RunConfig::from_toml_file(&dir.join("bad.toml"))

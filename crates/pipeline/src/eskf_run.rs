@@ -36,6 +36,8 @@ pub(crate) struct Span<'a> {
     pub gnss: Vec<GnssFix>,
     /// All fixes read.
     pub gnss_all: &'a [GnssFix],
+    /// The inputs' odometer/heading events, time-ordered (`[input] ubx`).
+    pub aiding: &'a [Event],
 }
 
 impl Span<'_> {
@@ -76,6 +78,7 @@ pub(crate) fn select_span<'a>(
         imu_before_start: i0,
         gnss,
         gnss_all,
+        aiding: &[],
     })
 }
 
@@ -434,7 +437,11 @@ pub(crate) fn run_eskf_span(
             }
         }
     }
-    let ecfg = setup.eskf;
+    // `[filter] heading_source` and the inputs' aiding events, time-ordered.
+    let aids =
+        crate::aiding_cfg::merge_aids(span.aiding, crate::cp_att_run::heading_aids(cfg, base_dir)?);
+    let mut ecfg = setup.eskf;
+    ecfg.aiding = crate::aiding_cfg::resolve(cfg, &aids, ecfg.nhc)?;
     let (imu, gnss) = (span.imu, &span.gnss[..]);
     let model = AlignModel {
         noise: &ecfg.noise,
@@ -493,22 +500,22 @@ pub(crate) fn run_eskf_span(
             0,
         )
     };
-    // `[filter] heading_source`: heading aids from the start of the
-    // remaining IMU span on, merged with the fixes in time order.
-    let heads = crate::cp_att_run::heading_aids(cfg, base_dir)?;
-    let mut h = heads.partition_point(|x| x.t <= imu[k_next].t - imu[k_next].dt);
+    // Aiding events from the start of the remaining IMU span on (those
+    // during a yaw bank are not used), merged with the fixes in time order.
+    let heads = &aids;
+    let mut h = heads.partition_point(|x| x.t() <= imu[k_next].t - imu[k_next].dt);
     for s in &imu[k_next..] {
         let mut g1 = g;
         while g < gnss.len() && gnss[g].t <= s.t + 1e-3 {
             g += 1;
         }
         gnss_fed += g - g1;
-        while h < heads.len() && heads[h].t <= s.t {
-            while g1 < g && gnss[g1].t <= heads[h].t {
+        while h < heads.len() && heads[h].t() <= s.t {
+            while g1 < g && gnss[g1].t <= heads[h].t() {
                 m.aid(&Event::Gnss(gnss[g1]));
                 g1 += 1;
             }
-            m.aid(&Event::Heading(heads[h]));
+            m.aid(&heads[h]);
             h += 1;
         }
         m.step(&gnss[g1..g], s);

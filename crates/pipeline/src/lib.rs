@@ -14,6 +14,7 @@
 //! Frames: body FRD, navigation NED; GPS time in seconds (or time of week
 //! for KF-GINS files); SI units inside, degrees only in files and configs.
 
+pub mod aiding_cfg;
 pub mod align;
 pub mod allan;
 pub mod check;
@@ -56,6 +57,8 @@ mod tool_error;
 pub mod ubx_input;
 mod yaw_bank;
 
+#[cfg(test)]
+mod aiding_run_tests;
 #[cfg(test)]
 mod input_tests;
 #[cfg(test)]

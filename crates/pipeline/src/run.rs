@@ -130,7 +130,8 @@ pub fn run(cfg: &RunConfig, base_dir: &Path, opts: &RunOptions) -> Result<RunOut
         "imu_time_offset_source": loaded.imu_time_offset.as_ref().map(|o| o.1.clone()),
     });
     let seconds_read = t_read.elapsed().as_secs_f64();
-    let span = select_span(cfg, &loaded.imu, &loaded.gnss)?;
+    let mut span = select_span(cfg, &loaded.imu, &loaded.gnss)?;
+    span.aiding = &loaded.aiding;
     let mut resolved = loaded.resolved.clone();
     resolved["time_keys"] = time_keys_json(cfg, &loaded.imu);
     let warnings = &loaded.warnings;

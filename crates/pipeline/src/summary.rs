@@ -82,6 +82,7 @@ impl<'a> Summary<'a> {
                 "nhc": {"used": st.nhc_used, "rejected_gate": st.nhc_rejected_gate},
                 "zupt": {"used": st.zupt_used, "rejected_gate": st.zupt_rejected_gate},
                 "zaru": {"used": st.zaru_used},
+                "aiding": crate::aiding_cfg::stats_json(&st.aiding),
                 "deweighted": st.deweighted,
                 "singular": st.singular,
             }),
@@ -135,5 +136,6 @@ fn filter_json(run: &EskfRun) -> serde_json::Value {
             "adapted_vel_std_m_s": a.zupt_std, "adapted_zaru_std_rad_s": a.zaru_std,
         })),
         "smoother_every": c.smoother_every,
+        "aiding": crate::aiding_cfg::config_json(&c.aiding),
     })
 }
