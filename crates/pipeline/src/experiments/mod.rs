@@ -18,6 +18,7 @@ pub mod baseline;
 #[cfg(test)]
 mod consider_tests;
 pub mod generalise;
+pub mod paired;
 mod score;
 pub mod seed002;
 pub mod seed003;
