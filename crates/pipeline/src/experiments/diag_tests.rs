@@ -116,7 +116,29 @@ fn diag_cell() {
                 }
             }
             let tau_app = r.time_offset_applied.as_ref().map_or(0.0, |a| a.0);
-            (seed, vi, s, tau_app, r.augmented_states.clone())
+            let st = &r.stats;
+            // Time of the largest error in the first 200 s after the start.
+            let (mut tmax, mut emax) = (0.0, 0.0f64);
+            for sol in r.solutions.iter().step_by(20) {
+                let (en, ee) = h_error_ne(sol.lat, sol.lon, &pr.run.traj.at(sol.t));
+                if en.hypot(ee) > emax {
+                    (tmax, emax) = (sol.t - r.solutions[0].t, en.hypot(ee));
+                }
+            }
+            let note = format!(
+                "{} | pos used {} gated {} forced {} deweighted {} | align {} wait {:.1} s yaw σ {:.2}° | max err {:.1} m at +{:.0} s",
+                r.augmented_states,
+                st.gnss_pos_used,
+                st.gnss_pos_rejected_gate,
+                st.gnss_pos_forced,
+                st.deweighted,
+                r.align_method,
+                r.align_wait_s,
+                r.align_yaw_std_deg,
+                emax,
+                tmax
+            );
+            (seed, vi, s, tau_app, note)
         })
         .collect();
     let pr = |s: &S| {
