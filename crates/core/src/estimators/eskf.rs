@@ -155,7 +155,10 @@ pub struct ZuptConfig {
     /// … and the window-mean specific force is within this of gravity at the
     /// current attitude [m/s²] (catches smooth acceleration) …
     pub max_accel_dev: f64,
-    /// … and the filter's speed is below this [m/s].
+    /// … and the filter's speed plus its 1-σ horizontal velocity uncertainty
+    /// is below this [m/s] (an estimate that cannot exclude motion above the
+    /// gate cannot confirm rest: in a GNSS outage σ_v grows and a quiet IMU on
+    /// a platform cruising smoothly is no longer taken for a standstill).
     pub max_speed: f64,
     /// 1-σ of the zero-velocity pseudo-measurement [m/s].
     pub vel_std: f64,
@@ -1518,12 +1521,17 @@ impl Eskf {
             // robot cruising slowly): a GNSS speed above `max_speed` within
             // the last 2 s (two 1 Hz fixes) vetoes the standstill.
             let gnss_moving = t - self.gnss_motion.0 <= 2.0 && self.gnss_motion.1 > z.max_speed;
+            // Without that veto (an outage) only the filter's own speed says
+            // rest, and only when its σ allows it (see `ZuptConfig::max_speed`).
+            let sigma_vh = (self.p[(I_VEL, I_VEL)] + self.p[(I_VEL + 1, I_VEL + 1)])
+                .max(0.0)
+                .sqrt();
             self.standstill = match self.detector.stats(z.window) {
                 Some((sf, sw, _, f_mean)) => {
                     sf < z.max_accel_std
                         && sw < z.max_gyro_std
                         && (f_mean - f_rest_b).norm() < z.max_accel_dev
-                        && self.nav.v_n.norm() < z.max_speed
+                        && self.nav.v_n.norm() + sigma_vh < z.max_speed
                         && !gnss_moving
                 }
                 None => false,

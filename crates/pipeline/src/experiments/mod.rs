@@ -17,8 +17,6 @@ pub mod attitude;
 pub mod baseline;
 #[cfg(test)]
 mod consider_tests;
-#[cfg(test)]
-mod diag_tests;
 pub mod generalise;
 pub mod paired;
 mod score;

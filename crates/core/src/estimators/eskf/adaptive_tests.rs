@@ -487,3 +487,71 @@ fn zupt_and_zaru_noise_learned_when_parked() {
     check_parked(0.002, 5);
     check_parked(0.02, 9);
 }
+
+/// An IMU cannot tell rest from smooth uniform motion. Without GNSS, a
+/// platform cruising at 1 m/s with a quiet IMU, whose filter starts with a
+/// speed estimate under the standstill gate but a σ that cannot exclude
+/// motion, must not be clamped to rest (its position error stays inside its
+/// σ); the same filter at true rest with a confident speed still detects the
+/// standstill. (Found on a simulated robot whose velocity decayed in a GNSS
+/// outage until the detector clamped it: 28 m off with σ 2 m.)
+#[test]
+fn uncertain_speed_does_not_confirm_a_standstill() {
+    let zupt = ZuptConfig {
+        window: 50,
+        max_accel_std: 3.0,
+        max_gyro_std: 0.01,
+        max_accel_dev: 1.0,
+        max_speed: 0.3,
+        vel_std: 0.01,
+        zaru_std: None,
+        interval: 0.1,
+    };
+    for (speed, v0, sv0, moving) in [(1.0, 0.2, 0.5, true), (0.0, 0.0, 0.05, false)] {
+        // No fix at all: the outage spans the run.
+        let d = simulate(
+            Normal::new(3),
+            &|_| Vec3::new(speed, 0.0, 0.0),
+            &|_| 0.0,
+            60.0,
+            (-1.0, 1e9),
+        );
+        assert!(d.fixes.is_empty());
+        let mut cfg = filter_config(0.5);
+        cfg.nhc = None;
+        cfg.zupt = Some(zupt);
+        let mut nav0 = d.truth[0];
+        nav0.v_n = nav0.c_bn() * Vec3::new(v0, 0.0, 0.0);
+        let std0 = InitStd {
+            vel: Vec3::repeat(sv0),
+            ..init_std()
+        };
+        let mut f = Eskf::new(cfg, nav0, ImuErrors::default(), &std0);
+        let mut last = (0.0, 0.0);
+        replay(&mut f, &d, |_, _, sol, truth| {
+            let (rm, rn) = earth::radii(truth.lat);
+            let en = (sol.lat - truth.lat) * (rm + truth.h);
+            let ee = (sol.lon - truth.lon) * (rn + truth.h) * truth.lat.cos();
+            let s2 = sol.std_pos_ned.x.powi(2) + sol.std_pos_ned.y.powi(2);
+            last = ((en * en + ee * ee).sqrt(), s2.sqrt());
+        });
+        let used = f.stats().zupt_used;
+        std::println!(
+            "speed {speed}: zupt used {used}, final error {:.2} m, σ_h {:.2} m",
+            last.0,
+            last.1
+        );
+        if moving {
+            assert_eq!(used, 0, "a speed of 0.2 ± 0.5 m/s confirmed a standstill");
+            assert!(
+                last.0 < 3.0 * last.1,
+                "error {:.1} m vs σ_h {:.1} m",
+                last.0,
+                last.1
+            );
+        } else {
+            assert!(used > 100, "true rest not detected: {used}");
+            assert!(last.0 < 0.5, "rest drifted {:.2} m", last.0);
+        }
+    }
+}
