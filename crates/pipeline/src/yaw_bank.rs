@@ -17,9 +17,15 @@
 //! log-likelihood is `−½ Σ NIS` of its GNSS updates (the `ln |S|` term is
 //! left out: the members share R, which dominates S after the first epochs).
 //!
-//! The bank starts at the first epoch the tilt is known. A member is
-//! dropped when its yaw is within the smaller of the two yaw σ of a better
-//! member (the same hypothesis twice), and — only once the yaw is
+//! The bank starts at the first epoch the tilt is known. Two members whose
+//! yaws are within the smaller of their yaw σ hold the same hypothesis
+//! twice: they merge (weights add) into the one whose own hypothesis needed
+//! the smaller yaw correction ([`Member::yaw_moved`]) — the other got there
+//! from further than its prior σ and its bias state absorbed part of the
+//! way (walker, seed 11 of the align check: a member started 27° off at σ
+//! 5° won on score, with its z-gyro bias 600°/h off, 2.5σ of the turn-on
+//! spec, and drifted 3° on the next straight). A member is also dropped —
+//! only once the yaw is
 //! observable ([`BankGate::t_observable`]: the GSF's test for a significant
 //! horizontal acceleration has passed) — when its likelihood, counted from
 //! that epoch on (times its prior), is below [`PRUNE_RATIO`]⁻¹ of the best.
@@ -83,6 +89,11 @@ pub(crate) struct Member {
     /// −ln of the prior weight (the score at the bank's start; the score is
     /// reset to it when the yaw becomes observable).
     prior: f64,
+    /// Sum of the yaw corrections the filter's updates applied since the
+    /// member's start [rad]: its yaw minus its hypothesis carried by the
+    /// gyro (Euler-rate kinematics with the member's own tilt and bias
+    /// estimate). See [`prune`] for why it matters.
+    pub yaw_moved: f64,
 }
 
 impl Member {
@@ -99,6 +110,7 @@ impl Member {
             std: Vec::new(),
             with_std: false,
             prior: 0.0,
+            yaw_moved: 0.0,
         }
     }
 
@@ -137,12 +149,22 @@ impl Member {
 
     /// Feed the fixes `fixes` (all at or before `s.t`) and then the IMU sample `s`.
     pub fn step(&mut self, fixes: &[GnssFix], s: &ImuSample) {
+        // Yaw the mechanisation alone would give at the end of `s`: ψ̇ =
+        // (sin φ ω_y + cos φ ω_z)/cos θ (Groves 2nd ed. eq. 2.58), with the
+        // bias estimate removed; earth and transport rate (≤ 15°/h) ignored.
+        let rpy0 = self.eskf.nav().rpy();
+        let w = s.dtheta_b - self.eskf.imu_errors().bg * s.dt;
+        let (sr, cr) = rpy0.x.sin_cos();
+        let predicted = rpy0.z + (sr * w.y + cr * w.z) / rpy0.y.cos().max(1e-3);
         for f in fixes {
             self.eskf.push(&Event::Gnss(*f));
             self.take_updates();
         }
         let sol = self.eskf.push(&Event::Imu(*s));
         self.take_updates();
+        if self.eskf.time() >= s.t - 1e-9 {
+            self.yaw_moved += wrap_pi(self.eskf.nav().rpy().z - predicted);
+        }
         if let Some(sol) = sol {
             if self.with_std {
                 let p = self.eskf.covariance();
@@ -288,6 +310,11 @@ fn closest(members: &[Member], yaw: f64) -> usize {
         .map_or(0, |(i, _)| i)
 }
 
+/// The smaller of two members' yaw σ [rad].
+fn std_min(a: &Member, b: &Member) -> f64 {
+    a.yaw().1.min(b.yaw().1)
+}
+
 /// Drop members whose likelihood is below 1/[`PRUNE_RATIO`] of the best,
 /// and members that repeat a better member's yaw (within the smaller σ).
 /// `ln_prune = ∞` drops repeats only (the yaw not yet observable).
@@ -301,11 +328,28 @@ fn prune(members: &mut Vec<Member>, ln_prune: f64) {
     let mut i = 1;
     while i < members.len() {
         let (yi, si) = members[i].yaw();
-        let dup = members[..i].iter().any(|b| {
+        let dup = members[..i].iter().position(|b| {
             let (yb, sb) = b.yaw();
             wrap_pi(yi - yb).abs() < si.min(sb)
         });
-        if dup {
+        if let Some(b) = dup {
+            // One posterior mode held twice: the components merge (their
+            // weights add, Groves 2nd ed. §3.4.5), and the filter kept is the
+            // one whose hypothesis needed the smaller yaw correction to get
+            // there. The other started further from this yaw than its prior
+            // σ allowed (e.g. 27° at σ 5°): on the way its linearised
+            // filter put part of the yaw error into the correlated states
+            // (the z-gyro bias) and its covariance no longer describes its
+            // error. Its likelihood since the observability reset is no
+            // guide: both explain the same data from then on.
+            let (score_b, score_i) = (members[b].score, members[i].score);
+            let merged = score_b.min(score_i) - (-(score_b - score_i).abs()).exp().ln_1p();
+            // (A difference within the yaw σ is no difference.)
+            let tol = std_min(&members[b], &members[i]);
+            if members[i].yaw_moved.abs() + tol < members[b].yaw_moved.abs() {
+                members.swap(b, i);
+            }
+            members[b].score = merged;
             members.remove(i);
         } else {
             i += 1;
@@ -382,6 +426,24 @@ mod tests {
         prune(&mut ms, f64::INFINITY);
         let yaws: Vec<f64> = ms.iter().map(|m| m.yaw().0.to_degrees().round()).collect();
         assert_eq!(yaws, vec![10.0, -80.0]);
+    }
+
+    /// Two members at the same yaw merge: the one whose hypothesis needed
+    /// the smaller yaw correction stays, even with the worse score, and
+    /// carries the summed weight (−ln(e^−a + e^−b)).
+    #[test]
+    fn repeats_keep_the_least_moved_member_with_the_summed_weight() {
+        let mut far = member(10.0, 3.0, 5.0); // best score, moved 27° to get here
+        far.yaw_moved = 27f64.to_radians();
+        let mut near = member(11.0, 2.0, 6.0); // same yaw, moved 3°
+        near.yaw_moved = (-3f64).to_radians();
+        let mut ms = vec![far, near, member(60.0, 3.0, 7.0)];
+        prune(&mut ms, PRUNE_RATIO.ln());
+        assert_eq!(ms.len(), 2);
+        assert_eq!(ms[0].yaw().0.to_degrees().round(), 11.0);
+        let merged = -((-5.0f64).exp() + (-6.0f64).exp()).ln();
+        assert!((ms[0].score - merged).abs() < 1e-12, "{}", ms[0].score);
+        assert_eq!(ms[1].yaw().0.to_degrees().round(), 60.0);
     }
 
     /// The fallback member is the one nearest the GSF's yaw across ±180°,

@@ -15,6 +15,23 @@
 //! - worse than GNSS: horizontal RMS of the solutions (vs the IMU truth)
 //!   above that of the fixes (vs the antenna truth), both over
 //!   [first solution, last solution].
+//! - the heading again for the RTS-smoothed solution of the same run
+//!   (`[filter] smooth = true`; the forward solutions are unchanged by it).
+//!
+//! Why the walker's forward heading cannot reach 95 % (measured, not a
+//! tuning): on a straight walk the GNSS sees no yaw (the step accelerations
+//! average out within a stride), so the yaw drifts at the residual z-gyro
+//! bias, and that bias (turn-on σ 240°/h for the ADIS16465 preset) is only
+//! learnt from the yaw difference between turns. A Cramér–Rao bound of a
+//! causal estimator (state: yaw at the hand-over with the bank member's 5°
+//! prior, z-gyro bias, initial velocity, horizontal accelerometer bias,
+//! tilt; 1 Hz velocity, plus positions for RTK; 150 walks drawn like the
+//! sim walker: `python3 tools/walker_heading_crb.py 11 150`) gives at the
+//! worst epoch of [30, 60] s: RTK (0.02 m/s, 2 cm) median σ 0.68°,
+//! P(|e| < 2°) ≤ 0.90; with the exact initial state 0.96 (the oracle
+//! measures 48/50); consumer (0.1 m/s white) median σ 2.7°, P ≤ 0.53, and
+//! smoothed σ 1.0°, P ≤ 0.93. The smoother uses the later
+//! turns: 100/100 RTK and 85/100 consumer seeds pass smoothed.
 
 use super::score::{h_error_ne, motion_start};
 use super::{rms, run_variant, variant_config, wrap_pi, ExperimentError, Variant};
@@ -107,6 +124,13 @@ pub struct AlignRow {
     pub yaw_std_start_deg: f64,
     pub heading_max_err_deg: f64,
     pub heading_pass: bool,
+    /// The same for the RTS-smoothed solution (`[filter] smooth = true`):
+    /// what post-processing gets with hindsight. A causal filter cannot
+    /// know the z-gyro bias on a walker's straights before turns reveal it
+    /// (module doc); the smoother carries the bias learnt from later turns
+    /// back.
+    pub heading_max_err_smoothed_deg: f64,
+    pub heading_pass_smoothed: bool,
     pub vel_err_m_s: f64,
     pub velocity_pass: bool,
     pub h_rms_solution_m: f64,
@@ -125,6 +149,8 @@ pub struct ScenarioReport {
     pub seeds: u64,
     pub failures: usize,
     pub heading_pass_share: f64,
+    /// Heading pass share of the smoothed solution.
+    pub heading_pass_smoothed_share: f64,
     pub velocity_pass_share: f64,
     pub worse_than_gnss_share: f64,
     pub worse_than_gnss_at_fixes_share: f64,
@@ -152,6 +178,8 @@ fn failed(seed: u64, msg: String) -> AlignRow {
         yaw_std_start_deg: f64::NAN,
         heading_max_err_deg: f64::NAN,
         heading_pass: false,
+        heading_max_err_smoothed_deg: f64::NAN,
+        heading_pass_smoothed: false,
         vel_err_m_s: f64::NAN,
         velocity_pass: false,
         h_rms_solution_m: f64::NAN,
@@ -180,30 +208,39 @@ pub fn check_seed(sc: &AlignScenario, seed: u64) -> AlignRow {
 fn measure(pr: &PlatformRun) -> Result<AlignRow, String> {
     let traj = &pr.run.traj;
     let t_move = motion_start(traj).ok_or("the platform never moves")?;
-    let r = run_variant(&variant_config(Variant::Default, pr), pr).map_err(|e| e.to_string())?;
+    // The default configuration plus `[filter] smooth = true`: the
+    // smoother only records along the forward pass (the forward solutions
+    // are the default run's), and its output is scored as a second column.
+    let mut cfg = variant_config(Variant::Default, pr);
+    cfg.filter.smooth = true;
+    let r = run_variant(&cfg, pr).map_err(|e| e.to_string())?;
     let sols = &r.solutions;
     let (first, last) = match (sols.first(), sols.last()) {
         (Some(a), Some(b)) => (a.t, b.t),
         _ => return Err("no solutions".into()),
     };
     let [w0, w1] = HEADING_WINDOW_S.map(|d| t_move + d);
-    let head: Vec<f64> = sols
-        .iter()
-        .filter(|s| s.t >= w0 && s.t <= w1)
-        .map(|s| wrap_pi(s.rpy.z - traj.at(s.t).rpy.z).to_degrees().abs())
-        .collect();
-    // NaN (any NaN yaw, or no solution in the window) fails.
-    let heading_max_err_deg = if head.is_empty() {
-        f64::NAN
-    } else {
-        head.iter().fold(0.0f64, |m, &x| {
-            if x.is_nan() || m.is_nan() {
-                f64::NAN
-            } else {
-                m.max(x)
-            }
-        })
+    let heading_max = |sols: &[navfuse_core::types::NavSolution]| -> f64 {
+        let head: Vec<f64> = sols
+            .iter()
+            .filter(|s| s.t >= w0 && s.t <= w1)
+            .map(|s| wrap_pi(s.rpy.z - traj.at(s.t).rpy.z).to_degrees().abs())
+            .collect();
+        // NaN (any NaN yaw, or no solution in the window) fails.
+        if head.is_empty() {
+            f64::NAN
+        } else {
+            head.iter().fold(0.0f64, |m, &x| {
+                if x.is_nan() || m.is_nan() {
+                    f64::NAN
+                } else {
+                    m.max(x)
+                }
+            })
+        }
     };
+    let heading_max_err_deg = heading_max(sols);
+    let heading_max_err_smoothed_deg = heading_max(&r.smoothed);
     let vel_err_m_s = sols
         .iter()
         .find(|s| s.t >= first + VELOCITY_AFTER_S - 1e-9)
@@ -275,6 +312,8 @@ fn measure(pr: &PlatformRun) -> Result<AlignRow, String> {
         yaw_std_start_deg: r.align_yaw_std_deg,
         heading_max_err_deg,
         heading_pass: heading_max_err_deg < HEADING_MAX_DEG,
+        heading_max_err_smoothed_deg,
+        heading_pass_smoothed: heading_max_err_smoothed_deg < HEADING_MAX_DEG,
         vel_err_m_s,
         velocity_pass: vel_err_m_s < VELOCITY_MAX_M_S,
         h_rms_solution_m: h_sol,
@@ -322,6 +361,7 @@ pub fn run_align_check(
                 seeds,
                 failures: rows.iter().filter(|r| r.failure.is_some()).count(),
                 heading_pass_share: share(&|r| r.heading_pass),
+                heading_pass_smoothed_share: share(&|r| r.heading_pass_smoothed),
                 velocity_pass_share: share(&|r| r.velocity_pass),
                 worse_than_gnss_share: share(&|r| r.worse_than_gnss),
                 worse_than_gnss_at_fixes_share: share(&|r| r.worse_than_gnss_at_fixes),
@@ -349,11 +389,12 @@ pub fn run_align_check(
 /// The summary: one line per scenario.
 pub fn format_summary(r: &AlignReport) -> String {
     let mut s = format!(
-        "{:<22} {:>6} {:>6} {:>9} {:>9} {:>10} {:>10} {:>10} {:>10}\n",
+        "{:<22} {:>6} {:>6} {:>9} {:>9} {:>9} {:>10} {:>10} {:>10} {:>10}\n",
         "scenario",
         "seeds",
         "fails",
         "head<2°",
+        "smoothed",
         "|dv|<0.2",
         "worse>GNSS",
         "@fixes",
@@ -362,11 +403,12 @@ pub fn format_summary(r: &AlignReport) -> String {
     );
     for c in &r.scenarios {
         s += &format!(
-            "{:<22} {:>6} {:>6} {:>8.0}% {:>8.0}% {:>9.0}% {:>9.0}% {:>10.2} {:>10.2}\n",
+            "{:<22} {:>6} {:>6} {:>8.0}% {:>8.0}% {:>8.0}% {:>9.0}% {:>9.0}% {:>10.2} {:>10.2}\n",
             c.name,
             c.seeds,
             c.failures,
             100.0 * c.heading_pass_share,
+            100.0 * c.heading_pass_smoothed_share,
             100.0 * c.velocity_pass_share,
             100.0 * c.worse_than_gnss_share,
             100.0 * c.worse_than_gnss_at_fixes_share,
@@ -431,9 +473,10 @@ mod tests {
     /// the bank resolves to one heading, and that heading is the right one:
     /// the max error over [30, 60] s after the motion start stays below the
     /// bank's grid spacing (10°; a wrong member or a divergence would be
-    /// ≥ 10° off). The 2° pass count is printed (measured 5/10; the oracle's
-    /// exact initial state gets 8/10 on these seeds: the rest is the gyro
-    /// bias on straight stretches, not the alignment).
+    /// ≥ 10° off). The 2° pass count is printed (measured 5/10 before the
+    /// bank's merge rule, 4/10 after; the oracle's exact initial state gets
+    /// 8/10 on these seeds: the rest is the gyro bias on straight
+    /// stretches, not the alignment; smoothed: 10/10).
     #[test]
     fn walker_rtk_bank_resolves_on_unseen_seeds() {
         let sc = AlignScenario {
@@ -458,5 +501,42 @@ mod tests {
         let errs: Vec<f64> = rows.iter().map(|r| r.heading_max_err_deg).collect();
         println!("{pass}/10 within 2°: {errs:?}");
         assert!(errs.iter().all(|e| *e < 10.0), "{errs:?}");
+    }
+
+    /// The walker with RTK on seeds never run during this work (130…149;
+    /// 0…129 were): (1) the member that goes on started within 3σ of the
+    /// member prior (3 × 5° = 15°) of the true yaw — the hypothesis
+    /// nearest the truth is at most 5° off, so a winner beyond 15° got there
+    /// by a large-angle transient (seed 11 of the 50-seed check: 27°
+    /// before the merge rule); (2) the forward heading never leaves the
+    /// bank's grid spacing (10°); (3) the smoothed heading meets the issue's
+    /// target, < 2° over [30, 60] s in ≥ 95 % of the seeds (19 of 20). The
+    /// forward 2° count is printed, not asserted: a causal filter's
+    /// ceiling there is ≈ 91 % (module doc).
+    #[test]
+    fn walker_rtk_on_unseen_seeds_winner_near_truth_and_smoothed_heading() {
+        let sc = AlignScenario {
+            platform: Platform::Pedestrian,
+            gnss: GnssGrade::Rtk,
+            gnss_lead_s: 0.0,
+        };
+        let rows: Vec<AlignRow> = (130..150)
+            .into_par_iter()
+            .map(|s| check_seed(&sc, s))
+            .collect();
+        let y0: Vec<f64> = rows.iter().map(|r| r.yaw_err_start_deg).collect();
+        let errs: Vec<f64> = rows.iter().map(|r| r.heading_max_err_deg).collect();
+        let pass = rows.iter().filter(|r| r.heading_pass).count();
+        let smoothed = rows.iter().filter(|r| r.heading_pass_smoothed).count();
+        println!(
+            "forward {pass}/20, smoothed {smoothed}/20 within 2°; start yaw errors {y0:?}; \
+             forward max errors {errs:?}"
+        );
+        for r in &rows {
+            assert!(r.failure.is_none(), "{r:?}");
+        }
+        assert!(y0.iter().all(|e| e.abs() < 15.0), "{y0:?}");
+        assert!(errs.iter().all(|e| *e < 10.0), "{errs:?}");
+        assert!(smoothed >= 19, "smoothed {smoothed}/20");
     }
 }
