@@ -161,7 +161,12 @@ fn estimator(
             if args.platform.is_none() {
                 eprintln!("live: no --platform: the car profile, as `navfuse run`");
             }
-            let e = aligning_eskf(args.platform, args.imu_preset.as_deref(), &args.lever_arm)?;
+            let e = aligning_eskf(
+                args.platform,
+                args.imu_preset.as_deref(),
+                &args.lever_arm,
+                args.ubx.is_some(),
+            )?;
             (e, None)
         }
         (None, name) => (LiveEst::Boxed(make_estimator(name)?), None),

@@ -110,6 +110,8 @@ impl RunConfig {
                 ubx_metres_per_tick: None,
                 ubx_esf_tick_s: None,
                 carrier_phase: None,
+                odometer: None,
+                odometer_csv: None,
             },
             init: InitCfg::default(),
             filter,
@@ -210,6 +212,10 @@ pub struct InputCfg {
     /// Multi-antenna carrier-phase records (CSV, `navfuse_io::carrier_phase`)
     /// for CP-ATT ([`crate::cp_att_run`]).
     pub carrier_phase: Option<String>,
+    /// Wheel speed / odometer CSV ([`crate::odo_input`]), with its column
+    /// map `[input.odometer_csv]`.
+    pub odometer: Option<String>,
+    pub odometer_csv: Option<crate::odo_input::OdoCsvCfg>,
 }
 
 fn default_rate() -> f64 {

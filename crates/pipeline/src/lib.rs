@@ -39,6 +39,7 @@ pub mod live_replay;
 pub mod live_session;
 pub mod motion_tilt;
 pub mod noise_cfg;
+pub mod odo_input;
 pub mod offset_passes;
 mod other;
 pub mod outputs;
