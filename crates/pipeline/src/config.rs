@@ -112,6 +112,8 @@ impl RunConfig {
                 carrier_phase: None,
                 odometer: None,
                 odometer_csv: None,
+                heading: None,
+                heading_sigma_deg: None,
             },
             init: InitCfg::default(),
             filter,
@@ -216,6 +218,10 @@ pub struct InputCfg {
     /// map `[input.odometer_csv]`.
     pub odometer: Option<String>,
     pub odometer_csv: Option<crate::odo_input::OdoCsvCfg>,
+    /// NMEA HDT/THS dual-antenna heading ([`crate::heading_input`]) and its
+    /// 1-σ [deg] (required with it: the sentences carry none).
+    pub heading: Option<String>,
+    pub heading_sigma_deg: Option<f64>,
 }
 
 fn default_rate() -> f64 {

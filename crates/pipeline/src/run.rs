@@ -134,10 +134,18 @@ pub fn run(cfg: &RunConfig, base_dir: &Path, opts: &RunOptions) -> Result<RunOut
         ),
         None => None,
     };
+    let heading = match &cfg.input.heading {
+        Some(p) => Some(
+            crate::heading_input::load_heading(&rel(p), cfg.input.heading_sigma_deg, &mut loaded)
+                .map_err(|m| PipelineError::Input(format!("{}: {m}", cfg.name())))?,
+        ),
+        None => None,
+    };
     let inputs = serde_json::json!({
         "imu": loaded.imu_report,
         "gnss": loaded.gnss_report,
         "odometer": odometer,
+        "heading": heading,
         "time_base": loaded.time_base,
         "ubx_aiding_events": ubx_aiding,
         "imu_time_offset_applied_s": loaded.imu_time_offset.as_ref().map(|o| o.0),
