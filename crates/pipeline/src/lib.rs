@@ -36,6 +36,7 @@ mod kf_gins_out;
 pub mod kfgins_input;
 pub mod live;
 pub mod live_align;
+pub mod live_cp_att;
 pub mod live_replay;
 pub mod live_session;
 pub mod motion_tilt;
