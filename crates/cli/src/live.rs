@@ -52,7 +52,7 @@ pub struct Args {
     pub imu: String,
     /// GPS week of the IMU time-of-week stamps (not needed with `--ubx`,
     /// whose data carry their date).
-    #[arg(long, required_unless_present = "ubx")]
+    #[arg(long, required_unless_present_any = ["ubx", "carrier_phase"])]
     pub gps_week: Option<u32>,
     /// A u-blox UBX stream carrying IMU (ESF-RAW/ESF-MEAS), GNSS (NAV-PVT),
     /// wheel ticks and dual-antenna heading (NAV-RELPOSNED) in place of
@@ -71,11 +71,21 @@ pub struct Args {
     #[arg(long, default_value_t = 100.0)]
     pub imu_rate: f64,
     /// Estimator: `eskf` (default: aligns itself from the streams with the
-    /// `--platform` profile, or starts from `--kfgins-config`) or `hold`
+    /// `--platform` profile, or starts from `--kfgins-config`), `cp-att`
+    /// (seed 003 attitude on `--carrier-phase` with `--cp-config`) or `hold`
     /// (test estimator: last GNSS position at every IMU sample; not a
     /// navigation filter).
     #[arg(long, default_value = "eskf")]
     pub estimator: String,
+    /// With `--estimator cp-att`: the carrier-phase CSV stream (`-`, a
+    /// file / FIFO / serial device, `tcp:HOST:PORT`; format of `[input]
+    /// carrier_phase`), in place of `--imu` and `--gnss`.
+    #[arg(long, requires = "cp_config")]
+    pub carrier_phase: Option<String>,
+    /// With `--estimator cp-att`: a run configuration whose `[cp_att]` gives
+    /// the antenna geometry and bounds (as `navfuse run --estimator cp-att`).
+    #[arg(long)]
+    pub cp_config: Option<PathBuf>,
     /// KF-GINS YAML configuration for `--estimator eskf`: the ESKF is built
     /// exactly as `navfuse kf-gins` builds it (model, initial state, its
     /// start/end time window; times are handed to it as time of week, and the
@@ -161,7 +171,12 @@ fn estimator(
             if args.platform.is_none() {
                 eprintln!("live: no --platform: the car profile, as `navfuse run`");
             }
-            let e = aligning_eskf(args.platform, args.imu_preset.as_deref(), &args.lever_arm)?;
+            let e = aligning_eskf(
+                args.platform,
+                args.imu_preset.as_deref(),
+                &args.lever_arm,
+                args.ubx.is_some(),
+            )?;
             (e, None)
         }
         (None, name) => (LiveEst::Boxed(make_estimator(name)?), None),
@@ -185,6 +200,9 @@ pub fn run(args: Args) -> Result<(), Fail> {
             "--reconnect-for {}: must be ≥ 0",
             args.reconnect_for
         )));
+    }
+    if args.estimator == "cp-att" {
+        return cp_att(&args);
     }
     let (est, frame) = estimator(&args)?;
     let sink: Box<dyn Write> = match &args.out {
@@ -275,6 +293,35 @@ pub fn run(args: Args) -> Result<(), Fail> {
     Ok(())
 }
 
+/// `--estimator cp-att`: CP-ATT on the `--carrier-phase` stream
+/// ([`navfuse_pipeline::live_cp_att`]).
+fn cp_att(args: &Args) -> Result<(), Fail> {
+    let (Some(spec), Some(cfg)) = (&args.carrier_phase, &args.cp_config) else {
+        return Err(Fail::usage(
+            "--estimator cp-att needs --carrier-phase SPEC and --cp-config RUN.toml",
+        ));
+    };
+    let cfg = navfuse_pipeline::config::RunConfig::from_toml_file(cfg)?;
+    let (src, name) = navfuse_pipeline::live_cp_att::open_source(spec).map_err(|e| e.0)?;
+    let sink: Box<dyn Write> = match &args.out {
+        Some(p) => Box::new(io::BufWriter::new(
+            std::fs::File::create(p).map_err(|e| format!("{}: cannot create: {e}", p.display()))?,
+        )),
+        None => Box::new(io::BufWriter::new(io::stdout())),
+    };
+    let mut out = Out::new(args.format, sink);
+    let stop = stop_on_signals()?;
+    let s = navfuse_pipeline::live_cp_att::run_live_cp_att(&cfg, src, &name, &mut out, &|| {
+        stop.load(Ordering::Relaxed) != 0
+    })
+    .map_err(|e| e.0)?;
+    eprintln!(
+        "live: estimator cp-att: {} solutions; epoch interval {} s\n  input: {}\n  estimator: {}",
+        s.solutions, s.epoch_interval_s, s.input, s.estimator
+    );
+    Ok(())
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -330,6 +377,8 @@ mod tests {
             ubx: None,
             ubx_metres_per_tick: None,
             ubx_esf_tick_s: None,
+            carrier_phase: None,
+            cp_config: None,
             imu_rate: 100.0,
             estimator: "hold".into(),
             kfgins_config: None,

@@ -10,8 +10,10 @@
 //! 1e-4 m and m/s, 1e-6° attitude). The batch run uses the white GNSS error
 //! model: the live ESKF has no record-wide GNSS error fit (the default
 //! `auto` model fits σ on the whole record, which a stream cannot), so the
-//! comparison fixes the model both can use. Likewise the odometer and
-//! heading aiding are off in the batch run: `live` does not fuse them yet.
+//! comparison fixes the model both can use. The odometer (wheel ticks) and
+//! dual-antenna heading (NAV-RELPOSNED) aiding is on in both, with the
+//! defaults (`[filter.odometer]`, `[filter.heading]`), and both count the
+//! same aiding updates.
 
 use std::io::Write;
 use std::path::Path;
@@ -114,8 +116,7 @@ fn ubx_stream_through_run_and_live_gives_the_same_solution() {
     std::fs::write(
         dir.join("run.toml"),
         "[input]\nubx = \"log.ubx\"\nubx_metres_per_tick = 0.02\n[filter]\nplatform = \"car\"\n\
-         imu_preset = \"3dm-gx3-35\"\n[filter.gnss_error]\nmodel = \"white\"\n\
-         [filter.odometer]\nenabled = false\n[filter.heading]\nenabled = false\n",
+         imu_preset = \"3dm-gx3-35\"\n[filter.gnss_error]\nmodel = \"white\"\n",
     )
     .unwrap();
     let o = navfuse()
@@ -211,5 +212,16 @@ fn ubx_stream_through_run_and_live_gives_the_same_solution() {
         run["inputs"]["ubx_aiding_events"]["odometer"]
     );
     assert_eq!(sum["imu"]["rejected"]["NAV-PVT: no valid 3-D fix"], 1);
+    // Aiding fused on both sides, the same updates.
+    assert_eq!(sum["aid_late"], 0);
+    let (la, ba) = (
+        &sum["aiding"]["used_rejected"],
+        &run["used_rejected"]["aiding"],
+    );
+    println!("aiding updates: live {la}, batch {ba}");
+    assert!(la["odometer"]["used"].as_u64().unwrap() > 500, "{la}");
+    assert!(la["heading"]["used"].as_u64().unwrap() > 50, "{la}");
+    assert_eq!(la, ba);
+    assert_eq!(sum["aiding"]["config"], run["filter"]["aiding"]);
     let _ = std::fs::remove_dir_all(&dir);
 }

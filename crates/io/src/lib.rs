@@ -39,6 +39,7 @@ pub mod live_ubx;
 pub mod navcsv;
 pub mod nmea;
 pub mod nmea_heading;
+pub mod odometer_csv;
 #[cfg(feature = "parquet")]
 pub mod parquet_out;
 pub mod pos;

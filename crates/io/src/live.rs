@@ -368,6 +368,13 @@ pub struct SequencerStats {
     /// Arrived older than an event already released: not given to the estimator.
     pub imu_late: u64,
     pub gnss_late: u64,
+    /// Aiding events (odometer, heading, …: [`Sequencer::push_aid`]) queued,
+    /// released, and not given to the estimator: older than an IMU sample
+    /// already released (`aid_late`), or dropped at the queue bound.
+    pub aid_in: u64,
+    pub aid_out: u64,
+    pub aid_late: u64,
+    pub aid_dropped_bound: u64,
 }
 
 /// The two input streams of the [`Sequencer`].
@@ -382,6 +389,9 @@ enum Stream {
 pub struct Sequencer {
     imu: VecDeque<(ImuSample, f64)>,
     gnss: VecDeque<(GnssFix, f64)>,
+    /// Aiding events in time order (released in front of the IMU sample
+    /// whose interval contains them).
+    aid: VecDeque<(Event, f64)>,
     imu_horizon: f64,
     gnss_horizon: f64,
     gnss_last: f64,
@@ -401,6 +411,7 @@ impl Sequencer {
         Sequencer {
             imu: VecDeque::new(),
             gnss: VecDeque::new(),
+            aid: VecDeque::new(),
             imu_horizon: f64::NEG_INFINITY,
             gnss_horizon: f64::NEG_INFINITY,
             gnss_last: f64::NEG_INFINITY,
@@ -440,6 +451,35 @@ impl Sequencer {
         self.gnss_horizon = self.gnss_horizon.max(f.t);
         self.gnss.push_back((f, now));
         true
+    }
+
+    /// A new aiding event (odometer, heading, magnetometer; not IMU or
+    /// GNSS). It goes to the estimator just before the first IMU sample
+    /// stamped at or after it, as `navfuse run` hands it over (the batch
+    /// order: aiding events in `(t_{k−1}, t_k]` before sample `k`); one older
+    /// than an IMU sample already released is late (counted, not queued).
+    /// Queued in time order; at `bound` queued the oldest is dropped
+    /// (counted): only a source sending aiding without IMU fills the queue.
+    pub fn push_aid(&mut self, e: Event, now: f64) -> bool {
+        self.stats.aid_in += 1;
+        let t = e.t();
+        if !t.is_finite() || t <= self.last_imu_out {
+            self.stats.aid_late += 1;
+            return false;
+        }
+        if self.aid.len() >= self.bound {
+            self.aid.pop_front();
+            self.stats.aid_dropped_bound += 1;
+        }
+        // Sources interleave (ESF wheel ticks, RELPOSNED): stable insertion.
+        let at = self.aid.partition_point(|(a, _)| a.t() <= t);
+        self.aid.insert(at, (e, now));
+        true
+    }
+
+    /// Aiding events queued.
+    pub fn queued_aid(&self) -> usize {
+        self.aid.len()
     }
 
     /// Raise the GNSS horizon without a fix: the source has shown that no
@@ -497,6 +537,13 @@ impl Sequencer {
         };
         if imu_first {
             let (s, arr) = *self.imu.front().expect("checked");
+            // Aiding events inside the interval ending at the next sample go
+            // first: no IMU sample before them can still come.
+            if self.aid.front().is_some_and(|(a, _)| a.t() <= s.t) {
+                let (a, arr) = self.aid.pop_front().expect("checked");
+                self.stats.aid_out += 1;
+                return Some((a, arr));
+            }
             // No fix with g.t ≤ s.t + lead may still come.
             let ok = self.gnss_ended
                 || !self.gnss.is_empty()

@@ -1052,6 +1052,133 @@ fn fuzz_rinex_nav() {
     fuzz("rinex_nav", run_rinex_nav, s, None);
 }
 
+/// Carrier-phase CSV (CP-ATT input, issue 17): every record finite, the
+/// accounting balanced after a complete read.
+fn run_carrier_phase(b: &[u8]) -> usize {
+    let mut r = navfuse_io::carrier_phase::CpCsvReader::new(b, "f");
+    let mut n = 0;
+    let mut ok = true;
+    for x in r.by_ref().take(b.len() + 16) {
+        n += 1;
+        match x {
+            Ok(c) => assert!(
+                c.t.is_finite() && c.sigma_m > 0.0 && (1..=4).contains(&c.n_baselines),
+                "{c:?}"
+            ),
+            Err(_) => ok = false,
+        }
+    }
+    if ok {
+        assert!(r.stats().is_balanced(), "CP CSV accounting: {}", r.stats());
+    }
+    n
+}
+
+fn carrier_phase_seed() -> Vec<Vec<u8>> {
+    let mut s = String::from("# cp\n");
+    s += &navfuse_io::carrier_phase::header(3);
+    s.push('\n');
+    for e in 0..20 {
+        for (k, prn) in [12, 5, 29, 17].iter().enumerate() {
+            s += &format!(
+                "{},{prn},{},0.6,0.0,0.8,0.002,{},{},{}\n",
+                1_235_000_000.0 + e as f64,
+                u8::from(k == 3),
+                0.713 + e as f64 * 1e-3,
+                -1834.2 + k as f64,
+                93.44
+            );
+        }
+    }
+    vec![
+        s.into_bytes(),
+        b"t_gps_s,prn,last_in_epoch,los_e,los_n,los_u,sigma_m,sd1_m\n1,1,1,1,0,0,0.01,0.5\n"
+            .to_vec(),
+    ]
+}
+
+#[test]
+fn fuzz_carrier_phase() {
+    fuzz(
+        "carrier_phase",
+        run_carrier_phase,
+        carrier_phase_seed(),
+        None,
+    );
+}
+
+/// Odometer CSV by column map (issue 17), the map chosen by the first byte
+/// (speed of two wheels with a reverse column, cumulative distance by
+/// index, increments): finite samples within the speed bound, accounting
+/// balanced after a complete read.
+fn run_odometer_csv(b: &[u8]) -> usize {
+    use navfuse_io::csv_imu::Col;
+    use navfuse_io::odometer_csv::{OdoCsvConfig, OdoCsvReader, OdoQuantity, MAX_SPEED_MPS};
+    let name = |s: &str| Col::Name(s.into());
+    let mut cfg = OdoCsvConfig::speed(name("t"), name("v"));
+    match b.first().map_or(0, |c| c % 3) {
+        0 => {
+            cfg.values = vec![name("rl"), name("rr")];
+            cfg.reverse = Some(name("gear_r"));
+            cfg.unit = 1.0 / 3.6;
+        }
+        1 => {
+            cfg = OdoCsvConfig::speed(Col::Index(0), Col::Index(2));
+            cfg.quantity = OdoQuantity::Distance;
+        }
+        _ => cfg.quantity = OdoQuantity::Increment,
+    }
+    let mut r = OdoCsvReader::new(b, "f", cfg);
+    let (mut n, mut ok) = (0, true);
+    for x in r.by_ref().take(b.len() + 16) {
+        n += 1;
+        match x {
+            Ok(o) => assert!(
+                o.t.is_finite() && o.dt >= 0.0 && o.speed_mps.abs() <= MAX_SPEED_MPS,
+                "{o:?}"
+            ),
+            Err(_) => ok = false,
+        }
+    }
+    if ok {
+        assert!(
+            r.stats().is_balanced(),
+            "odometer CSV accounting: {}",
+            r.stats()
+        );
+    }
+    n
+}
+
+fn odometer_csv_seed() -> Vec<Vec<u8>> {
+    let mut a = String::from("# wheels\nt,rl,rr,gear_r\n");
+    let mut b = String::from("t,x,odo_m\n");
+    let mut c = String::from("t,v\n");
+    for k in 0..50 {
+        let t = 1_235_000_000.0 + k as f64 * 0.1;
+        a += &format!(
+            "{t},{},{},{}\n",
+            30.0 + k as f64 * 0.1,
+            30.2,
+            u8::from(k > 40)
+        );
+        b += &format!("{t},0,{}\n", 100.0 + k as f64 * 0.83);
+        c += &format!("{t},{}\n", 0.8 - (k % 7) as f64 * 0.2);
+    }
+    // First bytes (a blank line: skipped) chosen so each map sees its own
+    // format: '\t' % 3 = 0, '\n' % 3 = 1, 't' % 3 = 2.
+    vec![
+        format!("\t\n{a}").into_bytes(),
+        format!("\n{b}").into_bytes(),
+        c.into_bytes(),
+    ]
+}
+
+#[test]
+fn fuzz_odometer_csv() {
+    fuzz("odometer_csv", run_odometer_csv, odometer_csv_seed(), None);
+}
+
 mod structured {
     //! proptest strategies that build well-formed frames/sentences around
     //! arbitrary content, so the field parsers behind the checksums are hit.

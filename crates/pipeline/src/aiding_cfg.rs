@@ -103,8 +103,25 @@ pub(crate) fn resolve(
     aids: &[Event],
     nhc: Option<NhcConfig>,
 ) -> Result<AidingConfig> {
-    let f = &cfg.filter;
     let has = |p: fn(&Event) -> bool| aids.iter().any(p);
+    resolve_for(
+        cfg,
+        has(|e| matches!(e, Event::Odometer(_))),
+        has(|e| matches!(e, Event::Heading(_))),
+        nhc,
+    )
+}
+
+/// The [`AidingConfig`] of `cfg` for inputs that carry odometer events
+/// (`has_odometer`) and heading events (`has_heading`): the defaults of
+/// [`resolve`] without the events at hand (a live source).
+pub(crate) fn resolve_for(
+    cfg: &RunConfig,
+    has_odometer: bool,
+    has_heading: bool,
+    nhc: Option<NhcConfig>,
+) -> Result<AidingConfig> {
+    let f = &cfg.filter;
     let pos = |x: f64, key: &str| -> Result<f64> {
         if x.is_finite() && x > 0.0 {
             Ok(x)
@@ -113,10 +130,7 @@ pub(crate) fn resolve(
         }
     };
     let o = f.odometer.clone().unwrap_or_default();
-    let odometer = if o
-        .enabled
-        .unwrap_or(has(|e| matches!(e, Event::Odometer(_))))
-    {
+    let odometer = if o.enabled.unwrap_or(has_odometer) {
         let l = o.lever_arm_m.unwrap_or([0.0; 3]);
         if !l.iter().all(|x| x.is_finite()) {
             return Err(cfg.err("[filter.odometer] lever_arm_m must be finite"));
@@ -137,7 +151,7 @@ pub(crate) fn resolve(
     };
     let h = f.heading.clone().unwrap_or_default();
     let cp_att = f.heading_source == Some(crate::cp_att_run::HeadingSourceCfg::CpAtt);
-    let heading = if h.enabled.unwrap_or(has(|e| matches!(e, Event::Heading(_)))) {
+    let heading = if h.enabled.unwrap_or(has_heading) {
         let (yaw, pitch) = (
             h.yaw_offset_deg.unwrap_or(0.0),
             h.pitch_offset_deg.unwrap_or(0.0),
@@ -215,4 +229,18 @@ pub(crate) fn stats_json(s: &AidingStats) -> serde_json::Value {
         "mag": {"used": s.mag_used, "rejected_gate": s.mag_rejected_gate,
             "disturbed": s.mag_disturbed, "rejected_bad": s.mag_rejected_bad},
     })
+}
+
+/// Add the counters of `b` to `a` (a live session's filters).
+pub(crate) fn add_stats(a: &mut AidingStats, b: &AidingStats) {
+    a.odometer_used += b.odometer_used;
+    a.odometer_rejected_gate += b.odometer_rejected_gate;
+    a.odometer_rejected_bad += b.odometer_rejected_bad;
+    a.heading_used += b.heading_used;
+    a.heading_rejected_gate += b.heading_rejected_gate;
+    a.heading_rejected_bad += b.heading_rejected_bad;
+    a.mag_used += b.mag_used;
+    a.mag_rejected_gate += b.mag_rejected_gate;
+    a.mag_disturbed += b.mag_disturbed;
+    a.mag_rejected_bad += b.mag_rejected_bad;
 }

@@ -110,6 +110,10 @@ impl RunConfig {
                 ubx_metres_per_tick: None,
                 ubx_esf_tick_s: None,
                 carrier_phase: None,
+                odometer: None,
+                odometer_csv: None,
+                heading: None,
+                heading_sigma_deg: None,
             },
             init: InitCfg::default(),
             filter,
@@ -210,6 +214,14 @@ pub struct InputCfg {
     /// Multi-antenna carrier-phase records (CSV, `navfuse_io::carrier_phase`)
     /// for CP-ATT ([`crate::cp_att_run`]).
     pub carrier_phase: Option<String>,
+    /// Wheel speed / odometer CSV ([`crate::odo_input`]), with its column
+    /// map `[input.odometer_csv]`.
+    pub odometer: Option<String>,
+    pub odometer_csv: Option<crate::odo_input::OdoCsvCfg>,
+    /// NMEA HDT/THS dual-antenna heading ([`crate::heading_input`]) and its
+    /// 1-σ [deg] (required with it: the sentences carry none).
+    pub heading: Option<String>,
+    pub heading_sigma_deg: Option<f64>,
 }
 
 fn default_rate() -> f64 {

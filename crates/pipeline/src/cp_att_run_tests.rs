@@ -163,3 +163,70 @@ fn eskf_run_with_cp_att_heading_source() {
     assert!(e.contains("compass") || e.contains("heading_source"), "{e}");
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// `navfuse live --estimator cp-att` ([`crate::live_cp_att`]): the same
+/// carrier-phase file streamed record by record gives the same solutions
+/// as `navfuse run --estimator cp-att`, byte for byte in the live JSON
+/// lines (regular 1-s epochs: the stream's first interval is the file's
+/// median), and an early stop ends it with the complete epochs' solutions.
+#[test]
+fn live_cp_att_equals_run() {
+    let dir = crate::test_dir("cp-att-live");
+    let paper = SceneConfig::default().motion;
+    write_scene(&dir.join("cp.csv"), 1.0e9, 60, paper);
+    std::fs::write(
+        dir.join("run.toml"),
+        format!("[input]\nimu = \"unused\"\ngnss = \"unused\"\ncarrier_phase = \"cp.csv\"\n[filter]\nestimator = \"cp-att\"\n{CP_ATT}"),
+    )
+    .unwrap();
+    let cfg = RunConfig::from_toml_file(&dir.join("run.toml")).unwrap();
+    let opts = RunOptions {
+        output: Some(dir.join("out")),
+        ..Default::default()
+    };
+    let batch = run(&cfg, &dir, &opts).unwrap();
+    let want: String = batch
+        .trajectory
+        .iter()
+        .map(crate::live::json_line)
+        .collect();
+    let live = |stop_after: Option<usize>| {
+        let buf = std::rc::Rc::new(std::cell::RefCell::new(Vec::new()));
+        struct Sink(std::rc::Rc<std::cell::RefCell<Vec<u8>>>);
+        impl std::io::Write for Sink {
+            fn write(&mut self, b: &[u8]) -> std::io::Result<usize> {
+                self.0.borrow_mut().extend_from_slice(b);
+                Ok(b.len())
+            }
+            fn flush(&mut self) -> std::io::Result<()> {
+                Ok(())
+            }
+        }
+        let mut out = crate::live::Out::new(crate::live::Format::Json, Box::new(Sink(buf.clone())));
+        let (src, name) =
+            crate::live_cp_att::open_source(dir.join("cp.csv").to_str().unwrap()).unwrap();
+        let n = std::cell::Cell::new(0usize);
+        let stop = || {
+            n.set(n.get() + 1);
+            stop_after.is_some_and(|k| n.get() >= k)
+        };
+        let s = crate::live_cp_att::run_live_cp_att(&cfg, src, &name, &mut out, &stop).unwrap();
+        let text = String::from_utf8(buf.borrow().clone()).unwrap();
+        (s, text)
+    };
+    let (s, text) = live(None);
+    eprintln!(
+        "live cp-att: {} solutions, interval {} s; {}",
+        s.solutions, s.epoch_interval_s, s.estimator
+    );
+    assert_eq!(s.solutions as usize, batch.trajectory.len());
+    assert_eq!(s.epoch_interval_s, 1.0);
+    assert!(text == want, "live and run solutions differ");
+    let (s, text) = live(Some(100));
+    assert!(s.solutions > 0 && (s.solutions as usize) < batch.trajectory.len());
+    assert!(
+        want.starts_with(&text),
+        "a stopped session writes complete epochs only"
+    );
+    let _ = std::fs::remove_dir_all(&dir);
+}

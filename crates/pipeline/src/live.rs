@@ -164,6 +164,17 @@ impl LiveEst {
             LiveEst::Aligning(e) => e.realigns,
         }
     }
+    /// Aiding models and update counters (the self-aligning ESKF only),
+    /// as summary JSON: `{"config": …, "used_rejected": …}`.
+    pub fn aiding_json(&self) -> serde_json::Value {
+        match self {
+            LiveEst::Boxed(_) => serde_json::Value::Null,
+            LiveEst::Aligning(e) => serde_json::json!({
+                "config": crate::aiding_cfg::config_json(&e.aiding_config()),
+                "used_rejected": crate::aiding_cfg::stats_json(&e.aiding_stats()),
+            }),
+        }
+    }
     /// The estimator's warnings (alignment).
     pub fn warnings(&self) -> &[String] {
         match self {
@@ -178,10 +189,14 @@ impl LiveEst {
 /// (None: no platform constraints, as `navfuse run` without a platform),
 /// IMU noise from the sensor preset `imu_preset` (default: the conservative
 /// MEMS preset) and the GNSS antenna at `lever_arm_b` (body FRD) [m].
+/// `ubx`: the source is a UBX stream, which may carry wheel ticks / speed
+/// and NAV-RELPOSNED heading: the odometer and heading models are on with
+/// the defaults `navfuse run` uses for such inputs ([`crate::aiding_cfg`]).
 pub fn aligning_eskf(
     platform: Option<crate::profile::Platform>,
     imu_preset: Option<&str>,
     lever_arm_b: &[f64],
+    ubx: bool,
 ) -> Result<LiveEst, ToolError> {
     let lever_arm: [f64; 3] = lever_arm_b
         .try_into()
@@ -194,6 +209,7 @@ pub fn aligning_eskf(
     };
     let cfg = crate::config::RunConfig::for_streams(filter, None);
     let e = crate::live_align::AligningEskf::new(cfg, std::path::Path::new("."))
+        .and_then(|e| e.with_aiding(ubx, ubx))
         .map_err(|e| ToolError(e.to_string()))?;
     Ok(LiveEst::Aligning(Box::new(e)))
 }

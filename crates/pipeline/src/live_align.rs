@@ -8,6 +8,14 @@
 //! there. Solutions start at the moment of alignment (the replayed ones are
 //! not emitted: they are in the past of a live stream).
 //!
+//! **Aiding** (issue 17): odometer and heading events ([`Event::Odometer`],
+//! [`Event::Heading`], from a UBX source) are buffered with the IMU and
+//! replayed in the batch order of `navfuse run` (an event in
+//! `(t_{k−1}, t_k]` before sample `k`; none before the alignment's first
+//! sample's interval), then handed to the filter as they come; the models
+//! are configured by [`AligningEskf::with_aiding`] with the defaults of
+//! `[filter.odometer]` / `[filter.heading]` ([`crate::aiding_cfg`]).
+//!
 //! Bounded memory: at most [`MAX_BUFFER_S`] of IMU data (and the fixes in
 //! it) are kept; when the buffer is full and no trusted heading has been
 //! found, the filter starts from the best hypothesis with its honest (large)
@@ -23,7 +31,7 @@ use crate::align::{align, AlignModel, Alignment};
 use crate::config::RunConfig;
 use crate::error::Result;
 use crate::eskf_run::{filter_setup, FilterSetup};
-use navfuse_core::estimators::eskf::Eskf;
+use navfuse_core::estimators::eskf::{AidingStats, Eskf};
 use navfuse_core::types::{Estimator, Event, GnssFix, ImuSample, NavSolution};
 use std::path::Path;
 
@@ -51,7 +59,11 @@ pub struct AligningEskf {
     setup: FilterSetup,
     imu: Vec<ImuSample>,
     gnss: Vec<GnssFix>,
+    /// Aiding events while aligning, time order.
+    aids: Vec<Event>,
     eskf: Option<Eskf>,
+    /// Aiding counters of the filters dropped by a realignment.
+    aid_stats_before: AidingStats,
     last_try_t: f64,
     /// What the alignment did, once it did (`None` before).
     pub alignment: Option<Alignment>,
@@ -73,13 +85,41 @@ impl AligningEskf {
             setup,
             imu: Vec::new(),
             gnss: Vec::new(),
+            aids: Vec::new(),
             eskf: None,
+            aid_stats_before: AidingStats::default(),
             last_try_t: f64::NEG_INFINITY,
             alignment: None,
             warnings: Vec::new(),
             realigns: 0,
             last_imu: None,
         })
+    }
+
+    /// Configure the aiding models for a source that may carry odometer
+    /// (`odometer`) and heading (`heading`) events, as `navfuse run`
+    /// resolves them for inputs that carry them: `[filter.odometer]` /
+    /// `[filter.heading]` of the configuration, defaults otherwise. A model
+    /// configured for events that never come changes no solution (its
+    /// augmented scale state is uncorrelated with the navigation states).
+    pub fn with_aiding(mut self, odometer: bool, heading: bool) -> Result<Self> {
+        self.setup.eskf.aiding =
+            crate::aiding_cfg::resolve_for(&self.cfg, odometer, heading, self.setup.eskf.nhc)?;
+        Ok(self)
+    }
+
+    /// Aiding update counters over the whole session (all filters).
+    pub fn aiding_stats(&self) -> AidingStats {
+        let mut s = self.aid_stats_before;
+        if let Some(e) = &self.eskf {
+            crate::aiding_cfg::add_stats(&mut s, &e.stats().aiding);
+        }
+        s
+    }
+
+    /// The resolved aiding models (summary).
+    pub fn aiding_config(&self) -> navfuse_core::estimators::eskf::AidingConfig {
+        self.setup.eskf.aiding
     }
 
     /// True once the filter runs.
@@ -106,29 +146,45 @@ impl AligningEskf {
         let mut eskf = Eskf::new(ecfg, a.nav, a.errors, &a.init_std)
             .with_adaptive_noise(self.setup.adaptive)
             .ok()?;
-        let mut g = self.gnss.partition_point(|x| x.t <= self.imu[a.k_start].t);
+        let s0 = &self.imu[a.k_start];
+        let mut g = self.gnss.partition_point(|x| x.t <= s0.t);
+        // Aiding from the first sample's interval on, as `navfuse run`.
+        let mut h = self.aids.partition_point(|x| x.t() <= s0.t - s0.dt);
         let mut last = None;
         for s in &self.imu[a.k_start..] {
             while g < self.gnss.len() && self.gnss[g].t <= s.t + 1e-3 {
                 eskf.push(&Event::Gnss(self.gnss[g]));
                 g += 1;
             }
+            while h < self.aids.len() && self.aids[h].t() <= s.t {
+                eskf.push(&self.aids[h]);
+                h += 1;
+            }
             last = eskf.push(&Event::Imu(*s)).or(last);
         }
-        // Fixes newer than the last IMU sample wait in the filter's queue.
+        // Fixes newer than the last IMU sample wait in the filter's queue;
+        // newer aiding events (none from the sequencer, which releases them
+        // before their IMU sample) are checked against the filter time.
         for f in &self.gnss[g..] {
             eskf.push(&Event::Gnss(*f));
+        }
+        for e in &self.aids[h..] {
+            eskf.push(e);
         }
         self.warnings.extend(a.warnings.iter().cloned());
         self.alignment = Some(a);
         self.eskf = Some(eskf);
         self.imu = Vec::new();
         self.gnss = Vec::new();
+        self.aids = Vec::new();
         last
     }
 
     /// Forget the filter and the buffer: the alignment starts again.
     fn restart(&mut self, gap_s: f64) {
+        if let Some(e) = &self.eskf {
+            crate::aiding_cfg::add_stats(&mut self.aid_stats_before, &e.stats().aiding);
+        }
         if self.eskf.take().is_some() || !self.imu.is_empty() {
             self.realigns += 1;
             if self.warnings.len() < 16 {
@@ -139,6 +195,7 @@ impl AligningEskf {
         self.alignment = None;
         self.imu.clear();
         self.gnss.clear();
+        self.aids.clear();
         self.last_try_t = f64::NEG_INFINITY;
     }
 
@@ -149,6 +206,8 @@ impl AligningEskf {
         self.imu.drain(..cut);
         let gcut = self.gnss.partition_point(|f| f.t < t_cut);
         self.gnss.drain(..gcut);
+        let acut = self.aids.partition_point(|e| e.t() < t_cut);
+        self.aids.drain(..acut);
         if self.warnings.len() < 8 {
             self.warnings.push(format!(
                 "no trusted heading in {MAX_BUFFER_S:.0} s: oldest half of the alignment buffer dropped"
@@ -210,8 +269,16 @@ impl Estimator for AligningEskf {
                 }
                 None
             }
-            // Other aiding is not used for the alignment itself.
-            _ => None,
+            // Kept for the replay after alignment (not used by the
+            // alignment itself); at most one per IMU sample buffered on
+            // average over the buffer span, bounded with it.
+            Event::Odometer(_) | Event::Heading(_) | Event::Mag(_) => {
+                if self.aids.len() < 4 * MAX_SAMPLES {
+                    self.aids.push(*ev);
+                }
+                None
+            }
+            Event::CarrierPhase(_) => None,
         }
     }
 }

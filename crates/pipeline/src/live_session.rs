@@ -36,7 +36,7 @@ pub struct Inputs {
     samples: Vec<ImuSample>,
     /// A UBX source ([`navfuse_io::live_ubx`]): frames (summed over
     /// connections), converter items, and the odometer / heading events
-    /// (counted; the live estimators do not fuse them yet).
+    /// (counted, and sequenced for the estimator: [`Sequencer::push_aid`]).
     ubx_frames: RecordStats,
     ubx_items: Option<RecordStats>,
     pub ubx_odometer: u64,
@@ -170,7 +170,8 @@ impl Inputs {
 
     /// One event of a UBX source: IMU and GNSS to the sequencer (an IMU
     /// sample also shows that no fix older than [`UBX_PVT_LATENCY_S`]
-    /// before it can still come), odometer and heading counted.
+    /// before it can still come), odometer and heading counted and queued
+    /// in front of the IMU sample whose interval contains them.
     fn ubx_event(&mut self, e: Event, seq: &mut Sequencer, at: f64) {
         match e {
             Event::Imu(s) => {
@@ -182,8 +183,14 @@ impl Inputs {
                 self.gnss_gaps.push(f.t);
                 seq.push_gnss(f, at);
             }
-            Event::Odometer(_) => self.ubx_odometer += 1,
-            Event::Heading(_) => self.ubx_heading += 1,
+            Event::Odometer(_) => {
+                self.ubx_odometer += 1;
+                seq.push_aid(e, at);
+            }
+            Event::Heading(_) => {
+                self.ubx_heading += 1;
+                seq.push_aid(e, at);
+            }
             _ => {}
         }
     }
@@ -226,6 +233,9 @@ impl Inputs {
             "latency_n": drv.lat.count(),
             "ubx_odometer_events": self.ubx_odometer,
             "ubx_heading_events": self.ubx_heading,
+            "aid_in": q.aid_in, "aid_out": q.aid_out, "aid_late": q.aid_late,
+            "aid_dropped_bound": q.aid_dropped_bound,
+            "aiding": drv.est.aiding_json(),
         })
     }
 
@@ -247,9 +257,13 @@ impl Inputs {
         if self.ubx_items.is_some() {
             let _ = writeln!(
                 e,
-                "  UBX aiding events (not fused live yet): odometer {}, heading {}",
-                self.ubx_odometer, self.ubx_heading
+                "  UBX aiding events: odometer {}, heading {}; sequenced {} in / {} out / {} late / {} dropped at the queue bound",
+                self.ubx_odometer, self.ubx_heading, q.aid_in, q.aid_out, q.aid_late, q.aid_dropped_bound
             );
+            let a = drv.est.aiding_json();
+            if !a.is_null() {
+                let _ = writeln!(e, "  aiding updates: {}", a["used_rejected"]);
+            }
         }
         let open = if self.gnss_ended {
             ""

@@ -121,11 +121,33 @@ pub fn run(cfg: &RunConfig, base_dir: &Path, opts: &RunOptions) -> Result<RunOut
     } else {
         None
     };
+    let ubx_aiding = crate::ubx_input::aiding_counts(&loaded.aiding);
+    // `[input] odometer`: after the offset is decided (its samples take it).
+    let odometer = match &cfg.input.odometer {
+        Some(p) => Some(
+            crate::odo_input::load_odometer(
+                &rel(p),
+                &cfg.input.odometer_csv.clone().unwrap_or_default(),
+                &mut loaded,
+            )
+            .map_err(|m| PipelineError::Input(format!("{}: {m}", cfg.name())))?,
+        ),
+        None => None,
+    };
+    let heading = match &cfg.input.heading {
+        Some(p) => Some(
+            crate::heading_input::load_heading(&rel(p), cfg.input.heading_sigma_deg, &mut loaded)
+                .map_err(|m| PipelineError::Input(format!("{}: {m}", cfg.name())))?,
+        ),
+        None => None,
+    };
     let inputs = serde_json::json!({
         "imu": loaded.imu_report,
         "gnss": loaded.gnss_report,
+        "odometer": odometer,
+        "heading": heading,
         "time_base": loaded.time_base,
-        "ubx_aiding_events": crate::ubx_input::aiding_counts(&loaded.aiding),
+        "ubx_aiding_events": ubx_aiding,
         "imu_time_offset_applied_s": loaded.imu_time_offset.as_ref().map(|o| o.0),
         "imu_time_offset_source": loaded.imu_time_offset.as_ref().map(|o| o.1.clone()),
     });
