@@ -106,6 +106,9 @@ impl AligningEskf {
         let mut eskf = Eskf::new(ecfg, a.nav, a.errors, &a.init_std)
             .with_adaptive_noise(self.setup.adaptive)
             .ok()?;
+        if let Some(n) = self.setup.nis_adaptation {
+            eskf = eskf.with_nis_adaptation(n)?;
+        }
         let mut g = self.gnss.partition_point(|x| x.t <= self.imu[a.k_start].t);
         let mut last = None;
         for s in &self.imu[a.k_start..] {
