@@ -281,8 +281,8 @@ pub struct FilterCfg {
     pub time_offset_state: Option<crate::gnss_error::BoolOrAuto>,
     /// Inflate the GNSS position/velocity R from the windowed NIS, bounded
     /// and never below the reported σ
-    /// ([`navfuse_core::estimators::adaptive::NisAdaptation`]); default: on
-    /// with a platform profile, off for preset `kf-gins`.
+    /// ([`navfuse_core::estimators::adaptive::NisAdaptation`]); default off
+    /// (it cost accuracy where the IMU model, not R, was too small).
     pub nis_adaptation: Option<bool>,
     /// Heading aiding of the ESKF: `"none"` (default) or `"cp-att"` (the
     /// attitude of CP-ATT on `[input] carrier_phase`, [`crate::cp_att_run`]).
