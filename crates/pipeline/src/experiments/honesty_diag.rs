@@ -10,8 +10,7 @@
 //!
 //! Findings at b37aa29 (8 seeds, 600 s, all 24 RTK cells):
 //! - The white RTK model is what is overconfident: while GNSS is present
-//!   coverage95_h is 0.77–0.90 (NEES 2.6–5.6), inside the outages mostly
-//!   0.88–1.00; the truth-started oracle (also white) is the same, so it is
+//!   coverage95_h is 0.77–0.90 (NEES 2.6–5.6), inside the outages 0.79–1.00; the truth-started oracle (also white) is the same, so it is
 //!   not the alignment or the time offset. The simulator's RTK error is half
 //!   Gauss–Markov (τ 30 s), which a white model averages away.
 //! - `model = "consider"` (the consumer prior: √0.9 σ, τ 60 s) on RTK puts
