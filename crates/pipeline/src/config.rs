@@ -291,6 +291,11 @@ pub struct FilterCfg {
     /// or `"auto"` (on for platforms whose course does not follow the
     /// heading, uav and marine); default false.
     pub time_offset_state: Option<crate::gnss_error::BoolOrAuto>,
+    /// Inflate the GNSS position/velocity R from the windowed NIS, bounded
+    /// and never below the reported σ
+    /// ([`navfuse_core::estimators::adaptive::NisAdaptation`]); default off
+    /// (it cost accuracy where the IMU model, not R, was too small).
+    pub nis_adaptation: Option<bool>,
     /// Heading aiding of the ESKF: `"none"` (default) or `"cp-att"` (the
     /// attitude of CP-ATT on `[input] carrier_phase`, [`crate::cp_att_run`]).
     pub heading_source: Option<crate::cp_att_run::HeadingSourceCfg>,
@@ -315,6 +320,7 @@ impl Default for FilterCfg {
             zupt: None,
             gnss_error: None,
             time_offset_state: None,
+            nis_adaptation: None,
             heading_source: None,
             odometer: None,
             heading: None,

@@ -146,6 +146,9 @@ impl AligningEskf {
         let mut eskf = Eskf::new(ecfg, a.nav, a.errors, &a.init_std)
             .with_adaptive_noise(self.setup.adaptive)
             .ok()?;
+        if let Some(n) = self.setup.nis_adaptation {
+            eskf = eskf.with_nis_adaptation(n)?;
+        }
         let s0 = &self.imu[a.k_start];
         let mut g = self.gnss.partition_point(|x| x.t <= s0.t);
         // Aiding from the first sample's interval on, as `navfuse run`.

@@ -53,6 +53,7 @@ impl<'a> Summary<'a> {
         let (nis_check, nis_warnings) = crate::sigma::nis_json(&run.nis);
         let mut warnings = run.warnings.clone();
         warnings.extend(nis_warnings);
+        warnings.extend(crate::sigma::nis_adaptation_warnings(run.nis_adaptation));
         Summary {
             config,
             filter: filter_json(run),
@@ -136,6 +137,7 @@ fn filter_json(run: &EskfRun) -> serde_json::Value {
             "adapted_vel_std_m_s": a.zupt_std, "adapted_zaru_std_rad_s": a.zaru_std,
         })),
         "smoother_every": c.smoother_every,
+        "nis_adaptation": crate::sigma::nis_adaptation_json(run.nis_adaptation),
         "aiding": crate::aiding_cfg::config_json(&c.aiding),
     })
 }

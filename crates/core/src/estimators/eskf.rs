@@ -38,7 +38,9 @@
 //! Gauss–Markov GNSS position error and the IMU–GNSS time offset
 //! ([`Eskf::with_augmented_states`], [`aug`]).
 
-use super::adaptive::{AdaptedNoise, AdaptiveConstraints, GnssQualityScale, NoiseEstimator};
+use super::adaptive::{
+    AdaptedNoise, AdaptiveConstraints, GnssQualityScale, NisAdaptation, NisScale, NoiseEstimator,
+};
 use crate::earth;
 use crate::ins::mech::{mechanize_with, quat_from_rotvec, EarthAt, NavState};
 use crate::kalman;
@@ -761,6 +763,9 @@ struct Adaptive {
     zupt: Option<NoiseEstimator<3>>,
     zaru: Option<NoiseEstimator<3>>,
     gnss_quality: Option<GnssQualityScale>,
+    /// R scales of GNSS position and velocity from their windowed NIS.
+    nis_pos: Option<NisScale>,
+    nis_vel: Option<NisScale>,
 }
 
 /// Why [`Eskf::with_adaptive_noise`] refused a configuration.
@@ -962,6 +967,33 @@ impl Eskf {
         self
     }
 
+    /// Inflate the R of GNSS position and velocity fixes from their windowed
+    /// NIS, bounded and never below the reported σ ([`NisAdaptation`]).
+    /// Without this call (or while the NIS agrees with the model) every
+    /// output is unchanged. `None` if `a` is invalid.
+    pub fn with_nis_adaptation(mut self, a: NisAdaptation) -> Option<Self> {
+        let cap = self
+            .cfg
+            .gate_probability
+            .map_or(f64::INFINITY, |p| kalman::chi2_quantile(3, p));
+        self.adapt.nis_pos = Some(NisScale::new(a, 3, cap)?);
+        self.adapt.nis_vel = Some(NisScale::new(a, 3, cap)?);
+        Some(self)
+    }
+
+    /// The NIS adaptation of GNSS position and velocity: (λ now, complete
+    /// windows, windows that raised λ, largest λ) each; `None` when off.
+    pub fn nis_adaptation(&self) -> Option<[(f64, u64, u64, f64); 2]> {
+        let f = |s: &NisScale| {
+            let (w, r, m) = s.summary();
+            (s.scale(), w, r, m)
+        };
+        Some([
+            f(self.adapt.nis_pos.as_ref()?),
+            f(self.adapt.nis_vel.as_ref()?),
+        ])
+    }
+
     /// The adapted constraint σ now, with the innovations used and rejected
     /// (`None` fields: that constraint is not adaptive).
     pub fn adapted_noise(&self) -> AdaptedNoise {
@@ -1006,6 +1038,19 @@ impl Eskf {
         &self.journal[..self.journal_len]
     }
     fn log_update(&mut self, kind: UpdateKind, dof: usize, nis: f64, accepted: bool) {
+        match kind {
+            UpdateKind::GnssPosition => {
+                if let Some(s) = &mut self.adapt.nis_pos {
+                    s.observe(nis);
+                }
+            }
+            UpdateKind::GnssVelocity => {
+                if let Some(s) = &mut self.adapt.nis_vel {
+                    s.observe(nis);
+                }
+            }
+            _ => {}
+        }
         if self.journal_len < JOURNAL_LEN {
             self.journal[self.journal_len] = UpdateLog {
                 t: self.t,
@@ -1444,7 +1489,8 @@ impl Eskf {
             h.fixed_view_mut::<3, 3>(0, I_POS)
                 .copy_from(&Mat3::identity());
             h.fixed_view_mut::<3, 3>(0, I_ATT).copy_from(&skew(&l_n));
-            let r = Mat3::from_diagonal(&std.component_mul(&std));
+            let lambda = self.adapt.nis_pos.map_or(1.0, |a| a.scale());
+            let r = Mat3::from_diagonal(&std.component_mul(&std)) * lambda;
             let force = self.cfg.gnss_force_after > 0
                 && self.gnss_consecutive_rejects >= self.cfg.gnss_force_after;
             match self.update_aug(&h, &h_pos_a, &r, &dz_pos, !force, UpdateKind::GnssPosition) {
@@ -1499,7 +1545,8 @@ impl Eskf {
                     .copy_from(&Mat3::identity());
                 h.fixed_view_mut::<3, 3>(0, I_ATT)
                     .copy_from(&skew(&lever_v));
-                let r = Mat3::from_diagonal(&sv.component_mul(&sv));
+                let lambda = self.adapt.nis_vel.map_or(1.0, |a| a.scale());
+                let r = Mat3::from_diagonal(&sv.component_mul(&sv)) * lambda;
                 match self.update_aug(&h, &h_a, &r, &dz, true, UpdateKind::GnssVelocity) {
                     Ok(_) => self.stats.gnss_vel_used += 1,
                     Err(UpdateReject::Gate) => self.stats.gnss_vel_rejected_gate += 1,

@@ -18,6 +18,8 @@ pub mod baseline;
 #[cfg(test)]
 mod consider_tests;
 pub mod generalise;
+#[cfg(test)]
+mod honesty_diag;
 pub mod paired;
 mod score;
 pub mod seed002;
