@@ -386,9 +386,27 @@ pub fn run_eskf(
             run_eskf_span(cfg, base_dir, &span, aux, true)
         };
         let p = crate::offset_passes::run_with_offset_passes(imu, gnss, &mut run)?;
-        let mut r = p.run;
-        r.time_offset_applied = p.applied;
-        r.time_offset_passes = Some(crate::offset_passes::latency_note(latency) + &p.note);
+        let note = crate::offset_passes::latency_note(latency) + &p.note;
+        let mut r = match (
+            &p.applied,
+            crate::offset_passes::course_fallback(cfg, imu, gnss)?,
+        ) {
+            (None, Some((tau, how))) => {
+                let shifted: Vec<ImuSample> = imu
+                    .iter()
+                    .map(|s| ImuSample { t: s.t + tau, ..*s })
+                    .collect();
+                let mut r = run(&shifted)?;
+                r.time_offset_applied = Some((tau, how));
+                r
+            }
+            _ => {
+                let mut r = p.run;
+                r.time_offset_applied = p.applied;
+                r
+            }
+        };
+        r.time_offset_passes = Some(note);
         return Ok(r);
     }
     let shifted: Vec<ImuSample>;

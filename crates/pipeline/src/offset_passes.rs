@@ -168,10 +168,11 @@ pub fn run_with_offset_passes(
     };
     let mut last = None;
     // The total estimate of every pass after the first: its shift plus its
-    // residual. Passes measure the same offset from different linearisation
-    // points; their scatter beyond σ is model error the single-pass σ does
-    // not see.
+    // remaining offset. Passes measure the same offset from different
+    // linearisation points; their scatter beyond σ is model error the
+    // single-pass σ does not see.
     let mut totals: Vec<f64> = Vec::with_capacity(MAX_PASSES);
+    let mut prev: Option<(f64, f64)> = None;
     for pass in 2..=MAX_PASSES + 1 {
         let imu_s = shifted(imu, tau);
         let r = run(&imu_s)?;
@@ -180,13 +181,15 @@ pub fn run_with_offset_passes(
         let Some(d) = e.tau_s.filter(|_| e.std_fit_s.is_finite()) else {
             break;
         };
-        totals.push(tau + d);
+        let step = d / gain(prev, (tau, d));
+        prev = Some((tau, d));
+        totals.push(tau + step);
         let converged = d.abs() <= CONVERGED_S.max(0.25 * e.std_fit_s);
-        last = Some((r, tau, honest_std(e.std_s, d, &totals)));
+        last = Some((r, tau, honest_std(e.std_s, step, &totals)));
         if converged || pass == MAX_PASSES + 1 {
             break;
         }
-        tau = (tau + d).clamp(-MAX_SHIFT_S, MAX_SHIFT_S);
+        tau = (tau + step).clamp(-MAX_SHIFT_S, MAX_SHIFT_S);
     }
     let cfg = VelOffsetConfig::default();
     match last {
@@ -213,8 +216,35 @@ pub fn run_with_offset_passes(
     }
 }
 
-/// σ of the shift a pass ran with: its own residual's σ, the residual `d`
-/// itself (the shift is off by it, by that pass's own measure) and the
+/// The share of the remaining offset a pass measures, from the last two
+/// passes (secant of the residual against the shift; both after pass 1,
+/// which is linearised far from the answer). A filter absorbs part of a
+/// timing error into its attitude and biases, so a pass's residual is
+/// `g·(τ_true − τ)` with `g` < 1 near the answer (e.g. g ≈ 0.3–0.6 on a
+/// simulated car whose plain iteration crept 0.230 → 0.221 → 0.214 →
+/// 0.210 s towards 0.2 s); stepping by `d/g` (the secant method) reaches the
+/// root in one or two passes. Used only when the secant is a plausible
+/// gain, 0.2–1.5 (noise can tilt a secant over a short step arbitrarily);
+/// otherwise 1 (the plain step).
+fn gain(prev: Option<(f64, f64)>, now: (f64, f64)) -> f64 {
+    let Some((t0, d0)) = prev else {
+        return 1.0;
+    };
+    let (t1, d1) = now;
+    if (t1 - t0).abs() < 1e-4 {
+        return 1.0;
+    }
+    let g = -(d1 - d0) / (t1 - t0);
+    if (0.2..=1.5).contains(&g) {
+        g
+    } else {
+        1.0
+    }
+}
+
+/// σ of the shift a pass ran with: its own residual's σ, the remaining
+/// offset `d` (the residual over the [`gain`]: the shift is off by it, by
+/// that pass's own measure) and the
 /// spread of the last two passes' totals (`|T₁ − T₂|/√2`, their sample
 /// σ), in quadrature. Only the last two: the early passes are linearised
 /// far from the answer (module doc) and a slowly contracting iteration is
@@ -268,7 +298,10 @@ pub fn decide_on_loaded(
         let p = run_with_offset_passes(imu0, gnss, &mut run)?;
         let mut r = p.run;
         r.time_offset_passes = Some(latency_note(latency) + &p.note);
-        (Some(r), p.applied)
+        match (p.applied, course_fallback(cfg, imu0, gnss)?) {
+            (None, Some(c)) => (None, Some(c)),
+            (applied, _) => (Some(r), applied),
+        }
     } else if cfg.input.imu_time_offset.is_some() || default_mode(cfg) == TimeOffset::Auto {
         (None, TimeOffset::Auto.resolve(&loaded.imu, &loaded.gnss)?)
     } else {
@@ -286,6 +319,30 @@ pub fn decide_on_loaded(
     }
     loaded.imu_time_offset = applied;
     Ok(kept)
+}
+
+/// Where the passes decline (their honest σ is too large, e.g. consumer
+/// GNSS whose record halves disagree) and the platform's course follows its
+/// heading, the course estimate decides by its own rule (significant and of
+/// one sign under every model variant, [`crate::time_offset::auto_estimate`]):
+/// it reads other information (course against the z gyro), so a decline
+/// by the passes is no reason to drop it — and it is what a run did before
+/// the passes served these platforms.
+pub fn course_fallback(
+    cfg: &crate::config::RunConfig,
+    imu: &[ImuSample],
+    gnss: &[GnssFix],
+) -> Result<Option<(f64, String)>> {
+    use crate::time_offset::{default_mode, TimeOffset};
+    if default_mode(cfg) != TimeOffset::Auto {
+        return Ok(None);
+    }
+    Ok(TimeOffset::Auto.resolve(imu, gnss)?.map(|(tau, how)| {
+        (
+            tau,
+            format!("{how} (course estimate; the velocity passes declined)"),
+        )
+    }))
 }
 
 /// Whether the velocity passes decide the offset: the fixes carry

@@ -126,3 +126,26 @@ fn short_in_motion_car_record_at_zero_offset_applies_nothing() {
         }
     }
 }
+
+/// Diagnosis of one car seed's passes at ±50 ms and +200 ms (prints only).
+#[test]
+#[ignore = "diagnostic print: cargo test --release -- --ignored passes_of_one_seed --nocapture"]
+fn passes_of_one_seed() {
+    let seed: u64 = std::env::var("SEED")
+        .ok()
+        .and_then(|s| s.parse().ok())
+        .unwrap_or(8);
+    for tau in [0.05, -0.05, 0.2] {
+        let opt = PlatformOptions {
+            imu: ImuGrade::Industrial,
+            gnss: GnssGrade::Rtk,
+            imu_time_offset_s: tau,
+            static_start: seed.is_multiple_of(2),
+            ..Default::default()
+        };
+        let pr = platform_run(Platform::Car, seed, &opt).expect("simulation");
+        let r = run_variant(&variant_config(Variant::Default, &pr), &pr).expect("run");
+        let note = r.time_offset_passes.clone().unwrap_or_default();
+        eprintln!("car seed {seed} τ {tau:+}: {note}");
+    }
+}
