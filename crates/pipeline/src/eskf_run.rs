@@ -383,23 +383,43 @@ pub fn run_eskf(
         Some(TimeOffsetCfg::Seconds(s)) => TimeOffset::parse(&s.to_string())?,
         Some(TimeOffsetCfg::Named(n)) => TimeOffset::parse(n)?,
     };
-    // With GNSS velocities, on platforms whose course is not their heading,
-    // the offset comes from filter passes, which assume nothing about course
-    // and heading (`crate::offset_passes`); where the course follows the
-    // heading the course estimate stays ([`crate::offset_passes::serves`]).
+    // With GNSS velocities the offset comes from filter passes, which assume
+    // nothing about course and heading (`crate::offset_passes`, every
+    // platform); without them the course estimate, where the course follows
+    // the heading ([`crate::offset_passes::serves`]).
     let passes = match (&cfg.input.imu_time_offset, mode) {
         (None, _) | (_, TimeOffset::Auto) => crate::offset_passes::serves(cfg, gnss),
         _ => false,
     };
     if passes {
+        let (retimed, latency) = crate::offset_passes::latency_corrected(gnss);
+        let gnss = retimed.as_deref().unwrap_or(gnss);
         let mut run = |imu: &[ImuSample]| {
             let span = select_span(cfg, imu, gnss)?;
             run_eskf_span(cfg, base_dir, &span, aux, true)
         };
         let p = crate::offset_passes::run_with_offset_passes(imu, gnss, &mut run)?;
-        let mut r = p.run;
-        r.time_offset_applied = p.applied;
-        r.time_offset_passes = Some(p.note);
+        let note = crate::offset_passes::latency_note(latency) + &p.note;
+        let mut r = match (
+            &p.applied,
+            crate::offset_passes::course_fallback(cfg, imu, gnss)?,
+        ) {
+            (None, Some((tau, how))) => {
+                let shifted: Vec<ImuSample> = imu
+                    .iter()
+                    .map(|s| ImuSample { t: s.t + tau, ..*s })
+                    .collect();
+                let mut r = run(&shifted)?;
+                r.time_offset_applied = Some((tau, how));
+                r
+            }
+            _ => {
+                let mut r = p.run;
+                r.time_offset_applied = p.applied;
+                r
+            }
+        };
+        r.time_offset_passes = Some(note);
         return Ok(r);
     }
     let shifted: Vec<ImuSample>;

@@ -10,11 +10,20 @@
 //! the residual of that pass is added, until it is negligible: a pass far
 //! from the truth has an attitude bent to absorb the timing error, so one
 //! linearisation is biased at large offsets; the iteration removes that.
-//! The offset is applied only when the final one is significant against the
-//! σ of the last pass (|τ| > 3.29 σ, a 0.1 % two-sided false alarm, and
-//! σ ≤ 20 ms); otherwise the first pass (no offset) is the result. No
-//! assumption about course and heading is made, so every platform is served
-//! by the same rule.
+//! The offset is applied only when the final one is significant against an
+//! honest σ (|τ| > 3.29 σ, a 0.1 % two-sided false alarm, and σ ≤ 20 ms):
+//! the last pass's σ (itself at least the split-half σ of the core fit),
+//! its residual and the spread of the last two passes ([`honest_std`]);
+//! otherwise the first pass (no offset) is the result. No assumption about
+//! course and heading is made, so every platform is served by the same
+//! rule. The receiver's velocity latency is removed first
+//! ([`latency_corrected`]).
+//!
+//! Why the σ needed more than the residuals (found on the 90 s car starts
+//! of `experiment align`, true τ = 0, before this rule): a filter still
+//! converging from an in-motion start and a free lever arm produced
+//! residual σ of 2–8 ms around estimates of 27 ms to 0.48 s, and passes that
+//! oscillated (±0.07 s alternately) or crept to the scan edge.
 
 use crate::error::Result;
 use crate::eskf_run::EskfRun;
@@ -37,6 +46,9 @@ const CONVERGED_S: f64 = 1e-3;
 /// search (a short or poorly excited record): nothing is applied then, as
 /// the single-pass estimator does at its scan edge (`AtScanEdge`).
 const MAX_SHIFT_S: f64 = 0.5;
+/// Significance factor of the receiver-velocity latency: 3.29, a 0.1 %
+/// two-sided false alarm, as for τ itself.
+const K_SIGMA: f64 = 3.29;
 
 /// Whether the fixes carry velocities (most of them): the passes need them.
 pub fn has_velocity(gnss: &[GnssFix]) -> bool {
@@ -96,6 +108,27 @@ fn residual(r: &EskfRun, imu: &[ImuSample], gnss: &[GnssFix]) -> VelOffsetEstima
     estimate_from_velocity(&track, gnss, &VelOffsetConfig::default())
 }
 
+/// The receiver velocity's latency behind its positions
+/// ([`crate::time_offset::velocity_latency`], from the GNSS alone) and, when
+/// it is significant (|L| > 3.29 σ_L, the 0.1 % false alarm used for τ),
+/// the fixes with their velocities retimed to their own epochs
+/// ([`crate::time_offset::retime_velocity`]). A filtered Doppler velocity
+/// reported at `t` describes `t − L` (drive_0708's RTKLIB `.pos`: L ≈
+/// 0.13 s, README); fused or compared as reported it is a model error of
+/// `L·a` and it adds `L` to any τ read from velocities. Both the filter and
+/// the τ fit take the retimed fixes, so the INS they compare is consistent
+/// with the positions.
+pub fn latency_corrected(gnss: &[GnssFix]) -> (Option<Vec<GnssFix>>, Option<(f64, f64)>) {
+    let latency = crate::time_offset::velocity_latency(gnss);
+    let retimed = match latency {
+        Some((l, sl)) if l.abs() > K_SIGMA * sl => {
+            Some(crate::time_offset::retime_velocity(gnss, l))
+        }
+        _ => None,
+    };
+    (retimed, latency)
+}
+
 fn shifted(imu: &[ImuSample], tau: f64) -> Vec<ImuSample> {
     imu.iter()
         .map(|s| ImuSample { t: s.t + tau, ..*s })
@@ -127,24 +160,36 @@ pub fn run_with_offset_passes(
         applied,
         note: format!("velocity passes: {why} [{}]", log.join("; ")),
     };
-    let (Some(mut tau), true) = (e0.tau_s, e0.significant()) else {
+    // Pass 1 is linearised at 0, possibly far from the truth, so its halves
+    // may disagree for that reason alone: whether to iterate is decided on
+    // the residual σ; whether to apply, on the honest σ of the last pass.
+    let (Some(mut tau), true) = (e0.tau_s, e0.significant_fit(&VelOffsetConfig::default())) else {
         return Ok(done(r0, None, log, "no significant offset; none applied"));
     };
     let mut last = None;
+    // The total estimate of every pass after the first: its shift plus its
+    // remaining offset. Passes measure the same offset from different
+    // linearisation points; their scatter beyond σ is model error the
+    // single-pass σ does not see.
+    let mut totals: Vec<f64> = Vec::with_capacity(MAX_PASSES);
+    let mut prev: Option<(f64, f64)> = None;
     for pass in 2..=MAX_PASSES + 1 {
         let imu_s = shifted(imu, tau);
         let r = run(&imu_s)?;
         let e = residual(&r, &imu_s, gnss);
         log.push(format!("pass {pass} ({tau:+.4} s): {}", fmt(&e)));
-        let Some(d) = e.tau_s.filter(|_| e.std_s.is_finite()) else {
+        let Some(d) = e.tau_s.filter(|_| e.std_fit_s.is_finite()) else {
             break;
         };
-        let converged = d.abs() <= CONVERGED_S.max(0.25 * e.std_s);
-        last = Some((r, tau, e.std_s));
+        let step = d / gain(prev, (tau, d));
+        prev = Some((tau, d));
+        totals.push(tau + step);
+        let converged = d.abs() <= CONVERGED_S.max(0.25 * e.std_fit_s);
+        last = Some((r, tau, honest_std(e.std_s, step, &totals)));
         if converged || pass == MAX_PASSES + 1 {
             break;
         }
-        tau = (tau + d).clamp(-MAX_SHIFT_S, MAX_SHIFT_S);
+        tau = (tau + step).clamp(-MAX_SHIFT_S, MAX_SHIFT_S);
     }
     let cfg = VelOffsetConfig::default();
     match last {
@@ -156,13 +201,63 @@ pub fn run_with_offset_passes(
             let how = format!("auto (velocity passes): {tau:+.4} ± {std:.4} s");
             Ok(done(r, Some((tau, how)), log, "significant; applied"))
         }
-        _ => Ok(done(
+        Some((_, tau, std)) => Ok(done(
             r0,
             None,
             log,
-            "not significant after iterating; none applied",
+            &format!("{tau:+.4} ± {std:.4} s not significant after iterating; none applied"),
+        )),
+        None => Ok(done(
+            r0,
+            None,
+            log,
+            "no estimate after iterating; none applied",
         )),
     }
+}
+
+/// The share of the remaining offset a pass measures, from the last two
+/// passes (secant of the residual against the shift; both after pass 1,
+/// which is linearised far from the answer). A filter absorbs part of a
+/// timing error into its attitude and biases, so a pass's residual is
+/// `g·(τ_true − τ)` with `g` < 1 near the answer (e.g. g ≈ 0.3–0.6 on a
+/// simulated car whose plain iteration crept 0.230 → 0.221 → 0.214 →
+/// 0.210 s towards 0.2 s); stepping by `d/g` (the secant method) reaches the
+/// root in one or two passes. Used only when the secant is a plausible
+/// gain, 0.2–1.5 (noise can tilt a secant over a short step arbitrarily);
+/// otherwise 1 (the plain step).
+fn gain(prev: Option<(f64, f64)>, now: (f64, f64)) -> f64 {
+    let Some((t0, d0)) = prev else {
+        return 1.0;
+    };
+    let (t1, d1) = now;
+    if (t1 - t0).abs() < 1e-4 {
+        return 1.0;
+    }
+    let g = -(d1 - d0) / (t1 - t0);
+    if (0.2..=1.5).contains(&g) {
+        g
+    } else {
+        1.0
+    }
+}
+
+/// σ of the shift a pass ran with: its own residual's σ, the remaining
+/// offset `d` (the residual over the [`gain`]: the shift is off by it, by
+/// that pass's own measure) and the
+/// spread of the last two passes' totals (`|T₁ − T₂|/√2`, their sample
+/// σ), in quadrature. Only the last two: the early passes are linearised
+/// far from the answer (module doc) and a slowly contracting iteration is
+/// not a scatter. On a converged record the last two terms are ≪ σ; where
+/// the passes wander or oscillate (a model misfit, e.g. a filter still
+/// converging through most of a short record) they dominate, and the
+/// offset is applied only if it is significant against them too.
+fn honest_std(std: f64, d: f64, totals: &[f64]) -> f64 {
+    let spread = match totals {
+        [.., a, b] => (a - b).abs() / core::f64::consts::SQRT_2,
+        _ => 0.0,
+    };
+    (std * std + d * d + spread * spread).sqrt()
 }
 
 /// `navfuse run`'s file path: when `[input] imu_time_offset` is unset or
@@ -181,6 +276,15 @@ pub fn decide_on_loaded(
 ) -> Result<Option<EskfRun>> {
     use crate::time_offset::{default_mode, TimeOffset};
     let (mut kept, applied) = if serves(cfg, &loaded.gnss) {
+        let (retimed, latency) = latency_corrected(&loaded.gnss);
+        if let Some(g) = retimed {
+            loaded.gnss = g;
+        }
+        if let Some((l, sl)) = latency {
+            loaded.resolved["gnss_velocity_latency_s"] = serde_json::json!({
+                "estimate": l, "std": sl, "removed": l.abs() > K_SIGMA * sl,
+            });
+        }
         let (imu0, gnss, aux0) = (&loaded.imu, &loaded.gnss, &loaded.aux);
         let mut run = |imu: &[ImuSample]| {
             let tau = imu
@@ -193,8 +297,11 @@ pub fn decide_on_loaded(
         };
         let p = run_with_offset_passes(imu0, gnss, &mut run)?;
         let mut r = p.run;
-        r.time_offset_passes = Some(p.note);
-        (Some(r), p.applied)
+        r.time_offset_passes = Some(latency_note(latency) + &p.note);
+        match (p.applied, course_fallback(cfg, imu0, gnss)?) {
+            (None, Some(c)) => (None, Some(c)),
+            (applied, _) => (Some(r), applied),
+        }
     } else if cfg.input.imu_time_offset.is_some() || default_mode(cfg) == TimeOffset::Auto {
         (None, TimeOffset::Auto.resolve(&loaded.imu, &loaded.gnss)?)
     } else {
@@ -214,19 +321,37 @@ pub fn decide_on_loaded(
     Ok(kept)
 }
 
+/// Where the passes decline (their honest σ is too large, e.g. consumer
+/// GNSS whose record halves disagree) and the platform's course follows its
+/// heading, the course estimate decides by its own rule (significant and of
+/// one sign under every model variant, [`crate::time_offset::auto_estimate`]):
+/// it reads other information (course against the z gyro), so a decline
+/// by the passes is no reason to drop it — and it is what a run did before
+/// the passes served these platforms.
+pub fn course_fallback(
+    cfg: &crate::config::RunConfig,
+    imu: &[ImuSample],
+    gnss: &[GnssFix],
+) -> Result<Option<(f64, String)>> {
+    use crate::time_offset::{default_mode, TimeOffset};
+    if default_mode(cfg) != TimeOffset::Auto {
+        return Ok(None);
+    }
+    Ok(TimeOffset::Auto.resolve(imu, gnss)?.map(|(tau, how)| {
+        (
+            tau,
+            format!("{how} (course estimate; the velocity passes declined)"),
+        )
+    }))
+}
+
 /// Whether the velocity passes decide the offset: the fixes carry
-/// velocities and the platform's course does not follow its heading (uav,
-/// marine, static: [`crate::time_offset::default_mode`] is `None` there).
-/// Where the course follows the heading (car, robot, pedestrian, no
-/// platform) the course estimate ([`crate::time_offset::auto_estimate`])
-/// stays: on drive_0708's
-/// raw log (stamps ≈ 0.2 s late) the passes found +0.03 s where the course
-/// estimate finds −0.15…−0.21 s, and on 90 s car runs starting in motion
-/// they applied offsets of up to 0.5 s where the truth is 0
-/// (`experiment align`: heading 94 %, 24 % worse than RTK at the fixes).
-pub fn serves(cfg: &crate::config::RunConfig, gnss: &[GnssFix]) -> bool {
+/// velocities (any platform: they assume nothing about course and heading).
+/// Without velocities the course estimate
+/// ([`crate::time_offset::auto_estimate`]) decides where the course follows
+/// the heading ([`crate::time_offset::default_mode`]).
+pub fn serves(_cfg: &crate::config::RunConfig, gnss: &[GnssFix]) -> bool {
     has_velocity(gnss)
-        && crate::time_offset::default_mode(cfg) == crate::time_offset::TimeOffset::None
 }
 
 /// Whether `navfuse run` loads without an offset and leaves it to
@@ -242,6 +367,19 @@ pub fn wants_passes(cfg: &crate::config::RunConfig) -> bool {
     }
 }
 
+/// The passes' note prefix on the receiver velocity's latency.
+pub fn latency_note(latency: Option<(f64, f64)>) -> String {
+    match latency {
+        Some((l, sl)) if l.abs() > K_SIGMA * sl => {
+            format!("receiver velocity latency {l:+.3} ± {sl:.3} s, removed; ")
+        }
+        Some((l, sl)) => {
+            format!("receiver velocity latency {l:+.3} ± {sl:.3} s, not significant; ")
+        }
+        None => String::new(),
+    }
+}
+
 fn shift_aux(a: &crate::input::AuxSeries, tau: f64) -> crate::input::AuxSeries {
     let mut a = a.clone();
     a.0.iter_mut().for_each(|x| x.t += tau);
@@ -251,8 +389,9 @@ fn shift_aux(a: &crate::input::AuxSeries, tau: f64) -> crate::input::AuxSeries {
 fn fmt(e: &VelOffsetEstimate) -> String {
     match e.tau_s {
         Some(t) => format!(
-            "{t:+.4} ± {:.4} s, {} epochs, lever [{:.2}, {:.2}, {:.2}] m ({})",
+            "{t:+.4} ± {:.4} s (residual σ {:.4} s), {} epochs, lever [{:.2}, {:.2}, {:.2}] m ({})",
             e.std_s,
+            e.std_fit_s,
             e.pairs_used,
             e.lever_b.x,
             e.lever_b.y,

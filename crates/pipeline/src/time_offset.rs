@@ -205,7 +205,7 @@ pub fn velocity_latency(gnss: &[GnssFix]) -> Option<(f64, f64)> {
 /// `gnss` with each fix's velocity replaced by the velocity reported `l` s
 /// later (interpolated), i.e. the velocity of the fix's own time when the
 /// receiver reports it with latency `l`. Fixes past the end keep theirs.
-fn retime_velocity(gnss: &[GnssFix], l: f64) -> Vec<GnssFix> {
+pub(crate) fn retime_velocity(gnss: &[GnssFix], l: f64) -> Vec<GnssFix> {
     let with: Vec<&GnssFix> = gnss.iter().filter(|g| g.v_n.is_some()).collect();
     gnss.iter()
         .map(|g| {

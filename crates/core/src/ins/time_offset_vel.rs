@@ -93,6 +93,17 @@ pub struct VelOffsetConfig {
     pub min_pairs: usize,
     /// Fit the lever arm `l` (see module doc).
     pub fit_lever: bool,
+    /// Prior σ of each lever component [m] (zero mean), a Gaussian
+    /// regularisation of the fit. 1 m: an antenna sits within ~2 m (2σ) of
+    /// the IMU on a car roof, a robot, a person or a multirotor. Without it
+    /// the lever is free where the motion barely excites it — on a car the
+    /// along-track component gives a lateral velocity `ω·l_x`, the same as
+    /// the time shift `τ·ω·v` at constant speed, and the vertical one is
+    /// seen only through roll/pitch rates — and on short records it fitted
+    /// levers of 3–60 m that carried τ to ±0.5 s (`experiment align`, car
+    /// starts at τ = 0). With the prior, τ and σ_τ include that
+    /// confounding as far as the physics allows, not further.
+    pub lever_prior_m: f64,
 }
 
 impl Default for VelOffsetConfig {
@@ -108,6 +119,7 @@ impl Default for VelOffsetConfig {
             outlier_k: 5.0,
             min_pairs: 30,
             fit_lever: true,
+            lever_prior_m: 1.0,
         }
     }
 }
@@ -118,8 +130,14 @@ pub struct VelOffsetEstimate {
     /// Residual τ [s] of the INS trajectory given (true time = stamp + τ);
     /// `None` without a fit.
     pub tau_s: Option<f64>,
-    /// 1-σ of τ [s]; infinite without a fit.
+    /// 1-σ of τ [s]: the larger of the residual σ (`std_fit_s`) and the
+    /// split-half σ (see `split_half_std`); infinite without a fit or when
+    /// the record is too short to be split.
     pub std_s: f64,
+    /// The residual σ alone (classical / Newey–West) [s]: the step size of
+    /// an iteration, not a test (a pass far from the truth is itself a
+    /// misfit the halves disagree on).
+    pub std_fit_s: f64,
     /// GNSS epochs in the final fit.
     pub pairs_used: usize,
     /// Epochs dropped as gross errors.
@@ -134,6 +152,21 @@ impl VelOffsetEstimate {
     /// |τ| > k·σ, σ ≤ bound, not at the scan edge.
     pub fn significant(&self) -> bool {
         self.reason == TimeOffsetReason::Significant
+    }
+
+    /// [`Self::significant`] against the residual σ alone (`std_fit_s`):
+    /// whether an iteration should move, not whether to apply.
+    pub fn significant_fit(&self, cfg: &VelOffsetConfig) -> bool {
+        self.tau_s.is_some_and(|tau| {
+            TimeOffsetReason::classify(
+                tau,
+                self.std_fit_s,
+                cfg.max_lag_s,
+                cfg.grid_step_s,
+                cfg.max_std_s,
+                cfg.k_sigma,
+            ) == TimeOffsetReason::Significant
+        })
     }
 }
 
@@ -215,7 +248,8 @@ fn project(ts: &[f64], w2: &[f64], x: &mut [f64]) {
     }
 }
 
-fn profile(obs: &[Obs], track: &Track, tau: f64, fit_lever: bool) -> Option<Profile> {
+fn profile(obs: &[Obs], track: &Track, tau: f64, cfg: &VelOffsetConfig) -> Option<Profile> {
+    let fit_lever = cfg.fit_lever;
     let n = obs.len();
     // Residual r and lever regressors G (3 columns) per epoch and axis.
     let mut r = Vec::with_capacity(n);
@@ -261,12 +295,13 @@ fn profile(obs: &[Obs], track: &Track, tau: f64, fit_lever: bool) -> Option<Prof
             nm += m.transpose() * wm * m;
             rhs += m.transpose() * wm * x;
         }
-        // A lever that the motion does not excite (no rotation) stays zero.
+        // The prior (see `lever_prior_m`); a lever the motion does not
+        // excite stays at its prior mean, zero.
         let scale = nm.trace().max(1e-300);
-        nm += Matrix3::identity() * (1e-9 * scale);
+        nm += Matrix3::identity() * (1e-9 * scale + lever_info(cfg));
         lever = nm.cholesky()?.solve(&rhs);
     }
-    let mut chi2 = 0.0;
+    let mut chi2 = lever.norm_squared() * lever_info(cfg);
     let res = obs
         .iter()
         .zip(&r)
@@ -278,6 +313,15 @@ fn profile(obs: &[Obs], track: &Track, tau: f64, fit_lever: bool) -> Option<Prof
         })
         .collect();
     Some(Profile { chi2, res, lever })
+}
+
+/// Information of the lever prior per component [1/m²] (0 without one).
+fn lever_info(cfg: &VelOffsetConfig) -> f64 {
+    if cfg.lever_prior_m.is_finite() && cfg.lever_prior_m > 0.0 {
+        1.0 / (cfg.lever_prior_m * cfg.lever_prior_m)
+    } else {
+        0.0
+    }
 }
 
 /// Assigns segments (gap / length limits) and drops segments of < 4 epochs
@@ -309,7 +353,7 @@ fn fit(obs: &[Obs], track: &Track, cfg: &VelOffsetConfig) -> Option<(f64, Profil
     let mut best: Option<(f64, f64)> = None;
     for i in -steps..=steps {
         let tau = i as f64 * cfg.grid_step_s;
-        let c = profile(obs, track, tau, cfg.fit_lever)?.chi2;
+        let c = profile(obs, track, tau, cfg)?.chi2;
         if best.is_none_or(|(_, b)| c < b) {
             best = Some((tau, c));
         }
@@ -317,9 +361,9 @@ fn fit(obs: &[Obs], track: &Track, cfg: &VelOffsetConfig) -> Option<(f64, Profil
     let (mut tau, _) = best?;
     let h = 0.2 * cfg.grid_step_s;
     for _ in 0..10 {
-        let c0 = profile(obs, track, tau, cfg.fit_lever)?.chi2;
-        let cm = profile(obs, track, tau - h, cfg.fit_lever)?.chi2;
-        let cp = profile(obs, track, tau + h, cfg.fit_lever)?.chi2;
+        let c0 = profile(obs, track, tau, cfg)?.chi2;
+        let cm = profile(obs, track, tau - h, cfg)?.chi2;
+        let cp = profile(obs, track, tau + h, cfg)?.chi2;
         let curv = cp - 2.0 * c0 + cm;
         if curv <= 0.0 {
             break;
@@ -330,7 +374,7 @@ fn fit(obs: &[Obs], track: &Track, cfg: &VelOffsetConfig) -> Option<(f64, Profil
             break;
         }
     }
-    Some((tau, profile(obs, track, tau, cfg.fit_lever)?))
+    Some((tau, profile(obs, track, tau, cfg)?))
 }
 
 /// σ_τ: max of the classical `s²/I` and a Newey–West sandwich, with the
@@ -338,8 +382,8 @@ fn fit(obs: &[Obs], track: &Track, cfg: &VelOffsetConfig) -> Option<(f64, Profil
 fn std_tau(obs: &[Obs], track: &Track, tau: f64, p: &Profile, cfg: &VelOffsetConfig) -> f64 {
     let h = 1e-3;
     let (Some(pp), Some(pm)) = (
-        profile(obs, track, tau + h, cfg.fit_lever),
-        profile(obs, track, tau - h, cfg.fit_lever),
+        profile(obs, track, tau + h, cfg),
+        profile(obs, track, tau - h, cfg),
     ) else {
         return f64::INFINITY;
     };
@@ -370,6 +414,10 @@ fn std_tau(obs: &[Obs], track: &Track, tau: f64, p: &Profile, cfg: &VelOffsetCon
         }
         u.push(uk);
     }
+    // The prior's pseudo-residuals `l/σ_l` move with τ too.
+    if cfg.fit_lever {
+        info += ((pp.lever - pm.lever) / (2.0 * h)).norm_squared() * lever_info(cfg);
+    }
     if info <= 0.0 {
         return f64::INFINITY;
     }
@@ -386,6 +434,33 @@ fn std_tau(obs: &[Obs], track: &Track, tau: f64, p: &Profile, cfg: &VelOffsetCon
     }
     let sandwich = m / (info * info) * (3.0 * obs.len() as f64) / dof;
     classical.max(sandwich).sqrt()
+}
+
+/// The model check of σ_τ: τ fitted on each half of the epochs (by time)
+/// separately; returns `|τ₁ − τ₂| / 2`, infinite when a half has fewer than
+/// `min_pairs` epochs. If the model holds, each half carries half the
+/// information, so `E[(τ₁ − τ₂)²] ≈ 4 σ²` and `|τ₁ − τ₂|/2` is a (1-dof)
+/// estimate of σ itself; a misfit that changes along the record — a filter
+/// still converging from an in-motion start, an attitude or lever error the
+/// motion excites differently — makes it larger, which the residual-based
+/// σ cannot see. The caller takes the larger of the two. A record too short
+/// to be split cannot be checked, so no offset is applied from it (at 1 Hz:
+/// under a minute of usable epochs).
+fn split_half_std(obs: &[Obs], track: &Track, cfg: &VelOffsetConfig) -> f64 {
+    let mid = obs.len() / 2;
+    let mut taus = [0.0; 2];
+    for (k, half) in [&obs[..mid], &obs[mid..]].into_iter().enumerate() {
+        let mut h = half.to_vec();
+        segment(&mut h, cfg);
+        if h.len() < cfg.min_pairs {
+            return f64::INFINITY;
+        }
+        match fit(&h, track, cfg) {
+            Some((t, _)) => taus[k] = t,
+            None => return f64::INFINITY,
+        }
+    }
+    0.5 * (taus[0] - taus[1]).abs()
 }
 
 /// Robust screen on the largest normalised residual of each epoch; returns
@@ -416,6 +491,7 @@ pub fn estimate_from_velocity(
     let none = |pairs_used, outliers| VelOffsetEstimate {
         tau_s: None,
         std_s: f64::INFINITY,
+        std_fit_s: f64::INFINITY,
         pairs_used,
         outliers,
         lever_b: Vec3::zeros(),
@@ -477,6 +553,8 @@ pub fn estimate_from_velocity(
     let Some((tau, std, lever_b)) = result else {
         return none(obs.len(), outliers);
     };
+    let std_fit_s = std;
+    let std = std.max(split_half_std(&obs, &track, cfg));
     let reason = TimeOffsetReason::classify(
         tau,
         std,
@@ -488,6 +566,7 @@ pub fn estimate_from_velocity(
     VelOffsetEstimate {
         tau_s: Some(tau),
         std_s: std,
+        std_fit_s,
         pairs_used: obs.len(),
         outliers,
         lever_b,

@@ -165,3 +165,40 @@ fn too_few_velocity_epochs_give_no_estimate() {
     assert_eq!(e.tau_s, None);
     assert_eq!(e.reason, TimeOffsetReason::TooFewPairs);
 }
+
+/// A heading error that decays through the record (a filter converging from
+/// an in-motion start: 3° falling with a 40 s time constant) at τ = 0: the
+/// INS acceleration is rotated by it, a misfit the residual σ does not see.
+/// The split-half check must keep it from being applied as an offset.
+#[test]
+fn a_decaying_heading_error_is_not_read_as_an_offset() {
+    let cfg = VelOffsetConfig::default();
+    for seed in [5u64, 6, 7] {
+        let m = Motion::new(seed, 0.0);
+        let (mut ins, gnss) = drive(&m, 0.0, Vec3::zeros(), 0.03, seed);
+        for s in ins.iter_mut() {
+            let psi = 3f64.to_radians() * (-s.t / 40.0).exp();
+            s.a_n = dcm_from_euler(&Vec3::new(0.0, 0.0, psi)) * s.a_n;
+        }
+        let e = estimate_from_velocity(&ins, &gnss, &cfg);
+        let t = e.tau_s.unwrap_or(0.0);
+        assert!(
+            !e.significant() || t.abs() < 0.005,
+            "seed {seed}: {t} ± {} applied at τ = 0",
+            e.std_s
+        );
+    }
+}
+
+/// A record too short to be split into two checkable halves (50 epochs)
+/// gives an estimate but never a significant one, even from a precise
+/// receiver (3 mm/s) whose residual σ alone would call it significant.
+#[test]
+fn a_record_too_short_to_check_is_never_significant() {
+    let m = Motion::new(8, 0.0);
+    let (ins, mut gnss) = drive(&m, 0.2, Vec3::zeros(), 0.003, 8);
+    gnss.retain(|g| g.t >= 100.0 && g.t < 150.0);
+    let e = estimate_from_velocity(&ins, &gnss, &VelOffsetConfig::default());
+    assert!(e.tau_s.is_some(), "{e:?}");
+    assert!(!e.significant(), "{e:?}");
+}

@@ -139,6 +139,10 @@ pub struct AlignRow {
     /// Horizontal RMS of the solution at the fix epochs [m].
     pub h_rms_solution_at_fixes_m: f64,
     pub worse_than_gnss_at_fixes: bool,
+    /// IMU–GNSS time offset the default applied [s] (0 when none; the
+    /// truth is 0 here) and the passes' note.
+    pub time_offset_applied_s: f64,
+    pub time_offset_note: String,
 }
 
 /// One scenario's shares over its seeds and the per-seed rows.
@@ -187,6 +191,8 @@ fn failed(seed: u64, msg: String) -> AlignRow {
         worse_than_gnss: true,
         h_rms_solution_at_fixes_m: f64::NAN,
         worse_than_gnss_at_fixes: true,
+        time_offset_applied_s: f64::NAN,
+        time_offset_note: String::new(),
     }
 }
 
@@ -322,6 +328,8 @@ fn measure(pr: &PlatformRun) -> Result<AlignRow, String> {
         worse_than_gnss: not_better(h_sol, h_gnss),
         h_rms_solution_at_fixes_m: h_sol_fix,
         worse_than_gnss_at_fixes: not_better(h_sol_fix, h_gnss),
+        time_offset_applied_s: r.time_offset_applied.as_ref().map_or(0.0, |a| a.0),
+        time_offset_note: r.time_offset_passes.clone().unwrap_or_default(),
     })
 }
 
