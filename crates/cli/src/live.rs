@@ -205,12 +205,7 @@ pub fn run(args: Args) -> Result<(), Fail> {
         return cp_att(&args);
     }
     let (est, frame) = estimator(&args)?;
-    let sink: Box<dyn Write> = match &args.out {
-        Some(p) => Box::new(io::BufWriter::new(
-            std::fs::File::create(p).map_err(|e| format!("{}: cannot create: {e}", p.display()))?,
-        )),
-        None => Box::new(io::BufWriter::new(io::stdout())),
-    };
+    let sink = open_sink(&args)?;
     let mut out = Out::new(args.format, sink);
     let stop = stop_on_signals()?;
 
@@ -303,12 +298,7 @@ fn cp_att(args: &Args) -> Result<(), Fail> {
     };
     let cfg = navfuse_pipeline::config::RunConfig::from_toml_file(cfg)?;
     let (src, name) = navfuse_pipeline::live_cp_att::open_source(spec).map_err(|e| e.0)?;
-    let sink: Box<dyn Write> = match &args.out {
-        Some(p) => Box::new(io::BufWriter::new(
-            std::fs::File::create(p).map_err(|e| format!("{}: cannot create: {e}", p.display()))?,
-        )),
-        None => Box::new(io::BufWriter::new(io::stdout())),
-    };
+    let sink = open_sink(args)?;
     let mut out = Out::new(args.format, sink);
     let stop = stop_on_signals()?;
     let s = navfuse_pipeline::live_cp_att::run_live_cp_att(&cfg, src, &name, &mut out, &|| {
@@ -320,6 +310,16 @@ fn cp_att(args: &Args) -> Result<(), Fail> {
         s.solutions, s.epoch_interval_s, s.input, s.estimator
     );
     Ok(())
+}
+
+/// The solution stream's sink: `--out FILE` (created) or standard output.
+fn open_sink(args: &Args) -> Result<Box<dyn Write>, Fail> {
+    Ok(match &args.out {
+        Some(p) => Box::new(io::BufWriter::new(
+            std::fs::File::create(p).map_err(|e| format!("{}: cannot create: {e}", p.display()))?,
+        )),
+        None => Box::new(io::BufWriter::new(io::stdout())),
+    })
 }
 
 #[cfg(test)]
