@@ -388,11 +388,11 @@ pub fn run_eskf(
     // platform); without them the course estimate, where the course follows
     // the heading ([`crate::offset_passes::serves`]).
     let passes = match (&cfg.input.imu_time_offset, mode) {
-        (None, _) | (_, TimeOffset::Auto) => crate::offset_passes::serves(cfg, gnss),
+        (None, _) | (_, TimeOffset::Auto) => crate::offset_passes::serves(gnss),
         _ => false,
     };
     if passes {
-        let (retimed, latency) = crate::offset_passes::latency_corrected(gnss);
+        let (retimed, latency) = crate::time_offset::latency_corrected(gnss);
         let gnss = retimed.as_deref().unwrap_or(gnss);
         let mut run = |imu: &[ImuSample]| {
             let span = select_span(cfg, imu, gnss)?;

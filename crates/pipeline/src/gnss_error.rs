@@ -321,11 +321,7 @@ fn mad_var_rel_se(n: usize) -> f64 {
 /// minutes of data (≈ 7 % SE of the variance from 600 fixes × 2 axes).
 /// `None` with fewer than 60 consecutive fix pairs with velocity.
 pub fn fit_fast_part(gnss: &[GnssFix], tau_s: f64) -> Option<FastPart> {
-    let dts: Vec<f64> = gnss.windows(2).map(|w| w[1].t - w[0].t).collect();
-    let dt = median(dts.iter().copied())?;
-    if dt.is_nan() || dt <= 0.0 {
-        return None;
-    }
+    let dt = median_interval(gnss.iter().map(|f| f.t))?;
     let (mut dh, mut dv, mut sf_h, mut sf_v, mut sv2) =
         (Vec::new(), Vec::new(), Vec::new(), Vec::new(), Vec::new());
     for w in gnss.windows(2) {
@@ -337,13 +333,7 @@ pub fn fit_fast_part(gnss: &[GnssFix], tau_s: f64) -> Option<FastPart> {
         if !(h > 0.0 && h < 1.5 * dt) {
             continue;
         }
-        let (rm, rn) = earth::radii(a.lat);
-        let dp = Vec3::new(
-            (b.lat - a.lat) * (rm + a.h),
-            (b.lon - a.lon) * (rn + a.h) * a.lat.cos(),
-            -(b.h - a.h),
-        );
-        let d = dp - (va + vb) * (0.5 * h);
+        let d = ned_from(a, b) - (va + vb) * (0.5 * h);
         if !d.iter().all(|x| x.is_finite()) {
             continue;
         }
@@ -435,25 +425,29 @@ pub fn fit_gauss_markov(gnss: &[GnssFix]) -> Option<GmFit> {
     })
 }
 
+/// Position of fix `f` relative to `o` [m], NED, small-angle (radii at `o`;
+/// exact to ~1e-6 over the kilometres between two fixes' positions).
+fn ned_from(o: &GnssFix, f: &GnssFix) -> Vec3 {
+    let (rm, rn) = earth::radii(o.lat);
+    Vec3::new(
+        (f.lat - o.lat) * (rm + o.h),
+        (f.lon - o.lon) * (rn + o.h) * o.lat.cos(),
+        -(f.h - o.h),
+    )
+}
+
+/// Median interval of the stamps `t` [s]; `None` when it is not positive.
+fn median_interval(t: impl Iterator<Item = f64>) -> Option<f64> {
+    let t: Vec<f64> = t.collect();
+    let dt = median(t.windows(2).map(|w| w[1] - w[0]))?;
+    (dt.is_finite() && dt > 0.0).then_some(dt)
+}
+
 fn fit_span(fixes: &[&GnssFix]) -> Option<GmFit> {
     let n = fixes.len();
-    let dts: Vec<f64> = fixes.windows(2).map(|w| w[1].t - w[0].t).collect();
-    let dt = median(dts.iter().copied())?;
-    if dt.is_nan() || dt <= 0.0 {
-        return None;
-    }
+    let dt = median_interval(fixes.iter().map(|f| f.t))?;
     let f0 = fixes[0];
-    let (rm, rn) = earth::radii(f0.lat);
-    let pos: Vec<Vec3> = fixes
-        .iter()
-        .map(|f| {
-            Vec3::new(
-                (f.lat - f0.lat) * (rm + f0.h),
-                (f.lon - f0.lon) * (rn + f0.h) * f0.lat.cos(),
-                -(f.h - f0.h),
-            )
-        })
-        .collect();
+    let pos: Vec<Vec3> = fixes.iter().map(|f| ned_from(f0, f)).collect();
     let v: Vec<Vec3> = fixes.iter().map(|f| f.v_n.unwrap_or_default()).collect();
     let sv = median(
         fixes

@@ -17,7 +17,7 @@
 //! otherwise the first pass (no offset) is the result. No assumption about
 //! course and heading is made, so every platform is served by the same
 //! rule. The receiver's velocity latency is removed first
-//! ([`latency_corrected`]).
+//! ([`crate::time_offset::latency_corrected`]).
 //!
 //! Why the σ needed more than the residuals (found on the 90 s car starts
 //! of `experiment align`, true τ = 0, before this rule): a filter still
@@ -27,6 +27,7 @@
 
 use crate::error::Result;
 use crate::eskf_run::EskfRun;
+use crate::time_offset::latency_significant;
 use navfuse_core::attitude::{dcm_from_euler, skew};
 use navfuse_core::ins::time_offset::TimeOffsetReason;
 use navfuse_core::ins::time_offset_vel::{
@@ -46,9 +47,6 @@ const CONVERGED_S: f64 = 1e-3;
 /// search (a short or poorly excited record): nothing is applied then, as
 /// the single-pass estimator does at its scan edge (`AtScanEdge`).
 const MAX_SHIFT_S: f64 = 0.5;
-/// Significance factor of the receiver-velocity latency: 3.29, a 0.1 %
-/// two-sided false alarm, as for τ itself.
-const K_SIGMA: f64 = 3.29;
 
 /// Whether the fixes carry velocities (most of them): the passes need them.
 pub fn has_velocity(gnss: &[GnssFix]) -> bool {
@@ -106,27 +104,6 @@ pub fn ins_track(sols: &[NavSolution], imu: &[ImuSample], gnss: &[GnssFix]) -> V
 fn residual(r: &EskfRun, imu: &[ImuSample], gnss: &[GnssFix]) -> VelOffsetEstimate {
     let track = ins_track(&r.solutions, imu, gnss);
     estimate_from_velocity(&track, gnss, &VelOffsetConfig::default())
-}
-
-/// The receiver velocity's latency behind its positions
-/// ([`crate::time_offset::velocity_latency`], from the GNSS alone) and, when
-/// it is significant (|L| > 3.29 σ_L, the 0.1 % false alarm used for τ),
-/// the fixes with their velocities retimed to their own epochs
-/// ([`crate::time_offset::retime_velocity`]). A filtered Doppler velocity
-/// reported at `t` describes `t − L` (drive_0708's RTKLIB `.pos`: L ≈
-/// 0.13 s, README); fused or compared as reported it is a model error of
-/// `L·a` and it adds `L` to any τ read from velocities. Both the filter and
-/// the τ fit take the retimed fixes, so the INS they compare is consistent
-/// with the positions.
-pub fn latency_corrected(gnss: &[GnssFix]) -> (Option<Vec<GnssFix>>, Option<(f64, f64)>) {
-    let latency = crate::time_offset::velocity_latency(gnss);
-    let retimed = match latency {
-        Some((l, sl)) if l.abs() > K_SIGMA * sl => {
-            Some(crate::time_offset::retime_velocity(gnss, l))
-        }
-        _ => None,
-    };
-    (retimed, latency)
 }
 
 fn shifted(imu: &[ImuSample], tau: f64) -> Vec<ImuSample> {
@@ -275,14 +252,14 @@ pub fn decide_on_loaded(
     with_std: bool,
 ) -> Result<Option<EskfRun>> {
     use crate::time_offset::{default_mode, TimeOffset};
-    let (mut kept, applied) = if serves(cfg, &loaded.gnss) {
-        let (retimed, latency) = latency_corrected(&loaded.gnss);
+    let (mut kept, applied) = if serves(&loaded.gnss) {
+        let (retimed, latency) = crate::time_offset::latency_corrected(&loaded.gnss);
         if let Some(g) = retimed {
             loaded.gnss = g;
         }
         if let Some((l, sl)) = latency {
             loaded.resolved["gnss_velocity_latency_s"] = serde_json::json!({
-                "estimate": l, "std": sl, "removed": l.abs() > K_SIGMA * sl,
+                "estimate": l, "std": sl, "removed": latency_significant(l, sl),
             });
         }
         let (imu0, gnss, aux0) = (&loaded.imu, &loaded.gnss, &loaded.aux);
@@ -350,7 +327,7 @@ pub fn course_fallback(
 /// Without velocities the course estimate
 /// ([`crate::time_offset::auto_estimate`]) decides where the course follows
 /// the heading ([`crate::time_offset::default_mode`]).
-pub fn serves(_cfg: &crate::config::RunConfig, gnss: &[GnssFix]) -> bool {
+pub fn serves(gnss: &[GnssFix]) -> bool {
     has_velocity(gnss)
 }
 
@@ -370,7 +347,7 @@ pub fn wants_passes(cfg: &crate::config::RunConfig) -> bool {
 /// The passes' note prefix on the receiver velocity's latency.
 pub fn latency_note(latency: Option<(f64, f64)>) -> String {
     match latency {
-        Some((l, sl)) if l.abs() > K_SIGMA * sl => {
+        Some((l, sl)) if latency_significant(l, sl) => {
             format!("receiver velocity latency {l:+.3} ± {sl:.3} s, removed; ")
         }
         Some((l, sl)) => {

@@ -89,17 +89,14 @@ impl TimeOffset {
 pub fn auto_estimate(imu: &[ImuSample], gnss: &[GnssFix]) -> AutoOffset {
     let has_vel = gnss.iter().filter(|g| g.v_n.is_some()).count() * 2 >= gnss.len().max(1);
     let positions: Vec<GnssFix>;
-    let retimed: Vec<GnssFix>;
+    let retimed: Option<Vec<GnssFix>>;
     let mut sources: Vec<(&'static str, &[GnssFix])> = Vec::with_capacity(2);
     let mut latency = None;
     if has_vel {
-        latency = velocity_latency(gnss);
-        match latency {
-            Some((l, sl)) if l.abs() > 3.29 * sl => {
-                retimed = retime_velocity(gnss, l);
-                sources.push(("velocity (latency-corrected)", &retimed));
-            }
-            _ => sources.push(("velocity", gnss)),
+        (retimed, latency) = latency_corrected(gnss);
+        match &retimed {
+            Some(r) => sources.push(("velocity (latency-corrected)", r)),
+            None => sources.push(("velocity", gnss)),
         }
         positions = gnss
             .iter()
@@ -128,6 +125,30 @@ pub fn auto_estimate(imu: &[ImuSample], gnss: &[GnssFix]) -> AutoOffset {
     let mut d = decide(variants);
     d.velocity_latency = latency;
     d
+}
+
+/// Whether a receiver velocity latency `l` ± `sl` [s] is significant:
+/// |L| > 3.29 σ_L, the 0.1 % two-sided false alarm used for τ itself.
+pub fn latency_significant(l: f64, sl: f64) -> bool {
+    l.abs() > 3.29 * sl
+}
+
+/// The receiver velocity's latency behind its positions
+/// ([`velocity_latency`], from the GNSS alone) and, when it is significant
+/// ([`latency_significant`]), the fixes with their velocities retimed to
+/// their own epochs ([`retime_velocity`]). A filtered Doppler velocity
+/// reported at `t` describes `t − L` (drive_0708's RTKLIB `.pos`: L ≈
+/// 0.13 s, README); fused or compared as reported it is a model error of
+/// `L·a` and it adds `L` to any τ read from velocities, so the filter
+/// passes ([`crate::offset_passes`]) and the course estimate
+/// ([`auto_estimate`]) both take the retimed fixes.
+pub fn latency_corrected(gnss: &[GnssFix]) -> (Option<Vec<GnssFix>>, Option<(f64, f64)>) {
+    let latency = velocity_latency(gnss);
+    let retimed = match latency {
+        Some((l, sl)) if latency_significant(l, sl) => Some(retime_velocity(gnss, l)),
+        _ => None,
+    };
+    (retimed, latency)
 }
 
 /// The latency `L` [s] of a receiver's velocity behind its positions (a
