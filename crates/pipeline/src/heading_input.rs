@@ -60,15 +60,12 @@ pub fn load_heading(
             h.t = navfuse_io::time::week_tow(h.t).1;
         }
     }
-    let (t0, t1) = (v[0].t, v[v.len() - 1].t);
-    let (a, b) = (i0.t, loaded.imu[loaded.imu.len() - 1].t);
-    if t1 < a || t0 > b {
-        return Err(format!(
-            "{}: headings span [{t0:.3}, {t1:.3}] s, the IMU [{a:.3}, {b:.3}] s: no overlap",
-            path.display()
-        ));
-    }
-    loaded.aiding.extend(v.into_iter().map(Event::Heading));
-    loaded.aiding.sort_by(|a, b| a.t().total_cmp(&b.t()));
+    crate::odo_input::merge_aiding(
+        loaded,
+        path,
+        "headings",
+        "",
+        v.into_iter().map(Event::Heading).collect(),
+    )?;
     Ok(report)
 }

@@ -119,16 +119,44 @@ pub fn load_odometer(
             None => navfuse_io::time::week_tow(o.t).1,
         } + tau;
     }
-    let (t0, t1) = (v[0].t, v[v.len() - 1].t);
-    let (a, b) = (loaded.imu[0].t, loaded.imu[loaded.imu.len() - 1].t);
+    merge_aiding(
+        loaded,
+        path,
+        "odometer samples",
+        " (the time column must be on the IMU file's clock)",
+        v.into_iter().map(Event::Odometer).collect(),
+    )?;
+    Ok(report)
+}
+
+/// Merge aiding `events` (time order, on the IMU time base, at least one)
+/// into `loaded.aiding`, keeping it in time order; an error naming `path`
+/// when they do not overlap the IMU span (`what` names them, `hint` ends
+/// the message).
+pub(crate) fn merge_aiding(
+    loaded: &mut Loaded,
+    path: &Path,
+    what: &str,
+    hint: &str,
+    events: Vec<Event>,
+) -> Result<(), String> {
+    let (Some(e0), Some(e1), Some(i0), Some(i1)) = (
+        events.first(),
+        events.last(),
+        loaded.imu.first(),
+        loaded.imu.last(),
+    ) else {
+        return Ok(());
+    };
+    let (t0, t1, a, b) = (e0.t(), e1.t(), i0.t, i1.t);
     if t1 < a || t0 > b {
         return Err(format!(
-            "{}: odometer samples span [{t0:.3}, {t1:.3}] s, the IMU [{a:.3}, {b:.3}] s: no \
-             overlap (the time column must be on the IMU file's clock)",
+            "{}: {what} span [{t0:.3}, {t1:.3}] s, the IMU [{a:.3}, {b:.3}] s: no \
+             overlap{hint}",
             path.display()
         ));
     }
-    loaded.aiding.extend(v.into_iter().map(Event::Odometer));
+    loaded.aiding.extend(events);
     loaded.aiding.sort_by(|a, b| a.t().total_cmp(&b.t()));
-    Ok(report)
+    Ok(())
 }
