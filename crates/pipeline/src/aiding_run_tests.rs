@@ -329,3 +329,27 @@ fn nmea_heading_reaches_the_eskf_and_holds_yaw_in_an_outage() {
     );
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// An odometer CSV without a usable row (here: only its header) is an error
+/// naming the file and the rejections, not a run without odometer.
+#[test]
+fn odometer_csv_without_usable_rows_is_an_error() {
+    let dir = crate::test_dir("odo-csv-empty");
+    let sc = Scenario::from_toml(SCENARIO, "ubx_aiding").unwrap();
+    let sim = simulate(&sc, 7, None, None).unwrap();
+    navfuse_sim::ubx_out::write_ubx(&sim, &dir.join("log.ubx"), 0.02).unwrap();
+    std::fs::write(dir.join("wheels.csv"), "t,speed\n").unwrap();
+    let text = "[input]\nubx = \"log.ubx\"\nodometer = \"wheels.csv\"\n\
+                [filter]\nplatform = \"car\"\nimu_preset = \"3dm-gx3-35\"\n\
+                [input.odometer_csv]\ntime = \"t\"\ncolumns = [\"speed\"]\n";
+    let cfg: RunConfig = toml::from_str(text).unwrap();
+    let err = run(&cfg, &dir, &RunOptions::default())
+        .err()
+        .expect("an odometer file without rows must not run")
+        .to_string();
+    assert!(
+        err.contains("wheels.csv") && err.contains("no usable odometer rows"),
+        "{err}"
+    );
+    let _ = std::fs::remove_dir_all(&dir);
+}

@@ -102,6 +102,21 @@ pub fn load_odometer(
         .collect::<Result<Vec<_>, _>>()
         .map_err(|e| e.to_string())?;
     let report = InputReport::new(path, "odometer-csv", r.stats(), v.len());
+    if v.is_empty() {
+        let st = r.stats();
+        let why: Vec<String> = st
+            .rejected
+            .iter()
+            .map(|(k, n)| format!("{n} {k}"))
+            .collect();
+        return Err(format!(
+            "{}: no usable odometer rows ({} lines read{}{})",
+            path.display(),
+            st.lines,
+            if why.is_empty() { "" } else { "; rejected: " },
+            why.join(", ")
+        ));
+    }
     let (Some(i0), Some(o0)) = (loaded.imu.first(), v.first()) else {
         return Ok(report);
     };
