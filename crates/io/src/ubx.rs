@@ -120,6 +120,28 @@ pub struct RxmRawx {
     pub meas: Vec<RawxMeas>,
 }
 
+/// UBX-RXM-SFRBX (0x02 0x13): one broadcast navigation data subframe of one
+/// signal (GPS L1 C/A: 10 words of 30 bits, decoded by
+/// [`crate::gps_lnav`]). Fixed size: the signals the message serves carry at
+/// most 10 words.
+#[derive(Clone, Copy, Debug, PartialEq, Default)]
+pub struct RxmSfrbx {
+    /// 0 GPS, 1 SBAS, 2 Galileo, 3 BeiDou, 5 QZSS, 6 GLONASS.
+    pub gnss_id: u8,
+    pub sv_id: u8,
+    /// GLONASS frequency slot + 7.
+    pub freq_id: u8,
+    pub num_words: u8,
+    pub chn: u8,
+    pub version: u8,
+    /// The first `num_words` are valid.
+    pub words: [u32; SFRBX_MAX_WORDS],
+}
+
+/// Most words an RXM-SFRBX message carries (u-blox: "up to 10, for
+/// currently supported signals").
+pub const SFRBX_MAX_WORDS: usize = 10;
+
 /// One ESF data word: 24-bit value and 6-bit type.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
 pub struct EsfData {
@@ -223,6 +245,7 @@ impl NavRelPosNed {
 pub enum UbxMessage {
     NavPvt(NavPvt),
     RxmRawx(RxmRawx),
+    RxmSfrbx(RxmSfrbx),
     EsfRaw(EsfRaw),
     EsfMeas(EsfMeas),
     NavRelPosNed(NavRelPosNed),
@@ -367,6 +390,32 @@ pub fn decode(class: u8, id: u8, p: &[u8]) -> Result<Option<UbxMessage>, String>
                 meas,
             })
         }
+        (0x02, 0x13) => {
+            if p.len() < 8 {
+                return Err(bad("8 + 4·numWords"));
+            }
+            let mut m = RxmSfrbx {
+                gnss_id: r.u8(),
+                sv_id: r.u8(),
+                ..Default::default()
+            };
+            r.skip(1);
+            m.freq_id = r.u8();
+            m.num_words = r.u8();
+            m.chn = r.u8();
+            m.version = r.u8();
+            r.skip(1);
+            let n = usize::from(m.num_words);
+            if n > SFRBX_MAX_WORDS || p.len() != 8 + 4 * n {
+                return Err(bad(&format!(
+                    "8 + 4·numWords with numWords {n} ≤ {SFRBX_MAX_WORDS}"
+                )));
+            }
+            for w in m.words.iter_mut().take(n) {
+                *w = r.u32();
+            }
+            UbxMessage::RxmSfrbx(m)
+        }
         (0x10, 0x03) => {
             if p.len() < 4 || (p.len() - 4) & 7 != 0 {
                 return Err(bad("4 + 8·N"));
@@ -505,6 +554,14 @@ pub fn encode(m: &UbxMessage) -> Vec<u8> {
                 );
             }
             (0x02, 0x15)
+        }
+        UbxMessage::RxmSfrbx(m) => {
+            let n = usize::from(m.num_words).min(SFRBX_MAX_WORDS);
+            put!(m.gnss_id, m.sv_id, 0u8, m.freq_id, n as u8, m.chn, m.version, 0u8);
+            for w in &m.words[..n] {
+                put!(*w);
+            }
+            (0x02, 0x13)
         }
         UbxMessage::EsfRaw(m) => {
             put!(0u32);
@@ -854,6 +911,14 @@ mod tests {
                                st in any::<[u8; 2]>(), meas in proptest::collection::vec(rawx_meas(), 0..40)) {
             round_trip(UbxMessage::RxmRawx(RxmRawx { rcv_tow: tow, week, leap_s: leap,
                 rec_stat: st[0], version: st[1], meas }));
+        }
+
+        #[test]
+        fn rxm_sfrbx_round_trip(h in any::<[u8; 5]>(), n in 0usize..=10, w in any::<[u32; 10]>()) {
+            let mut words = [0u32; SFRBX_MAX_WORDS];
+            words[..n].copy_from_slice(&w[..n]);
+            round_trip(UbxMessage::RxmSfrbx(RxmSfrbx { gnss_id: h[0], sv_id: h[1], freq_id: h[2],
+                num_words: n as u8, chn: h[3], version: h[4], words }));
         }
 
         #[test]

@@ -208,7 +208,7 @@ impl UbxEvents {
                     self.word(*d, *tag, out);
                 }
             }
-            UbxMessage::RxmRawx(_) => self.skip(1),
+            UbxMessage::RxmRawx(_) | UbxMessage::RxmSfrbx(_) => self.skip(1),
         }
     }
 

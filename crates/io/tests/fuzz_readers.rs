@@ -758,6 +758,14 @@ fn ubx_seed() -> Vec<Vec<u8>> {
         UbxMessage::EsfRaw(esf_raw),
         UbxMessage::EsfMeas(esf_meas),
         UbxMessage::NavRelPosNed(rel),
+        UbxMessage::RxmSfrbx(RxmSfrbx {
+            gnss_id: 0,
+            sv_id: 3,
+            num_words: 10,
+            version: 2,
+            words: [0x22C0_0000; 10],
+            ..Default::default()
+        }),
     ];
     let mut all = Vec::new();
     let mut out = Vec::new();
