@@ -12,6 +12,8 @@
 //!   decreasing elevation (the order of the paper's double differences).
 //! - [`dd`]: the paper's double differences (eq. 8–10) and their covariance.
 //! - [`tropo`]: Saastamoinen zenith delays and Niell mapping functions.
+//! - [`iono`]: Klobuchar broadcast ionosphere (IS-GPS-200 Fig. 20-4).
+//! - [`spp`]: single-point positioning (WLS, RAIM FDE, DOPs, Doppler velocity).
 //!
 //! Time: GPS seconds since the GPS epoch (`week · 604800 + tow`).
 
@@ -24,6 +26,8 @@ use crate::prelude::*;
 use crate::{Mat3, Vec3};
 
 pub mod dd;
+pub mod iono;
+pub mod spp;
 pub mod tropo;
 
 /// Earth gravitational constant for GPS, IS-GPS-200 [m³/s²].
