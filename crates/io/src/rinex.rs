@@ -9,6 +9,7 @@
 //! files (`G` records) are read too; Hatanaka (Compact RINEX) is refused.
 
 use crate::ReadError;
+use navfuse_core::gnss::iono::Klobuchar;
 use navfuse_core::gnss::{KeplerOrbit, SECONDS_PER_WEEK};
 use std::path::Path;
 use std::sync::Arc;
@@ -64,22 +65,89 @@ fn field(line: &str, a: usize, b: usize) -> &str {
     }
 }
 
+/// A navigation file's GPS content: ephemerides with their broadcast
+/// accuracy, and the header's Klobuchar coefficients.
+#[derive(Clone, Debug, PartialEq, Default)]
+pub struct NavData {
+    pub orbits: Vec<KeplerOrbit>,
+    /// "SV accuracy" of each record [m] (parallel to `orbits`; 0 when blank).
+    pub ura_m: Vec<f64>,
+    /// `ION ALPHA`/`ION BETA` (RINEX 2) or `IONOSPHERIC CORR GPSA`/`GPSB`
+    /// (RINEX 3); `None` when either is missing.
+    pub iono: Option<Klobuchar>,
+}
+
+impl NavData {
+    /// Append another file's content (the first header's ionosphere wins).
+    pub fn merge(&mut self, other: NavData) {
+        self.orbits.extend(other.orbits);
+        self.ura_m.extend(other.ura_m);
+        if self.iono.is_none() {
+            self.iono = other.iono;
+        }
+    }
+}
+
 /// Read a RINEX 2 (or 3) GPS navigation file.
 pub fn read_nav(path: &Path) -> Result<Vec<KeplerOrbit>, ReadError> {
+    Ok(read_nav_data(path)?.orbits)
+}
+
+/// Read a RINEX 2 (or 3) GPS navigation file with accuracies and ionosphere.
+pub fn read_nav_data(path: &Path) -> Result<NavData, ReadError> {
     let name = path.display().to_string();
     let text = crate::text::read_text_capped(path, u64::MAX)?;
-    parse_nav(&text, &name)
+    parse_nav_data(&text, &name)
 }
 
 /// Parse RINEX navigation text; `name` is used in errors.
 pub fn parse_nav(text: &str, name: &str) -> Result<Vec<KeplerOrbit>, ReadError> {
+    Ok(parse_nav_data(text, name)?.orbits)
+}
+
+/// Four Fortran floats of width 12 from column `start` (header ionosphere lines).
+fn four_floats(
+    l: &str,
+    start: usize,
+    name: &str,
+    ln: usize,
+    what: &str,
+) -> Result<[f64; 4], ReadError> {
+    let mut out = [0.0; 4];
+    for (k, o) in out.iter_mut().enumerate() {
+        let s = field(l, start + 12 * k, start + 12 * (k + 1));
+        *o = ffloat(s)
+            .map_err(|m| err(name, ln, what, m))?
+            .unwrap_or(0.0);
+        if !o.is_finite() {
+            return Err(err(name, ln, what, format!("not finite: `{}`", s.trim())));
+        }
+    }
+    Ok(out)
+}
+
+/// Parse RINEX navigation text with accuracies and the header's ionosphere.
+pub fn parse_nav_data(text: &str, name: &str) -> Result<NavData, ReadError> {
     let lines: Vec<&str> = text.lines().collect();
     let mut i = 0;
     let mut version = 2.0;
+    let (mut alpha, mut beta) = (None, None);
     while i < lines.len() {
         let l = lines[i];
         if l.get(60..).is_some_and(|r| r.starts_with("RINEX VERSION")) {
             version = field(l, 0, 9).trim().parse().unwrap_or(2.0);
+        }
+        let label = l.get(60..).unwrap_or("");
+        if label.starts_with("ION ALPHA") {
+            alpha = Some(four_floats(l, 2, name, i + 1, "ION ALPHA")?);
+        } else if label.starts_with("ION BETA") {
+            beta = Some(four_floats(l, 2, name, i + 1, "ION BETA")?);
+        } else if label.starts_with("IONOSPHERIC CORR") {
+            match field(l, 0, 4) {
+                "GPSA" => alpha = Some(four_floats(l, 5, name, i + 1, "GPSA")?),
+                "GPSB" => beta = Some(four_floats(l, 5, name, i + 1, "GPSB")?),
+                _ => {}
+            }
         }
         i += 1;
         if l.get(60..).is_some_and(|s| s.starts_with("END OF HEADER")) {
@@ -91,6 +159,7 @@ pub fn parse_nav(text: &str, name: &str) -> Result<Vec<KeplerOrbit>, ReadError> 
     }
     let v3 = version >= 3.0;
     let mut out = Vec::new();
+    let mut ura_m = Vec::new();
     while i < lines.len() {
         let l0 = lines[i];
         if l0.trim().is_empty() {
@@ -247,9 +316,18 @@ pub fn parse_nav(text: &str, name: &str) -> Result<Vec<KeplerOrbit>, ReadError> 
             af2: v[2],
             tgd: v[25],
         });
+        ura_m.push(v[23]);
         i += 8;
     }
-    Ok(out)
+    let iono = match (alpha, beta) {
+        (Some(alpha), Some(beta)) => Some(Klobuchar { alpha, beta }),
+        _ => None,
+    };
+    Ok(NavData {
+        orbits: out,
+        ura_m,
+        iono,
+    })
 }
 
 /// The ephemeris of `prn` whose t_oe is nearest `t` (healthy, within 4 h).
@@ -853,6 +931,29 @@ mod tests {
         assert!((e.tgd + 1.90921127796e-8).abs() < 1e-18);
         let r = e.position_ecef(e.t_oe).norm();
         assert!((r - 2.656e7).abs() < 2e5);
+    }
+
+    /// The header's Klobuchar coefficients (RINEX 2 and RINEX 3 labels) and
+    /// each record's SV accuracy come through `parse_nav_data`.
+    #[test]
+    fn nav_header_ionosphere_and_accuracy() {
+        let ion2 = "    1.1180D-08  1.4900D-08 -5.9600D-08 -5.9600D-08          ION ALPHA\n    8.8060D+04  1.6380D+04 -1.9660D+05 -1.3110D+05          ION BETA\n";
+        let text = NAV.replacen("\n", &format!("\n{ion2}"), 1);
+        let d = parse_nav_data(&text, "t.n").unwrap();
+        let k = d.iono.expect("ionosphere");
+        assert_eq!(k.alpha, [1.118e-8, 1.49e-8, -5.96e-8, -5.96e-8]);
+        assert_eq!(k.beta, [8.806e4, 1.638e4, -1.966e5, -1.311e5]);
+        assert_eq!(d.ura_m, [2.0]);
+        assert_eq!(d.orbits.len(), 1);
+        // RINEX 3 `IONOSPHERIC CORR` lines.
+        let ion3 = "GPSA   1.1180D-08  1.4900D-08 -5.9600D-08 -5.9600D-08       IONOSPHERIC CORR\nGPSB   8.8060D+04  1.6380D+04 -1.9660D+05 -1.3110D+05       IONOSPHERIC CORR\n";
+        let text = NAV.replacen("\n", &format!("\n{ion3}"), 1);
+        assert_eq!(parse_nav_data(&text, "t.n").unwrap().iono, Some(k));
+        // Without the header lines there is no model; a bad number is named.
+        assert_eq!(parse_nav_data(NAV, "t.n").unwrap().iono, None);
+        let bad = text.replace("8.8060D+04", "8.80x0D+04");
+        let e = parse_nav_data(&bad, "t.n").unwrap_err().to_string();
+        assert!(e.starts_with("t.n:3: field `GPSB`"), "{e}");
     }
 
     #[test]

@@ -88,6 +88,28 @@ pub fn chi2_999(dof: usize) -> f64 {
     CHI2_999[dof.clamp(1, 32) - 1]
 }
 
+/// Upper bounds of the GPS URA index intervals N = 0..14 [m]
+/// (IS-GPS-200 §20.3.3.3.1.3).
+const URA_UPPER_M: [f64; 15] = [
+    2.4, 3.4, 4.85, 6.85, 9.65, 13.65, 24.0, 48.0, 96.0, 192.0, 384.0, 768.0, 1536.0, 3072.0,
+    6144.0,
+];
+
+/// Range σ [m] for a broadcast "SV accuracy" value [m] (as RINEX writes
+/// it): the upper bound of the URA interval holding it (IS-GPS-200
+/// §20.3.3.3.1.3; the conservative reading, as RTKLIB's `uraindex`). Index
+/// 15 ("no accuracy prediction") and missing values give 6144 m.
+pub fn ura_sigma_m(broadcast_m: f64) -> f64 {
+    if broadcast_m.is_nan() || broadcast_m < 0.0 {
+        return URA_UPPER_M[14];
+    }
+    URA_UPPER_M
+        .iter()
+        .copied()
+        .find(|&b| b >= broadcast_m)
+        .unwrap_or(URA_UPPER_M[14])
+}
+
 /// One satellite's code (and optional Doppler) observation with its ephemeris.
 #[derive(Clone, Copy, Debug, PartialEq, Default)]
 pub struct SppObs {
