@@ -179,6 +179,7 @@ pub fn solve_obs(
                 doppler_hz: get(i_d1).unwrap_or(f64::NAN),
                 lambda_m: LAMBDA_L1,
                 orbit: nav.orbits[k],
+                kind: navfuse_core::gnss::orbit_gnss::OrbitKind::Gps,
                 ura_m: ura_sigma_m(nav.ura_m.get(k).copied().unwrap_or(f64::NAN)),
             };
             n += 1;

@@ -12,6 +12,7 @@
 //!   decreasing elevation (the order of the paper's double differences).
 //! - [`dd`]: the paper's double differences (eq. 8–10) and their covariance.
 //! - [`tropo`]: Saastamoinen zenith delays and Niell mapping functions.
+//! - [`orbit_gnss`]: Galileo/BeiDou (incl. GEO)/QZSS broadcast orbits.
 //! - [`iono`]: Klobuchar broadcast ionosphere (IS-GPS-200 Fig. 20-4).
 //! - [`spp`]: single-point positioning (WLS, RAIM FDE, DOPs, Doppler velocity).
 //!
@@ -27,6 +28,7 @@ use crate::{Mat3, Vec3};
 
 pub mod dd;
 pub mod iono;
+pub mod orbit_gnss;
 pub mod spp;
 pub mod tropo;
 

@@ -60,6 +60,7 @@
 use crate::prelude::*;
 
 use super::iono::Klobuchar;
+use super::orbit_gnss::{self, OrbitKind};
 use super::tropo::{niell_mapping, saastamoinen_zenith};
 use super::{c_e_enu, KeplerOrbit, C_LIGHT, LAMBDA_L1, OMEGA_E_DOT, SECONDS_PER_WEEK};
 use crate::geodesy::ecef_to_geodetic;
@@ -123,8 +124,12 @@ pub struct SppObs {
     pub doppler_hz: f64,
     /// Carrier wavelength of the Doppler [m].
     pub lambda_m: f64,
-    /// Broadcast ephemeris selected for this epoch.
+    /// Broadcast ephemeris selected for this epoch (times in GPS seconds;
+    /// `tgd` the group delay of the tracked code: GPS T_GD, Galileo BGD,
+    /// BeiDou TGD1).
     pub orbit: KeplerOrbit,
+    /// Which system's constants evaluate `orbit`.
+    pub kind: OrbitKind,
     /// Signal-in-space range accuracy (URA) [m], 1σ.
     pub ura_m: f64,
 }
@@ -406,8 +411,10 @@ impl Spp {
             let t_sv = t_rx - o.pr_m / C_LIGHT;
             let t_tx = t_sv - clock_poly(&o.orbit, t_sv);
             let h = 1e-2;
-            let p_plus = o.orbit.position_ecef(t_tx + h);
-            let p_minus = o.orbit.position_ecef(t_tx - h);
+            let pos = |t: f64| orbit_gnss::position_ecef(&o.orbit, o.kind, t);
+            let clk = |t: f64| orbit_gnss::clock_offset(&o.orbit, o.kind, t);
+            let p_plus = pos(t_tx + h);
+            let p_minus = pos(t_tx - h);
             let rr = if o.doppler_hz.is_finite() && o.lambda_m > 0.0 {
                 -o.lambda_m * o.doppler_hz
             } else {
@@ -418,12 +425,10 @@ impl Spp {
                 sys: o.sys as usize,
                 prn: o.prn,
                 p: o.pr_m - C_LIGHT * o.orbit.tgd,
-                pos_e: o.orbit.position_ecef(t_tx),
+                pos_e: pos(t_tx),
                 vel_e: (p_plus - p_minus) / (2.0 * h),
-                clk_m: C_LIGHT * o.orbit.clock_offset(t_tx),
-                drift_mps: C_LIGHT
-                    * (o.orbit.clock_offset(t_tx + h) - o.orbit.clock_offset(t_tx - h))
-                    / (2.0 * h),
+                clk_m: C_LIGHT * clk(t_tx),
+                drift_mps: C_LIGHT * (clk(t_tx + h) - clk(t_tx - h)) / (2.0 * h),
                 var_eph: if o.ura_m.is_finite() {
                     o.ura_m * o.ura_m
                 } else {

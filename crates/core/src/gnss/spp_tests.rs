@@ -82,6 +82,7 @@ fn observe(
             doppler_hz: -rr / GPS_L1_WAVELENGTH,
             lambda_m: GPS_L1_WAVELENGTH,
             orbit: *o,
+            kind: OrbitKind::Gps,
             ura_m: 2.0,
         };
         n += 1;
