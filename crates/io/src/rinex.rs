@@ -14,7 +14,7 @@ use navfuse_core::gnss::{KeplerOrbit, SECONDS_PER_WEEK};
 use std::path::Path;
 use std::sync::Arc;
 
-fn err(file: &str, line: usize, field: &str, msg: impl Into<String>) -> ReadError {
+pub(crate) fn err(file: &str, line: usize, field: &str, msg: impl Into<String>) -> ReadError {
     ReadError::new(&Arc::from(file), line as u64, field.to_string(), msg)
 }
 
@@ -45,7 +45,7 @@ fn two_digit_year(y: i32) -> i32 {
 }
 
 /// Parse a Fortran float (`D` or `E` exponent); blank → `None`.
-fn ffloat(s: &str) -> Result<Option<f64>, String> {
+pub(crate) fn ffloat(s: &str) -> Result<Option<f64>, String> {
     let t = s.trim();
     if t.is_empty() {
         return Ok(None);
@@ -56,7 +56,7 @@ fn ffloat(s: &str) -> Result<Option<f64>, String> {
         .map_err(|_| format!("not a number: `{t}`"))
 }
 
-fn field(line: &str, a: usize, b: usize) -> &str {
+pub(crate) fn field(line: &str, a: usize, b: usize) -> &str {
     let b = b.min(line.len());
     if a >= b {
         ""
