@@ -487,10 +487,57 @@ pub fn read_obs(path: &Path) -> Result<ObsFile, ReadError> {
     parse_obs(text_of(&bytes, &name)?, &name)
 }
 
+/// One satellite's observations: (system letter, PRN, one value per code
+/// of that system's `SYS / # / OBS TYPES`).
+pub type SatObs = (char, u8, Vec<Option<ObsValue>>);
+
+/// Every system's observations of a RINEX 3 file, epoch by epoch parallel
+/// to [`ObsFile::epochs`] (GPS included), with the RINEX 3 codes.
+#[derive(Clone, Debug, PartialEq, Default)]
+pub struct GnssObs {
+    /// Per system letter, its `SYS / # / OBS TYPES` codes.
+    pub sys_codes: Vec<(char, Vec<String>)>,
+    /// Per epoch: (system, PRN, one value per code of that system).
+    pub epochs: Vec<Vec<SatObs>>,
+}
+
+impl GnssObs {
+    /// Index of `code` among system `sys`'s codes.
+    pub fn index(&self, sys: char, code: &str) -> Option<usize> {
+        self.sys_codes
+            .iter()
+            .find(|(s, _)| *s == sys)
+            .and_then(|(_, c)| c.iter().position(|x| x == code))
+    }
+}
+
+/// Read an observation file keeping every system (RINEX 3; for RINEX 2 the
+/// [`GnssObs`] is empty and the GPS observations are in the [`ObsFile`]).
+pub fn read_obs_gnss(path: &Path) -> Result<(ObsFile, GnssObs), ReadError> {
+    let name = path.display().to_string();
+    let bytes = crate::text::read_bytes_capped(path, u64::MAX)?;
+    parse_obs_gnss(text_of(&bytes, &name)?, &name)
+}
+
+/// [`parse_obs`] keeping every system's observations of a RINEX 3 file.
+pub fn parse_obs_gnss(text: &str, name: &str) -> Result<(ObsFile, GnssObs), ReadError> {
+    let mut g = GnssObs::default();
+    let f = parse_obs_impl(text, name, Some(&mut g))?;
+    Ok((f, g))
+}
+
 /// Parse RINEX 2.xx or 3.0x observation text (version from the
 /// `RINEX VERSION / TYPE` line). Hatanaka-compressed (Compact RINEX) text is
 /// recognised and refused with an error.
 pub fn parse_obs(text: &str, name: &str) -> Result<ObsFile, ReadError> {
+    parse_obs_impl(text, name, None)
+}
+
+fn parse_obs_impl(
+    text: &str,
+    name: &str,
+    mut keep: Option<&mut GnssObs>,
+) -> Result<ObsFile, ReadError> {
     let lines: Vec<&str> = text.lines().collect();
     let mut f = ObsFile {
         version: 2.0,
@@ -652,7 +699,10 @@ pub fn parse_obs(text: &str, name: &str) -> Result<ObsFile, ReadError> {
             f.types = map_gps_codes(c);
             f.codes = c.clone();
         }
-        parse_obs_body_v3(&lines, i, name, &sys_codes, &mut f)?;
+        if let Some(g) = keep.as_deref_mut() {
+            g.sys_codes = sys_codes.clone();
+        }
+        parse_obs_body_v3(&lines, i, name, &sys_codes, &mut f, keep)?;
         return Ok(f);
     }
     if f.types.is_empty() {
@@ -774,6 +824,7 @@ fn parse_obs_body_v3(
     name: &str,
     sys_codes: &[(char, Vec<String>)],
     f: &mut ObsFile,
+    mut keep: Option<&mut GnssObs>,
 ) -> Result<(), ReadError> {
     while i < lines.len() {
         let l = lines[i];
@@ -827,6 +878,7 @@ fn parse_obs_body_v3(
             sec,
         );
         let mut sats = Vec::with_capacity(nsat.min(64));
+        let mut all = Vec::new();
         for k in 0..nsat {
             let sl = i + 1 + k;
             let s = match lines.get(sl) {
@@ -880,6 +932,9 @@ fn parse_obs_body_v3(
                 };
                 vals.push(v.map(|value| ObsValue { value, lli }));
             }
+            if keep.is_some() {
+                all.push((sys, prn, vals.clone()));
+            }
             if sys == 'G' {
                 sats.push((prn, vals));
             } else {
@@ -888,6 +943,9 @@ fn parse_obs_body_v3(
         }
         i += 1 + nsat;
         f.epochs.push(ObsEpoch { t, flag, sats });
+        if let Some(g) = keep.as_deref_mut() {
+            g.epochs.push(all);
+        }
     }
     Ok(())
 }
@@ -1042,6 +1100,40 @@ an event with one header line                               COMMENT
 
     fn val(f: &ObsFile, e: usize, s: usize, code: &str) -> Option<ObsValue> {
         f.epochs[e].sats[s].1[f.index(code).unwrap()]
+    }
+
+    /// `parse_obs_gnss` keeps every system, epoch by epoch parallel to the
+    /// GPS-only `ObsFile`, with the GPS values identical.
+    #[test]
+    fn rinex3_all_systems_are_kept() {
+        let (f, g) = parse_obs_gnss(OBS3, "t.rnx").unwrap();
+        assert_eq!(f, parse_obs(OBS3, "t.rnx").unwrap());
+        assert_eq!(g.epochs.len(), f.epochs.len());
+        let sys: Vec<char> = g.sys_codes.iter().map(|(s, _)| *s).collect();
+        assert!(sys.contains(&'G') && sys.contains(&'R') && sys.contains(&'E'));
+        assert_eq!(
+            g.sys_codes.iter().find(|(s, _)| *s == 'E').unwrap().1.len(),
+            16
+        );
+        let mut others = 0u64;
+        for (e, ge) in f.epochs.iter().zip(&g.epochs) {
+            let gps: Vec<_> = ge
+                .iter()
+                .filter(|(s, _, _)| *s == 'G')
+                .map(|(_, p, v)| (*p, v.clone()))
+                .collect();
+            assert_eq!(gps, e.sats);
+            others += ge.iter().filter(|(s, _, _)| *s != 'G').count() as u64;
+        }
+        assert_eq!(others as usize, f.skipped_non_gps);
+        assert!(others > 0);
+        let i = g.index('E', "C1C").expect("Galileo C1C");
+        assert!(g.epochs[0]
+            .iter()
+            .any(|(s, p, v)| *s == 'E' && *p == 11 && v[i].is_some()));
+        // RINEX 2: nothing beyond the ObsFile.
+        let (_, g2) = parse_obs_gnss(OBS2, "t.o").unwrap();
+        assert!(g2.epochs.is_empty());
     }
 
     #[test]

@@ -21,6 +21,10 @@ use navfuse_core::gnss::orbit_gnss::{OrbitKind, BDT_MINUS_GPST};
 use navfuse_core::gnss::{KeplerOrbit, SECONDS_PER_WEEK};
 use std::path::Path;
 
+/// The error text of a file that is not RINEX 3 (callers reading RINEX 2
+/// files elsewhere may let it pass).
+pub const NOT_RINEX3: &str = "RINEX 3 navigation expected";
+
 /// BDT week 0 starts at GPS week 1356.
 pub const BDT_WEEK_OFFSET: f64 = 1356.0;
 
@@ -110,7 +114,7 @@ pub fn parse_nav_gnss(text: &str, name: &str) -> Result<GnssNav, ReadError> {
             name,
             1,
             "RINEX VERSION / TYPE",
-            format!("version {version}: RINEX 3 navigation expected (RINEX 2: GPS reader)"),
+            format!("version {version}: {NOT_RINEX3} (RINEX 2: GPS reader)"),
         ));
     }
     let mut out = GnssNav::default();

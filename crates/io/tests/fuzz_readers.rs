@@ -488,7 +488,20 @@ fn run_imu_lines(b: &[u8]) -> usize {
 
 fn run_rinex_obs(b: &[u8]) -> usize {
     let text = String::from_utf8_lossy(b);
-    navfuse_io::rinex::parse_obs(&text, "f").map_or(0, |f| f.epochs.len())
+    let gps = navfuse_io::rinex::parse_obs(&text, "f");
+    // The all-systems reader agrees: same result, epochs parallel.
+    let all = navfuse_io::rinex::parse_obs_gnss(&text, "f");
+    match (&gps, &all) {
+        (Ok(f), Ok((f2, g))) => {
+            // Compared as text: the reader passes a `NaN` field through,
+            // and NaN != NaN.
+            assert_eq!(format!("{f:?}"), format!("{f2:?}"));
+            assert!(g.epochs.is_empty() || g.epochs.len() == f.epochs.len());
+        }
+        (Err(a), Err(b)) => assert_eq!(a.to_string(), b.to_string()),
+        _ => panic!("parse_obs and parse_obs_gnss disagree"),
+    }
+    gps.map_or(0, |f| f.epochs.len())
 }
 fn run_rinex_nav(b: &[u8]) -> usize {
     let text = String::from_utf8_lossy(b);

@@ -12,18 +12,63 @@
 
 use crate::error::{PipelineError, Result};
 use navfuse_core::geodesy::{c_en, ecef_to_geodetic};
+use navfuse_core::gnss::orbit_gnss::OrbitKind;
 use navfuse_core::gnss::spp::{
     ura_sigma_m, SkipCounts, Spp, SppConfig, SppObs, SppReject, SppSolution, MAX_SATS,
 };
 use navfuse_core::gnss::{C_LIGHT, LAMBDA_L1};
 use navfuse_core::types::{NavSolution, Vec3};
 use navfuse_io::pos_writer::{PosEpoch, PosWriter, Q_SINGLE};
-use navfuse_io::rinex::{read_nav_data, read_obs, NavData, ObsFile};
+use navfuse_io::rinex::{read_nav_data, read_obs_gnss, GnssObs, NavData, ObsFile};
+use navfuse_io::rinex_nav3::{read_nav_gnss, GnssEph};
 use std::io::Write;
 use std::path::{Path, PathBuf};
 
 /// Half the IS-GPS-200 4 h curve-fit interval [s].
 pub const MAX_EPH_AGE_S: f64 = 7200.0;
+
+/// Navigation data: GPS records with the header ionosphere, and the
+/// Galileo, BeiDou and QZSS records of RINEX 3 files.
+#[derive(Clone, Debug, PartialEq, Default)]
+pub struct SppNav {
+    pub gps: NavData,
+    pub other: Vec<GnssEph>,
+}
+
+/// Clock group, code and Doppler codes (in order of preference), carrier
+/// wavelength and largest ephemeris age of the non-GPS systems used:
+/// Galileo E1 (own clock; 4 h, RTKLIB `MAXDTOE_GAL`), BeiDou B1I (own clock,
+/// RINEX 3.02+ `C2I`, 3.01 `C1I`; 6 h, `MAXDTOE_CMP`), QZSS L1 C/A (GPS
+/// time, the GPS clock; 2 h).
+type SystemSignal = (
+    u8,
+    &'static [&'static str],
+    &'static [&'static str],
+    f64,
+    f64,
+);
+
+fn other_system(sys: char) -> Option<SystemSignal> {
+    const C: f64 = navfuse_core::gnss::C_LIGHT;
+    match sys {
+        'E' => Some((
+            1,
+            &["C1C", "C1X", "C1B"],
+            &["D1C", "D1X", "D1B"],
+            C / 1575.42e6,
+            14_400.0,
+        )),
+        'C' => Some((
+            2,
+            &["C2I", "C1I"],
+            &["D2I", "D1I"],
+            C / 1561.098e6,
+            21_600.0,
+        )),
+        'J' => Some((0, &["C1C"], &["D1C"], C / 1575.42e6, MAX_EPH_AGE_S)),
+        _ => None,
+    }
+}
 
 /// Options of `navfuse spp`.
 #[derive(Clone, Copy, Debug, PartialEq, Default)]
@@ -50,9 +95,11 @@ pub struct SppSummary {
     pub sat_below_mask: u64,
     pub sat_bad_range: u64,
     pub sat_over_capacity: u64,
-    /// RAIM exclusions in total and per PRN (index = PRN).
+    /// RAIM exclusions in total and per satellite (`G05`, `E11`, …).
     pub raim_excluded: u64,
-    pub raim_by_prn: Vec<(u8, u32)>,
+    pub raim_by_sat: Vec<(String, u32)>,
+    /// Satellite-epochs of Galileo/BeiDou/QZSS given to the solver.
+    pub other_systems_used: u64,
     /// Non-GPS satellite entries the reader skipped, event records skipped.
     pub non_gps_skipped: usize,
     pub events_skipped: usize,
@@ -84,17 +131,17 @@ impl SppSummary {
             self.sat_over_capacity,
             self.raim_excluded
         );
-        if !self.raim_by_prn.is_empty() {
+        if !self.raim_by_sat.is_empty() {
             let list: Vec<String> = self
-                .raim_by_prn
+                .raim_by_sat
                 .iter()
-                .map(|(p, n)| format!("G{p:02}×{n}"))
+                .map(|(p, n)| format!("{p}×{n}"))
                 .collect();
             s += &format!(" ({})", list.join(", "));
         }
         s += &format!(
-            "\nnon-GPS entries skipped {}, event records skipped {}, epochs with Doppler velocity {}",
-            self.non_gps_skipped, self.events_skipped, self.with_velocity
+            "\nnon-GPS entries in the file {} (Galileo/BeiDou/QZSS satellite-epochs used {}), event records skipped {}, epochs with Doppler velocity {}",
+            self.non_gps_skipped, self.other_systems_used, self.events_skipped, self.with_velocity
         );
         s
     }
@@ -114,7 +161,8 @@ fn by_prn(nav: &NavData) -> Vec<Vec<usize>> {
 /// Solve every epoch of `obs`; `on_epoch` gets each solution.
 pub fn solve_obs(
     obs: &ObsFile,
-    nav: &NavData,
+    gnss: &GnssObs,
+    navs: &SppNav,
     opts: &SppOptions,
     mut on_epoch: impl FnMut(&SppSolution) -> Result<()>,
 ) -> Result<SppSummary> {
@@ -127,6 +175,7 @@ pub fn solve_obs(
         )));
     }
     let i_d1 = obs.index("D1");
+    let nav = &navs.gps;
     let eph = by_prn(nav);
     let mut spp = Spp::new(opts.solver, nav.iono);
     let mut sum = SppSummary {
@@ -135,10 +184,10 @@ pub fn solve_obs(
         events_skipped: obs.events_skipped,
         ..SppSummary::default()
     };
-    let mut raim = [0u32; 33];
+    let mut raim: Vec<(String, u32)> = Vec::new();
     let mut buf = [SppObs::default(); MAX_SATS];
     let mut prior: Option<Vec3> = None;
-    for ep in &obs.epochs {
+    for (k_ep, ep) in obs.epochs.iter().enumerate() {
         let mut n = 0usize;
         for (prn, vals) in &ep.sats {
             let get = |i: Option<usize>| {
@@ -179,10 +228,63 @@ pub fn solve_obs(
                 doppler_hz: get(i_d1).unwrap_or(f64::NAN),
                 lambda_m: LAMBDA_L1,
                 orbit: nav.orbits[k],
-                kind: navfuse_core::gnss::orbit_gnss::OrbitKind::Gps,
+                kind: OrbitKind::Gps,
                 ura_m: ura_sigma_m(nav.ura_m.get(k).copied().unwrap_or(f64::NAN)),
             };
             n += 1;
+        }
+        // Galileo, BeiDou, QZSS (RINEX 3 with their navigation records).
+        for (sys, prn, vals) in gnss.epochs.get(k_ep).into_iter().flatten() {
+            let Some((group, codes, dops, lambda, max_age)) = other_system(*sys) else {
+                continue;
+            };
+            let get = |c: &[&str]| {
+                c.iter()
+                    .filter_map(|c| gnss.index(*sys, c))
+                    .filter_map(|i| vals.get(i).copied().flatten())
+                    .map(|v| v.value)
+                    .find(|v| *v != 0.0)
+            };
+            let Some(pr) = get(codes) else {
+                sum.sat_no_code += 1;
+                continue;
+            };
+            let best = navs
+                .other
+                .iter()
+                .filter(|e| e.sys == *sys && e.orbit.prn == *prn)
+                .filter(|e| (e.orbit.t_oe - ep.t).abs() <= max_age)
+                .min_by(|a, b| {
+                    (a.orbit.t_oe - ep.t)
+                        .abs()
+                        .total_cmp(&(b.orbit.t_oe - ep.t).abs())
+                        .then(b.orbit.t_oe.total_cmp(&a.orbit.t_oe))
+                });
+            let Some(e) = best else {
+                sum.sat_no_ephemeris += 1;
+                continue;
+            };
+            if n == MAX_SATS {
+                sum.sat_over_capacity += 1;
+                continue;
+            }
+            buf[n] = SppObs {
+                sys: group,
+                prn: *prn,
+                pr_m: pr,
+                doppler_hz: get(dops).unwrap_or(f64::NAN),
+                lambda_m: lambda,
+                orbit: e.orbit,
+                kind: e.kind,
+                // Galileo SISA is a σ in metres already; the others are URA.
+                ura_m: if *sys == 'E' && e.accuracy_m > 0.0 {
+                    e.accuracy_m
+                } else {
+                    ura_sigma_m(e.accuracy_m)
+                },
+            };
+            n += 1;
+            sum.other_systems_used += 1;
         }
         let res = spp.solve(ep.t, &buf[..n], prior);
         add_skips(&mut sum, &spp.skips());
@@ -192,8 +294,19 @@ pub fn solve_obs(
                 if sol.vel.is_some() {
                     sum.with_velocity += 1;
                 }
-                for p in &sol.excluded_prn[..sol.n_excluded as usize] {
-                    raim[(*p as usize).min(32)] += 1;
+                for j in 0..sol.n_excluded as usize {
+                    // Clock group 0 holds GPS and QZSS; QZSS PRNs are ≥ 193.
+                    let letter = match (sol.excluded_sys[j], sol.excluded_prn[j]) {
+                        (1, _) => 'E',
+                        (2, _) => 'C',
+                        (_, p) if p > 32 => 'J',
+                        _ => 'G',
+                    };
+                    let id = format!("{letter}{:02}", sol.excluded_prn[j]);
+                    match raim.iter_mut().find(|(s, _)| *s == id) {
+                        Some(r) => r.1 += 1,
+                        None => raim.push((id, 1)),
+                    }
                 }
                 prior = Some(sol.pos_e);
                 on_epoch(&sol)?;
@@ -205,10 +318,8 @@ pub fn solve_obs(
             Err(SppReject::NoConvergence) => sum.rejected_no_convergence += 1,
         }
     }
-    sum.raim_by_prn = (0..33u8)
-        .filter(|&p| raim[p as usize] > 0)
-        .map(|p| (p, raim[p as usize]))
-        .collect();
+    raim.sort();
+    sum.raim_by_sat = raim;
     Ok(sum)
 }
 
@@ -251,33 +362,44 @@ pub fn pos_row(sol: &SppSolution) -> (NavSolution, PosEpoch) {
     (s, e)
 }
 
-/// Read the inputs: the observation file and the navigation file(s).
-pub fn load(obs: &Path, nav: &[PathBuf]) -> Result<(ObsFile, NavData)> {
-    let o = read_obs(obs).map_err(|e| PipelineError::Input(e.to_string()))?;
-    let mut n = NavData::default();
+/// Read the inputs: the observation file (every system of a RINEX 3 file)
+/// and the navigation file(s) (GPS with the header ionosphere; RINEX 3 files
+/// also their Galileo, BeiDou and QZSS records).
+pub fn load(obs: &Path, nav: &[PathBuf]) -> Result<(ObsFile, GnssObs, SppNav)> {
+    let (o, g) = read_obs_gnss(obs).map_err(|e| PipelineError::Input(e.to_string()))?;
+    let mut n = SppNav::default();
     for p in nav {
-        n.merge(read_nav_data(p).map_err(|e| PipelineError::Input(e.to_string()))?);
+        n.gps
+            .merge(read_nav_data(p).map_err(|e| PipelineError::Input(e.to_string()))?);
+        match read_nav_gnss(p) {
+            Ok(all) => n
+                .other
+                .extend(all.ephs.into_iter().filter(|e| e.sys != 'G')),
+            // RINEX 2: GPS only, read above.
+            Err(e) if e.to_string().contains(navfuse_io::rinex_nav3::NOT_RINEX3) => {}
+            Err(e) => return Err(PipelineError::Input(e.to_string())),
+        }
     }
-    if n.orbits.is_empty() {
+    if n.gps.orbits.is_empty() && n.other.is_empty() {
         return Err(PipelineError::Input(format!(
-            "{}: no GPS ephemeris in the navigation file(s)",
+            "{}: no GPS, Galileo, BeiDou or QZSS ephemeris in the navigation file(s)",
             nav.iter()
                 .map(|p| p.display().to_string())
                 .collect::<Vec<_>>()
                 .join(", ")
         )));
     }
-    Ok((o, n))
+    Ok((o, g, n))
 }
 
 /// `navfuse spp`: solve `obs` with `nav` and write `out` (`.pos`), atomically.
 pub fn run_spp(obs: &Path, nav: &[PathBuf], out: &Path, opts: &SppOptions) -> Result<SppSummary> {
-    let (o, n) = load(obs, nav)?;
+    let (o, g, n) = load(obs, nav)?;
     let mut f = navfuse_io::atomic::AtomicFile::create(out)
         .map_err(PipelineError::io(out, "cannot create: "))?;
     let sum = {
         let mut w = PosWriter::new(std::io::BufWriter::with_capacity(1 << 16, &mut f));
-        let sum = solve_obs(&o, &n, opts, |sol| {
+        let sum = solve_obs(&o, &g, &n, opts, |sol| {
             let (s, e) = pos_row(sol);
             w.write_epoch(&s, &e)
                 .map_err(PipelineError::io(out, "cannot write: "))

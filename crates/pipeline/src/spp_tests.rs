@@ -34,7 +34,7 @@ fn input_errors_name_the_file() {
     let e = load(&obs, std::slice::from_ref(&nav))
         .unwrap_err()
         .to_string();
-    assert!(e.contains("x.05n") && e.contains("no GPS ephemeris"), "{e}");
+    assert!(e.contains("x.05n") && e.contains("no GPS, Galileo"), "{e}");
     let missing = d.join("missing.05n");
     let e = load(&obs, &[missing]).unwrap_err().to_string();
     assert!(e.contains("missing.05n"), "{e}");
@@ -92,9 +92,9 @@ fn spp_matches_rtklib_on_geonet() {
         let rtk_out = d.join(format!("{station}.pos"));
         run_rtklib(&obs, &nav, &rtk_out);
         let rtk = read_rtklib_xyz(&rtk_out);
-        let (o, n) = load(&obs, std::slice::from_ref(&nav)).unwrap();
+        let (o, g, n) = load(&obs, std::slice::from_ref(&nav)).unwrap();
         let mut ours: Vec<(f64, Vec3)> = Vec::new();
-        let sum = solve_obs(&o, &n, &SppOptions::default(), |s| {
+        let sum = solve_obs(&o, &g, &n, &SppOptions::default(), |s| {
             let t = solution_time(s);
             ours.push((
                 t - (t / SECONDS_PER_WEEK).floor() * SECONDS_PER_WEEK,
@@ -177,4 +177,192 @@ fn spp_is_at_least_as_fast_as_rtklib() {
     );
     let _ = std::fs::remove_dir_all(&d);
     assert!(a <= b, "navfuse {a:.4} s slower than rnx2rtkp {b:.4} s");
+}
+
+/// Galileo, BeiDou (MEO and a GEO) and GPS together through the file-level
+/// path: observations made by an independent light-time iteration with
+/// each system's orbit model, inter-system clock offsets of 25 m (Galileo)
+/// and −40 m (BeiDou); the receiver position comes back to the millimetre
+/// and the offsets as clock differences.
+#[test]
+fn galileo_beidou_gps_together() {
+    use navfuse_core::geodesy::{c_e_enu, geodetic_to_ecef, Geodetic};
+    use navfuse_core::gnss::orbit_gnss::{clock_offset, position_ecef};
+    use navfuse_core::gnss::{KeplerOrbit, OMEGA_E_DOT};
+    use navfuse_io::rinex::{ObsEpoch, ObsValue};
+    use navfuse_io::rinex_nav3::GnssEph;
+
+    let t0 = 1316.0 * SECONDS_PER_WEEK + 518_400.0;
+    let t = t0 + 900.0;
+    let rx = geodetic_to_ecef(&Geodetic {
+        lat: 35.16f64.to_radians(),
+        lon: 139.61f64.to_radians(),
+        h: 70.0,
+    });
+    let c = {
+        let g = navfuse_core::geodesy::ecef_to_geodetic(&rx);
+        c_e_enu(g.lat, g.lon)
+    };
+    let clk = [120.0, 145.0, 80.0]; // GPS, Galileo, BeiDou receiver clocks [m]
+    let mut ephs: Vec<GnssEph> = Vec::new();
+    for (sys, kind, sqrt_a, n) in [
+        ('G', OrbitKind::Gps, 5153.6, 24),
+        ('E', OrbitKind::Galileo, 5440.6, 24),
+        ('C', OrbitKind::BeiDou, 5282.6, 24),
+    ] {
+        for k in 0..n {
+            let plane = (k / 4) as f64;
+            ephs.push(GnssEph {
+                sys,
+                kind,
+                orbit: KeplerOrbit {
+                    prn: k as u8 + if sys == 'C' { 19 } else { 1 },
+                    sqrt_a,
+                    e: 0.003,
+                    i0: 0.96,
+                    omega0: plane * 60f64.to_radians() + 0.3,
+                    argp: 0.2,
+                    m0: (k % 4) as f64 * 90f64.to_radians() + plane * 17f64.to_radians(),
+                    t_oe: t0,
+                    t_oc: t0,
+                    af0: 2e-5 * (k as f64 - 10.0),
+                    tgd: 3e-9,
+                    ..Default::default()
+                },
+                accuracy_m: 2.0,
+            });
+        }
+    }
+    // A BeiDou GEO at ~140° E (elements in the ICD's 5°-tilted frame).
+    let (mu, we) = OrbitKind::BeiDouGeo.constants();
+    let toe_sow = (t0 - 14.0) % SECONDS_PER_WEEK;
+    ephs.push(GnssEph {
+        sys: 'C',
+        kind: OrbitKind::BeiDouGeo,
+        orbit: KeplerOrbit {
+            prn: 1,
+            sqrt_a: (mu / (we * we)).powf(1.0 / 6.0),
+            i0: 5f64.to_radians(),
+            omega0: std::f64::consts::PI + we * toe_sow,
+            // Argument of latitude placing it near 140° E at t_oe.
+            m0: 0.0,
+            argp: 0.0,
+            t_oe: t0,
+            t_oc: t0,
+            ..Default::default()
+        },
+        accuracy_m: 2.0,
+    });
+    let geo_lon = {
+        let p = position_ecef(&ephs.last().unwrap().orbit, OrbitKind::BeiDouGeo, t);
+        p.y.atan2(p.x)
+    };
+    // Rotate the GEO's node so it sits at 140° E.
+    ephs.last_mut().unwrap().orbit.omega0 += 140f64.to_radians() - geo_lon;
+
+    let mut gps_sats = Vec::new();
+    let mut all = Vec::new();
+    let (mut n_e, mut n_c, mut geo_seen) = (0, 0, false);
+    for e in &ephs {
+        let mut tau = 0.075;
+        let (mut p, mut range) = (Vec3::zeros(), 0.0);
+        for _ in 0..10 {
+            let q = position_ecef(&e.orbit, e.kind, t - tau);
+            let th = OMEGA_E_DOT * tau;
+            p = Vec3::new(
+                th.cos() * q.x + th.sin() * q.y,
+                -th.sin() * q.x + th.cos() * q.y,
+                q.z,
+            );
+            range = (p - rx).norm();
+            tau = range / C_LIGHT;
+        }
+        let el = (c * ((p - rx) / range)).z.asin();
+        if el < 16f64.to_radians() {
+            continue;
+        }
+        let group = match e.sys {
+            'E' => 1,
+            'C' => 2,
+            _ => 0,
+        };
+        let dts = clock_offset(&e.orbit, e.kind, t - tau);
+        let pr = range + clk[group] - C_LIGHT * dts + C_LIGHT * e.orbit.tgd;
+        let v = vec![Some(ObsValue { value: pr, lli: 0 })];
+        match e.sys {
+            'G' => gps_sats.push((e.orbit.prn, v.clone())),
+            'E' => n_e += 1,
+            _ => {
+                n_c += 1;
+                geo_seen |= e.kind == OrbitKind::BeiDouGeo;
+            }
+        }
+        all.push((e.sys, e.orbit.prn, v));
+    }
+    assert!(
+        n_e >= 3 && n_c >= 3 && geo_seen,
+        "E {n_e}, C {n_c}, GEO {geo_seen}"
+    );
+    // Only a few GPS satellites: the solution needs the other systems.
+    let n_gps = gps_sats.len().min(3);
+    gps_sats.truncate(n_gps);
+    let keep: Vec<u8> = gps_sats.iter().map(|(p, _)| *p).collect();
+    all.retain(|(s, p, _)| *s != 'G' || keep.contains(p));
+    let obs = ObsFile {
+        version: 3.04,
+        types: vec!["C1".into()],
+        codes: vec!["C1C".into()],
+        epochs: vec![ObsEpoch {
+            t: t + clk[0] / C_LIGHT,
+            flag: 0,
+            sats: gps_sats,
+        }],
+        ..ObsFile::default()
+    };
+    let gnss = GnssObs {
+        sys_codes: vec![
+            ('G', vec!["C1C".into()]),
+            ('E', vec!["C1C".into()]),
+            ('C', vec!["C2I".into()]),
+        ],
+        epochs: vec![all],
+    };
+    let gps_ephs: Vec<KeplerOrbit> = ephs
+        .iter()
+        .filter(|e| e.sys == 'G')
+        .map(|e| e.orbit)
+        .collect();
+    let nav = SppNav {
+        gps: NavData {
+            ura_m: vec![2.0; gps_ephs.len()],
+            orbits: gps_ephs,
+            iono: None,
+        },
+        other: ephs.iter().filter(|e| e.sys != 'G').copied().collect(),
+    };
+    let mut opts = SppOptions::default();
+    opts.solver.iono = false;
+    opts.solver.tropo = navfuse_core::gnss::spp::TropoModel::None;
+    let mut sols = Vec::new();
+    let sum = solve_obs(&obs, &gnss, &nav, &opts, |s| {
+        sols.push(*s);
+        Ok(())
+    })
+    .unwrap();
+    assert_eq!(sum.solved, 1, "{}", sum.text());
+    assert_eq!(sum.other_systems_used as usize, n_e + n_c);
+    let s = &sols[0];
+    let err = (s.pos_e - rx).norm();
+    assert!(err < 0.01, "position error {err} m");
+    assert!(
+        (s.clk_m[1] - s.clk_m[0] - 25.0).abs() < 0.01,
+        "{:?}",
+        s.clk_m
+    );
+    assert!(
+        (s.clk_m[2] - s.clk_m[0] + 40.0).abs() < 0.01,
+        "{:?}",
+        s.clk_m
+    );
+    assert_eq!(s.n_used as usize, n_gps + n_e + n_c);
 }

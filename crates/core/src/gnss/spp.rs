@@ -122,7 +122,8 @@ pub struct SppObs {
     pub pr_m: f64,
     /// Doppler [Hz], RINEX sign (positive when approaching); NaN when absent.
     pub doppler_hz: f64,
-    /// Carrier wavelength of the Doppler [m].
+    /// Carrier wavelength of the signal [m] (Doppler, and the ionospheric
+    /// delay scales as λ² from L1's; 0: L1).
     pub lambda_m: f64,
     /// Broadcast ephemeris selected for this epoch (times in GPS seconds;
     /// `tgd` the group delay of the tracked code: GPS T_GD, Galileo BGD,
@@ -298,8 +299,9 @@ pub struct SppSolution {
     pub n_used: u8,
     /// Bit k set when input observation k was used.
     pub used_mask: u64,
-    /// PRNs excluded by RAIM (first `n_excluded`).
+    /// PRNs excluded by RAIM (first `n_excluded`) and their clock groups.
     pub excluded_prn: [u8; 4],
+    pub excluded_sys: [u8; 4],
     pub n_excluded: u8,
     pub dop: Dop,
     /// Σ v²/σ² and its degrees of freedom.
@@ -326,6 +328,8 @@ struct Sat {
     drift_mps: f64,
     var_eph: f64,
     doppler_rr: f64,
+    /// (f_L1/f)²: the ionospheric delay of the tracked frequency relative to L1.
+    iono_scale: f64,
     /// Still a candidate (healthy, valid, not excluded by RAIM).
     active: bool,
     // Filled by `residuals`:
@@ -435,6 +439,12 @@ impl Spp {
                     0.0
                 },
                 doppler_rr: rr,
+                // Group delay ∝ 1/f² (λ²); L1 when the wavelength is not given.
+                iono_scale: if o.lambda_m > 0.0 && o.lambda_m.is_finite() {
+                    (o.lambda_m / LAMBDA_L1).powi(2)
+                } else {
+                    1.0
+                },
                 active: true,
                 ..Sat::default()
             };
@@ -446,6 +456,7 @@ impl Spp {
             x.fixed_rows_mut::<3>(0).copy_from(&p);
         }
         let mut excluded = [0u8; 4];
+        let mut excluded_sys = [0u8; 4];
         let mut n_excl = 0usize;
         loop {
             let (nv, need, iters) = self.iterate(&mut x, t_rx)?;
@@ -465,6 +476,7 @@ impl Spp {
                     let worst = self.worst_standardised(&q);
                     self.sats[worst].active = false;
                     excluded[n_excl] = self.sats[worst].prn;
+                    excluded_sys[n_excl] = self.sats[worst].sys as u8;
                     n_excl += 1;
                     continue;
                 }
@@ -504,6 +516,7 @@ impl Spp {
                 n_used: nv as u8,
                 used_mask,
                 excluded_prn: excluded,
+                excluded_sys,
                 n_excluded: n_excl as u8,
                 dop,
                 chi2,
@@ -547,7 +560,7 @@ impl Spp {
                     continue;
                 }
                 if use_iono {
-                    di = self.iono.delay_l1(g.lat, g.lon, az, el, tow);
+                    di = s.iono_scale * self.iono.delay_l1(g.lat, g.lon, az, el, tow);
                 }
                 let valid_h = (-100.0..1.0e4).contains(&g.h);
                 dt = match cfg.tropo {
