@@ -36,6 +36,11 @@ pub struct Args {
     /// Reject epochs whose GDOP exceeds this (RTKLIB `pos2-rejgdop` default).
     #[arg(long, default_value_t = 30.0)]
     pub max_gdop: f64,
+    /// σ in the output: `residuals` (the a-priori model scaled by the file's
+    /// a-posteriori variance factor, when ≥ 30 pooled degrees of freedom) or
+    /// `model` (the a-priori model alone, as RTKLIB writes).
+    #[arg(long, default_value = "residuals")]
+    pub sigma: String,
 }
 
 pub fn run(a: Args) -> Result<(), Fail> {
@@ -61,7 +66,17 @@ pub fn run(a: Args) -> Result<(), Fail> {
             )))
         }
     };
+    let sigma_from_residuals = match a.sigma.as_str() {
+        "residuals" => true,
+        "model" => false,
+        s => {
+            return Err(Fail::usage(format!(
+                "--sigma must be residuals or model, got `{s}`"
+            )))
+        }
+    };
     let opts = SppOptions {
+        sigma_from_residuals,
         solver: SppConfig {
             elev_mask: a.elev_mask_deg.to_radians(),
             iono: !a.no_iono,

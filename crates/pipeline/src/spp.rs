@@ -71,11 +71,27 @@ fn other_system(sys: char) -> Option<SystemSignal> {
 }
 
 /// Options of `navfuse spp`.
-#[derive(Clone, Copy, Debug, PartialEq, Default)]
+#[derive(Clone, Copy, Debug, PartialEq)]
 pub struct SppOptions {
     /// Solver options (elevation mask, models, RAIM, GDOP limit).
     pub solver: SppConfig,
+    /// Scale the written σ by the file's a-posteriori variance factor
+    /// ([`SppSummary::variance_factor`]) instead of the a-priori model's.
+    pub sigma_from_residuals: bool,
 }
+
+impl Default for SppOptions {
+    fn default() -> Self {
+        SppOptions {
+            solver: SppConfig::default(),
+            sigma_from_residuals: true,
+        }
+    }
+}
+
+/// Fewest pooled degrees of freedom for the variance factor to be used
+/// (its relative standard error √(2/dof) is then ≤ 26 %).
+pub const MIN_POOLED_DOF: u64 = 30;
 
 /// What happened to the epochs and satellites of a file.
 #[derive(Clone, Debug, PartialEq, Default, serde::Serialize)]
@@ -105,6 +121,16 @@ pub struct SppSummary {
     pub events_skipped: usize,
     /// Epochs with a Doppler velocity.
     pub with_velocity: usize,
+    /// Σ v²/σ² and Σ dof over the solved epochs, and their ratio, the
+    /// a-posteriori variance factor σ̂₀² of the a-priori error model
+    /// (Teunissen, *Adjustment theory*, §4.4: E[χ²] = dof when the model's σ
+    /// are right; relative standard error √(2/Σdof)); 1 when Σdof <
+    /// [`MIN_POOLED_DOF`].
+    pub chi2_sum: f64,
+    pub dof_sum: u64,
+    pub variance_factor: f64,
+    /// Whether the written σ were scaled by √σ̂₀².
+    pub sigma_scaled: bool,
 }
 
 impl SppSummary {
@@ -139,6 +165,18 @@ impl SppSummary {
                 .collect();
             s += &format!(" ({})", list.join(", "));
         }
+        s += &format!(
+            "\na-posteriori variance factor {:.4} (Σχ² {:.1} / Σdof {}; σ {} by {:.3})",
+            self.variance_factor,
+            self.chi2_sum,
+            self.dof_sum,
+            if self.sigma_scaled {
+                "scaled"
+            } else {
+                "not scaled"
+            },
+            self.variance_factor.sqrt()
+        );
         s += &format!(
             "\nnon-GPS entries in the file {} (Galileo/BeiDou/QZSS satellite-epochs used {}), event records skipped {}, epochs with Doppler velocity {}",
             self.non_gps_skipped, self.other_systems_used, self.events_skipped, self.with_velocity
@@ -291,6 +329,8 @@ pub fn solve_obs(
         match res {
             Ok(sol) => {
                 sum.solved += 1;
+                sum.chi2_sum += sol.chi2;
+                sum.dof_sum += sol.dof as u64;
                 if sol.vel.is_some() {
                     sum.with_velocity += 1;
                 }
@@ -320,6 +360,11 @@ pub fn solve_obs(
     }
     raim.sort();
     sum.raim_by_sat = raim;
+    sum.variance_factor = if sum.dof_sum >= MIN_POOLED_DOF {
+        sum.chi2_sum / sum.dof_sum as f64
+    } else {
+        1.0
+    };
     Ok(sum)
 }
 
@@ -338,11 +383,12 @@ pub fn solution_time(sol: &SppSolution) -> f64 {
     sol.t_rx - clk.unwrap_or(0.0) / C_LIGHT
 }
 
-/// The `.pos` row of a solution: geodetic position, NED σ and cross terms.
-pub fn pos_row(sol: &SppSolution) -> (NavSolution, PosEpoch) {
+/// The `.pos` row of a solution: geodetic position, NED σ and cross terms,
+/// the covariance multiplied by `var_scale`.
+pub fn pos_row(sol: &SppSolution, var_scale: f64) -> (NavSolution, PosEpoch) {
     let g = ecef_to_geodetic(&sol.pos_e);
     let c = c_en(g.lat, g.lon);
-    let p = c * sol.cov_pos_e * c.transpose();
+    let p = c * sol.cov_pos_e * c.transpose() * var_scale;
     let mut s = NavSolution::unknown_at(solution_time(sol));
     s.lat = g.lat;
     s.lon = g.lon;
@@ -395,19 +441,29 @@ pub fn load(obs: &Path, nav: &[PathBuf]) -> Result<(ObsFile, GnssObs, SppNav)> {
 /// `navfuse spp`: solve `obs` with `nav` and write `out` (`.pos`), atomically.
 pub fn run_spp(obs: &Path, nav: &[PathBuf], out: &Path, opts: &SppOptions) -> Result<SppSummary> {
     let (o, g, n) = load(obs, nav)?;
+    let mut sols = Vec::with_capacity(o.epochs.len());
+    let mut sum = solve_obs(&o, &g, &n, opts, |sol| {
+        sols.push(*sol);
+        Ok(())
+    })?;
+    sum.sigma_scaled = opts.sigma_from_residuals && sum.dof_sum >= MIN_POOLED_DOF;
+    let scale = if sum.sigma_scaled {
+        sum.variance_factor
+    } else {
+        1.0
+    };
     let mut f = navfuse_io::atomic::AtomicFile::create(out)
         .map_err(PipelineError::io(out, "cannot create: "))?;
-    let sum = {
+    {
         let mut w = PosWriter::new(std::io::BufWriter::with_capacity(1 << 16, &mut f));
-        let sum = solve_obs(&o, &g, &n, opts, |sol| {
-            let (s, e) = pos_row(sol);
+        for sol in &sols {
+            let (s, e) = pos_row(sol, scale);
             w.write_epoch(&s, &e)
-                .map_err(PipelineError::io(out, "cannot write: "))
-        })?;
+                .map_err(PipelineError::io(out, "cannot write: "))?;
+        }
         navfuse_io::writers::TrajectoryWriter::finish(&mut w)
             .map_err(PipelineError::io(out, "cannot write: "))?;
-        sum
-    };
+    }
     if sum.solved == 0 {
         return Err(PipelineError::Input(format!(
             "{}: no epoch could be solved\n{}",

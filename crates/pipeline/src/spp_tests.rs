@@ -94,16 +94,42 @@ fn spp_matches_rtklib_on_geonet() {
         let rtk = read_rtklib_xyz(&rtk_out);
         let (o, g, n) = load(&obs, std::slice::from_ref(&nav)).unwrap();
         let mut ours: Vec<(f64, Vec3)> = Vec::new();
+        let mut covs = Vec::new();
         let sum = solve_obs(&o, &g, &n, &SppOptions::default(), |s| {
             let t = solution_time(s);
             ours.push((
                 t - (t / SECONDS_PER_WEEK).floor() * SECONDS_PER_WEEK,
                 s.pos_e,
             ));
+            covs.push(s.cov_pos_e);
             Ok(())
         })
         .unwrap();
         let truth = Vec3::from(o.approx_pos);
+        // σ against the header position (itself good to decimetres): the
+        // share of epochs inside the 95 % ellipsoid (χ²₃ 7.815) and the mean
+        // NEES (3 when honest), model σ and residual-scaled σ.
+        let calib = |f: f64| {
+            let nees: Vec<f64> = ours
+                .iter()
+                .zip(&covs)
+                .map(|((_, p), c)| {
+                    let d = p - truth;
+                    (d.transpose() * (c * f).try_inverse().unwrap() * d)[(0, 0)]
+                })
+                .collect();
+            let inside = nees.iter().filter(|&&q| q < 7.815).count() as f64 / nees.len() as f64;
+            (inside, nees.iter().sum::<f64>() / nees.len() as f64)
+        };
+        let (in_m, nees_m) = calib(1.0);
+        let (in_s, nees_s) = calib(sum.variance_factor);
+        println!(
+            "{station}: σ vs header position: model σ {:.0} % inside 95 %, mean NEES {nees_m:.2}; residual-scaled σ (factor {:.4}) {:.0} % inside, mean NEES {nees_s:.2}",
+            in_m * 100.0,
+            sum.variance_factor,
+            in_s * 100.0
+        );
+        assert!(in_s >= 0.9, "residual-scaled σ too small: {in_s}");
         let mut d2 = Vec::new();
         let mut missing = 0;
         for (t, p) in &rtk {
