@@ -23,6 +23,7 @@ mod report;
 mod run;
 mod sim;
 mod smooth_gps;
+mod spp;
 
 /// GNSS/INS navigation toolkit: fuse IMU and GNSS recordings into a trajectory
 /// with attitude, and tell how good it is.
@@ -66,6 +67,8 @@ enum Command {
     Report(report::Args),
     /// Fuse live GNSS (gpsd, NMEA) and IMU streams; solutions at the IMU rate.
     Live(live::Args),
+    /// Single-point positions from RINEX observations and broadcast ephemerides (RTKLIB .pos).
+    Spp(spp::Args),
 }
 
 fn main() -> ExitCode {
@@ -108,5 +111,6 @@ fn dispatch(cli: Cli) -> Result<(), Fail> {
         Command::SmoothGps(a) => Ok(smooth_gps::run(a)?),
         Command::Report(a) => Ok(report::run(a)?),
         Command::Live(a) => live::run(a),
+        Command::Spp(a) => spp::run(a),
     }
 }

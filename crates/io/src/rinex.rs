@@ -9,11 +9,12 @@
 //! files (`G` records) are read too; Hatanaka (Compact RINEX) is refused.
 
 use crate::ReadError;
+use navfuse_core::gnss::iono::Klobuchar;
 use navfuse_core::gnss::{KeplerOrbit, SECONDS_PER_WEEK};
 use std::path::Path;
 use std::sync::Arc;
 
-fn err(file: &str, line: usize, field: &str, msg: impl Into<String>) -> ReadError {
+pub(crate) fn err(file: &str, line: usize, field: &str, msg: impl Into<String>) -> ReadError {
     ReadError::new(&Arc::from(file), line as u64, field.to_string(), msg)
 }
 
@@ -44,7 +45,7 @@ fn two_digit_year(y: i32) -> i32 {
 }
 
 /// Parse a Fortran float (`D` or `E` exponent); blank → `None`.
-fn ffloat(s: &str) -> Result<Option<f64>, String> {
+pub(crate) fn ffloat(s: &str) -> Result<Option<f64>, String> {
     let t = s.trim();
     if t.is_empty() {
         return Ok(None);
@@ -55,7 +56,7 @@ fn ffloat(s: &str) -> Result<Option<f64>, String> {
         .map_err(|_| format!("not a number: `{t}`"))
 }
 
-fn field(line: &str, a: usize, b: usize) -> &str {
+pub(crate) fn field(line: &str, a: usize, b: usize) -> &str {
     let b = b.min(line.len());
     if a >= b {
         ""
@@ -64,22 +65,89 @@ fn field(line: &str, a: usize, b: usize) -> &str {
     }
 }
 
+/// A navigation file's GPS content: ephemerides with their broadcast
+/// accuracy, and the header's Klobuchar coefficients.
+#[derive(Clone, Debug, PartialEq, Default)]
+pub struct NavData {
+    pub orbits: Vec<KeplerOrbit>,
+    /// "SV accuracy" of each record [m] (parallel to `orbits`; 0 when blank).
+    pub ura_m: Vec<f64>,
+    /// `ION ALPHA`/`ION BETA` (RINEX 2) or `IONOSPHERIC CORR GPSA`/`GPSB`
+    /// (RINEX 3); `None` when either is missing.
+    pub iono: Option<Klobuchar>,
+}
+
+impl NavData {
+    /// Append another file's content (the first header's ionosphere wins).
+    pub fn merge(&mut self, other: NavData) {
+        self.orbits.extend(other.orbits);
+        self.ura_m.extend(other.ura_m);
+        if self.iono.is_none() {
+            self.iono = other.iono;
+        }
+    }
+}
+
 /// Read a RINEX 2 (or 3) GPS navigation file.
 pub fn read_nav(path: &Path) -> Result<Vec<KeplerOrbit>, ReadError> {
+    Ok(read_nav_data(path)?.orbits)
+}
+
+/// Read a RINEX 2 (or 3) GPS navigation file with accuracies and ionosphere.
+pub fn read_nav_data(path: &Path) -> Result<NavData, ReadError> {
     let name = path.display().to_string();
     let text = crate::text::read_text_capped(path, u64::MAX)?;
-    parse_nav(&text, &name)
+    parse_nav_data(&text, &name)
 }
 
 /// Parse RINEX navigation text; `name` is used in errors.
 pub fn parse_nav(text: &str, name: &str) -> Result<Vec<KeplerOrbit>, ReadError> {
+    Ok(parse_nav_data(text, name)?.orbits)
+}
+
+/// Four Fortran floats of width 12 from column `start` (header ionosphere lines).
+fn four_floats(
+    l: &str,
+    start: usize,
+    name: &str,
+    ln: usize,
+    what: &str,
+) -> Result<[f64; 4], ReadError> {
+    let mut out = [0.0; 4];
+    for (k, o) in out.iter_mut().enumerate() {
+        let s = field(l, start + 12 * k, start + 12 * (k + 1));
+        *o = ffloat(s)
+            .map_err(|m| err(name, ln, what, m))?
+            .unwrap_or(0.0);
+        if !o.is_finite() {
+            return Err(err(name, ln, what, format!("not finite: `{}`", s.trim())));
+        }
+    }
+    Ok(out)
+}
+
+/// Parse RINEX navigation text with accuracies and the header's ionosphere.
+pub fn parse_nav_data(text: &str, name: &str) -> Result<NavData, ReadError> {
     let lines: Vec<&str> = text.lines().collect();
     let mut i = 0;
     let mut version = 2.0;
+    let (mut alpha, mut beta) = (None, None);
     while i < lines.len() {
         let l = lines[i];
         if l.get(60..).is_some_and(|r| r.starts_with("RINEX VERSION")) {
             version = field(l, 0, 9).trim().parse().unwrap_or(2.0);
+        }
+        let label = l.get(60..).unwrap_or("");
+        if label.starts_with("ION ALPHA") {
+            alpha = Some(four_floats(l, 2, name, i + 1, "ION ALPHA")?);
+        } else if label.starts_with("ION BETA") {
+            beta = Some(four_floats(l, 2, name, i + 1, "ION BETA")?);
+        } else if label.starts_with("IONOSPHERIC CORR") {
+            match field(l, 0, 4) {
+                "GPSA" => alpha = Some(four_floats(l, 5, name, i + 1, "GPSA")?),
+                "GPSB" => beta = Some(four_floats(l, 5, name, i + 1, "GPSB")?),
+                _ => {}
+            }
         }
         i += 1;
         if l.get(60..).is_some_and(|s| s.starts_with("END OF HEADER")) {
@@ -91,6 +159,7 @@ pub fn parse_nav(text: &str, name: &str) -> Result<Vec<KeplerOrbit>, ReadError> 
     }
     let v3 = version >= 3.0;
     let mut out = Vec::new();
+    let mut ura_m = Vec::new();
     while i < lines.len() {
         let l0 = lines[i];
         if l0.trim().is_empty() {
@@ -247,9 +316,18 @@ pub fn parse_nav(text: &str, name: &str) -> Result<Vec<KeplerOrbit>, ReadError> 
             af2: v[2],
             tgd: v[25],
         });
+        ura_m.push(v[23]);
         i += 8;
     }
-    Ok(out)
+    let iono = match (alpha, beta) {
+        (Some(alpha), Some(beta)) => Some(Klobuchar { alpha, beta }),
+        _ => None,
+    };
+    Ok(NavData {
+        orbits: out,
+        ura_m,
+        iono,
+    })
 }
 
 /// The ephemeris of `prn` whose t_oe is nearest `t` (healthy, within 4 h).
@@ -409,10 +487,57 @@ pub fn read_obs(path: &Path) -> Result<ObsFile, ReadError> {
     parse_obs(text_of(&bytes, &name)?, &name)
 }
 
+/// One satellite's observations: (system letter, PRN, one value per code
+/// of that system's `SYS / # / OBS TYPES`).
+pub type SatObs = (char, u8, Vec<Option<ObsValue>>);
+
+/// Every system's observations of a RINEX 3 file, epoch by epoch parallel
+/// to [`ObsFile::epochs`] (GPS included), with the RINEX 3 codes.
+#[derive(Clone, Debug, PartialEq, Default)]
+pub struct GnssObs {
+    /// Per system letter, its `SYS / # / OBS TYPES` codes.
+    pub sys_codes: Vec<(char, Vec<String>)>,
+    /// Per epoch: (system, PRN, one value per code of that system).
+    pub epochs: Vec<Vec<SatObs>>,
+}
+
+impl GnssObs {
+    /// Index of `code` among system `sys`'s codes.
+    pub fn index(&self, sys: char, code: &str) -> Option<usize> {
+        self.sys_codes
+            .iter()
+            .find(|(s, _)| *s == sys)
+            .and_then(|(_, c)| c.iter().position(|x| x == code))
+    }
+}
+
+/// Read an observation file keeping every system (RINEX 3; for RINEX 2 the
+/// [`GnssObs`] is empty and the GPS observations are in the [`ObsFile`]).
+pub fn read_obs_gnss(path: &Path) -> Result<(ObsFile, GnssObs), ReadError> {
+    let name = path.display().to_string();
+    let bytes = crate::text::read_bytes_capped(path, u64::MAX)?;
+    parse_obs_gnss(text_of(&bytes, &name)?, &name)
+}
+
+/// [`parse_obs`] keeping every system's observations of a RINEX 3 file.
+pub fn parse_obs_gnss(text: &str, name: &str) -> Result<(ObsFile, GnssObs), ReadError> {
+    let mut g = GnssObs::default();
+    let f = parse_obs_impl(text, name, Some(&mut g))?;
+    Ok((f, g))
+}
+
 /// Parse RINEX 2.xx or 3.0x observation text (version from the
 /// `RINEX VERSION / TYPE` line). Hatanaka-compressed (Compact RINEX) text is
 /// recognised and refused with an error.
 pub fn parse_obs(text: &str, name: &str) -> Result<ObsFile, ReadError> {
+    parse_obs_impl(text, name, None)
+}
+
+fn parse_obs_impl(
+    text: &str,
+    name: &str,
+    mut keep: Option<&mut GnssObs>,
+) -> Result<ObsFile, ReadError> {
     let lines: Vec<&str> = text.lines().collect();
     let mut f = ObsFile {
         version: 2.0,
@@ -574,7 +699,10 @@ pub fn parse_obs(text: &str, name: &str) -> Result<ObsFile, ReadError> {
             f.types = map_gps_codes(c);
             f.codes = c.clone();
         }
-        parse_obs_body_v3(&lines, i, name, &sys_codes, &mut f)?;
+        if let Some(g) = keep.as_deref_mut() {
+            g.sys_codes = sys_codes.clone();
+        }
+        parse_obs_body_v3(&lines, i, name, &sys_codes, &mut f, keep)?;
         return Ok(f);
     }
     if f.types.is_empty() {
@@ -696,6 +824,7 @@ fn parse_obs_body_v3(
     name: &str,
     sys_codes: &[(char, Vec<String>)],
     f: &mut ObsFile,
+    mut keep: Option<&mut GnssObs>,
 ) -> Result<(), ReadError> {
     while i < lines.len() {
         let l = lines[i];
@@ -749,6 +878,7 @@ fn parse_obs_body_v3(
             sec,
         );
         let mut sats = Vec::with_capacity(nsat.min(64));
+        let mut all = Vec::new();
         for k in 0..nsat {
             let sl = i + 1 + k;
             let s = match lines.get(sl) {
@@ -802,6 +932,9 @@ fn parse_obs_body_v3(
                 };
                 vals.push(v.map(|value| ObsValue { value, lli }));
             }
+            if keep.is_some() {
+                all.push((sys, prn, vals.clone()));
+            }
             if sys == 'G' {
                 sats.push((prn, vals));
             } else {
@@ -810,6 +943,9 @@ fn parse_obs_body_v3(
         }
         i += 1 + nsat;
         f.epochs.push(ObsEpoch { t, flag, sats });
+        if let Some(g) = keep.as_deref_mut() {
+            g.epochs.push(all);
+        }
     }
     Ok(())
 }
@@ -853,6 +989,29 @@ mod tests {
         assert!((e.tgd + 1.90921127796e-8).abs() < 1e-18);
         let r = e.position_ecef(e.t_oe).norm();
         assert!((r - 2.656e7).abs() < 2e5);
+    }
+
+    /// The header's Klobuchar coefficients (RINEX 2 and RINEX 3 labels) and
+    /// each record's SV accuracy come through `parse_nav_data`.
+    #[test]
+    fn nav_header_ionosphere_and_accuracy() {
+        let ion2 = "    1.1180D-08  1.4900D-08 -5.9600D-08 -5.9600D-08          ION ALPHA\n    8.8060D+04  1.6380D+04 -1.9660D+05 -1.3110D+05          ION BETA\n";
+        let text = NAV.replacen("\n", &format!("\n{ion2}"), 1);
+        let d = parse_nav_data(&text, "t.n").unwrap();
+        let k = d.iono.expect("ionosphere");
+        assert_eq!(k.alpha, [1.118e-8, 1.49e-8, -5.96e-8, -5.96e-8]);
+        assert_eq!(k.beta, [8.806e4, 1.638e4, -1.966e5, -1.311e5]);
+        assert_eq!(d.ura_m, [2.0]);
+        assert_eq!(d.orbits.len(), 1);
+        // RINEX 3 `IONOSPHERIC CORR` lines.
+        let ion3 = "GPSA   1.1180D-08  1.4900D-08 -5.9600D-08 -5.9600D-08       IONOSPHERIC CORR\nGPSB   8.8060D+04  1.6380D+04 -1.9660D+05 -1.3110D+05       IONOSPHERIC CORR\n";
+        let text = NAV.replacen("\n", &format!("\n{ion3}"), 1);
+        assert_eq!(parse_nav_data(&text, "t.n").unwrap().iono, Some(k));
+        // Without the header lines there is no model; a bad number is named.
+        assert_eq!(parse_nav_data(NAV, "t.n").unwrap().iono, None);
+        let bad = text.replace("8.8060D+04", "8.80x0D+04");
+        let e = parse_nav_data(&bad, "t.n").unwrap_err().to_string();
+        assert!(e.starts_with("t.n:3: field `GPSB`"), "{e}");
     }
 
     #[test]
@@ -941,6 +1100,40 @@ an event with one header line                               COMMENT
 
     fn val(f: &ObsFile, e: usize, s: usize, code: &str) -> Option<ObsValue> {
         f.epochs[e].sats[s].1[f.index(code).unwrap()]
+    }
+
+    /// `parse_obs_gnss` keeps every system, epoch by epoch parallel to the
+    /// GPS-only `ObsFile`, with the GPS values identical.
+    #[test]
+    fn rinex3_all_systems_are_kept() {
+        let (f, g) = parse_obs_gnss(OBS3, "t.rnx").unwrap();
+        assert_eq!(f, parse_obs(OBS3, "t.rnx").unwrap());
+        assert_eq!(g.epochs.len(), f.epochs.len());
+        let sys: Vec<char> = g.sys_codes.iter().map(|(s, _)| *s).collect();
+        assert!(sys.contains(&'G') && sys.contains(&'R') && sys.contains(&'E'));
+        assert_eq!(
+            g.sys_codes.iter().find(|(s, _)| *s == 'E').unwrap().1.len(),
+            16
+        );
+        let mut others = 0u64;
+        for (e, ge) in f.epochs.iter().zip(&g.epochs) {
+            let gps: Vec<_> = ge
+                .iter()
+                .filter(|(s, _, _)| *s == 'G')
+                .map(|(_, p, v)| (*p, v.clone()))
+                .collect();
+            assert_eq!(gps, e.sats);
+            others += ge.iter().filter(|(s, _, _)| *s != 'G').count() as u64;
+        }
+        assert_eq!(others as usize, f.skipped_non_gps);
+        assert!(others > 0);
+        let i = g.index('E', "C1C").expect("Galileo C1C");
+        assert!(g.epochs[0]
+            .iter()
+            .any(|(s, p, v)| *s == 'E' && *p == 11 && v[i].is_some()));
+        // RINEX 2: nothing beyond the ObsFile.
+        let (_, g2) = parse_obs_gnss(OBS2, "t.o").unwrap();
+        assert!(g2.epochs.is_empty());
     }
 
     #[test]

@@ -488,7 +488,20 @@ fn run_imu_lines(b: &[u8]) -> usize {
 
 fn run_rinex_obs(b: &[u8]) -> usize {
     let text = String::from_utf8_lossy(b);
-    navfuse_io::rinex::parse_obs(&text, "f").map_or(0, |f| f.epochs.len())
+    let gps = navfuse_io::rinex::parse_obs(&text, "f");
+    // The all-systems reader agrees: same result, epochs parallel.
+    let all = navfuse_io::rinex::parse_obs_gnss(&text, "f");
+    match (&gps, &all) {
+        (Ok(f), Ok((f2, g))) => {
+            // Compared as text: the reader passes a `NaN` field through,
+            // and NaN != NaN.
+            assert_eq!(format!("{f:?}"), format!("{f2:?}"));
+            assert!(g.epochs.is_empty() || g.epochs.len() == f.epochs.len());
+        }
+        (Err(a), Err(b)) => assert_eq!(a.to_string(), b.to_string()),
+        _ => panic!("parse_obs and parse_obs_gnss disagree"),
+    }
+    gps.map_or(0, |f| f.epochs.len())
 }
 fn run_rinex_nav(b: &[u8]) -> usize {
     let text = String::from_utf8_lossy(b);
@@ -1058,6 +1071,54 @@ fn fuzz_rinex_nav() {
         &["gnss/rinex/brdc1820.10n", "gnss/rinex/07590920.05n"],
     );
     fuzz("rinex_nav", run_rinex_nav, s, None);
+}
+
+fn run_rinex3_nav(b: &[u8]) -> usize {
+    let text = String::from_utf8_lossy(b);
+    navfuse_io::rinex_nav3::parse_nav_gnss(&text, "f").map_or(0, |n| {
+        for e in &n.ephs {
+            // Whatever parses evaluates without a panic.
+            let _ = navfuse_core::gnss::orbit_gnss::position_ecef(&e.orbit, e.kind, e.orbit.t_oe);
+        }
+        n.ephs.len()
+    })
+}
+
+/// RINEX 3 multi-GNSS navigation (Galileo, BeiDou GEO, a skipped GLONASS record).
+const RINEX3_NAV: &str =
+    "     3.04           N: GNSS NAV DATA    M: MIXED            RINEX VERSION / TYPE
+                                                            END OF HEADER
+E11 2019 01 01 00 10 00-6.408181018196E-04-7.261957228184E-12 0.000000000000E+00
+     1.200000000000E+01-3.190625000000E+01 2.826546881327E-09 1.060935766467E+00
+    -1.504272222519E-06 1.573478034697E-04 5.958601832390E-06 5.440611837387E+03
+     1.746000000000E+05 4.656612873077E-09-1.196298196014E+00 2.793967723846E-08
+     9.847683962432E-01 2.245625000000E+02 3.136049563113E-01-5.625586602126E-09
+    -2.007226171524E-10 5.170000000000E+02 2.034000000000E+03 0.000000000000E+00
+     3.120000000000E+00 0.000000000000E+00-1.629814505577E-09-1.862645149231E-09
+     1.753940000000E+05
+R05 2019 01 01 00 15 00 7.406435906887E-05 0.000000000000E+00 1.746000000000E+05
+     1.0E+04 0.0E+00 0.0E+00 0.0E+00
+     1.0E+04 0.0E+00 0.0E+00 1.0E+00
+     1.0E+04 0.0E+00 0.0E+00 0.0E+00
+C01 2019 01 01 00 00 00 5.287066334859E-04 4.010480264303E-11 0.000000000000E+00
+     1.000000000000E+00 6.398437500000E+00 4.121242095640E-10-2.733027462568E+00
+     2.021389082074E-07 4.872011882253E-04 2.132053486000E-05 6.493390665054E+03
+     1.728000000000E+05 1.862645149231E-08 2.825587713009E+00-4.470348358154E-08
+     9.072369124127E-02-6.549687500000E+02-3.010917932913E+00 2.878691633015E-10
+    -1.046472733001E-09 0.000000000000E+00 6.780000000000E+02 0.000000000000E+00
+     2.000000000000E+00 0.000000000000E+00-5.800000000000E-09-1.020000000000E-08
+     1.728000000000E+05 1.000000000000E+00
+";
+
+#[test]
+fn fuzz_rinex3_nav() {
+    assert_eq!(run_rinex3_nav(RINEX3_NAV.as_bytes()), 2, "the seed parses");
+    fuzz(
+        "rinex3_nav",
+        run_rinex3_nav,
+        vec![RINEX3_NAV.as_bytes().to_vec()],
+        None,
+    );
 }
 
 /// Carrier-phase CSV (CP-ATT input, issue 17): every record finite, the

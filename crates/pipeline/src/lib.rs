@@ -53,6 +53,7 @@ pub mod run_checks;
 pub mod sensors;
 pub mod sigma;
 pub mod smooth_gps;
+pub mod spp;
 mod summary;
 pub mod template;
 pub mod time_offset;

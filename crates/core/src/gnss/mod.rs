@@ -12,6 +12,9 @@
 //!   decreasing elevation (the order of the paper's double differences).
 //! - [`dd`]: the paper's double differences (eq. 8–10) and their covariance.
 //! - [`tropo`]: Saastamoinen zenith delays and Niell mapping functions.
+//! - [`orbit_gnss`]: Galileo/BeiDou (incl. GEO)/QZSS broadcast orbits.
+//! - [`iono`]: Klobuchar broadcast ionosphere (IS-GPS-200 Fig. 20-4).
+//! - [`spp`]: single-point positioning (WLS, RAIM FDE, DOPs, Doppler velocity).
 //!
 //! Time: GPS seconds since the GPS epoch (`week · 604800 + tow`).
 
@@ -24,6 +27,9 @@ use crate::prelude::*;
 use crate::{Mat3, Vec3};
 
 pub mod dd;
+pub mod iono;
+pub mod orbit_gnss;
+pub mod spp;
 pub mod tropo;
 
 /// Earth gravitational constant for GPS, IS-GPS-200 [m³/s²].
