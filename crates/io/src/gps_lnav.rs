@@ -16,6 +16,8 @@
 //! π = 3.1415926535898; times are GPS seconds since the GPS epoch
 //! (`week · 604800 + seconds of week`).
 
+use navfuse_core::gnss::iono::Klobuchar;
+use navfuse_core::gnss::spp::URA_UPPER_M;
 use navfuse_core::gnss::{KeplerOrbit, SECONDS_PER_WEEK};
 
 /// π as IS-GPS-200 defines it for semicircle conversion (deliberately the
@@ -156,10 +158,35 @@ pub fn decode_subframe(words: &[u32; 10]) -> Result<Subframe, LnavError> {
     })
 }
 
+/// A broadcast ephemeris with what [`KeplerOrbit`] does not hold.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct LnavEphemeris {
+    pub orbit: KeplerOrbit,
+    /// Issue of data (IODE; IODC's low 8 bits).
+    pub iode: u8,
+    /// The URA index's upper bound [m] (IS-GPS-200 §20.3.3.3.1.3; NaN for
+    /// index 15, "no accuracy prediction"): the value a RINEX file writes as
+    /// "SV accuracy" falls in the same interval.
+    pub ura_m: f64,
+}
+
+/// URA index (0–15) of an accuracy in metres: the first interval whose
+/// upper bound holds it; 15 for NaN or beyond 6144 m.
+pub fn ura_index(ura_m: f64) -> u32 {
+    URA_UPPER_M
+        .iter()
+        .position(|&b| b >= ura_m)
+        .map_or(15, |n| n as u32)
+}
+
+/// SV ID of subframe 4 page 18 (ionosphere and UTC), IS-GPS-200 Table 20-V.
+const SV_ID_IONO_UTC: u32 = 56;
+
 /// Parameters of subframe 1.
 #[derive(Clone, Copy, Debug, PartialEq)]
 struct Sf1 {
     wn10: u32,
+    ura: u32,
     health: u32,
     iodc: u32,
     tgd: f64,
@@ -170,6 +197,7 @@ struct Sf1 {
 fn sf1(w: &[u32; 10]) -> Sf1 {
     Sf1 {
         wn10: get(w, 3, 1, 10),
+        ura: get(w, 3, 13, 4),
         health: get(w, 3, 17, 6),
         iodc: (get(w, 3, 23, 2) << 8) | get(w, 8, 1, 8),
         tgd: sext(get(w, 7, 17, 8), 8) as f64 * 2f64.powi(-31),
@@ -190,6 +218,8 @@ pub struct Assembler {
     last: [[Option<Subframe>; 3]; 32],
     /// IODE of the last ephemeris emitted per PRN.
     emitted: [Option<(u32, u32)>; 32],
+    /// Klobuchar coefficients of the last subframe 4 page 18.
+    pub iono: Option<Klobuchar>,
 }
 
 impl Assembler {
@@ -197,7 +227,12 @@ impl Assembler {
     /// reception (e.g. RXM-RAWX's), which resolves the 10-bit broadcast
     /// week. Returns a new ephemeris when subframes 1–3 with one issue of
     /// data are complete and differ from the last one emitted.
-    pub fn push(&mut self, prn: u8, sf: &Subframe, week: u16) -> Option<KeplerOrbit> {
+    /// Subframe 4 page 18 sets [`Assembler::iono`].
+    pub fn push(&mut self, prn: u8, sf: &Subframe, week: u16) -> Option<LnavEphemeris> {
+        if sf.id == 4 && get(&sf.words, 3, 3, 6) == SV_ID_IONO_UTC {
+            self.iono = Some(decode_iono(&sf.words));
+            return None;
+        }
         if !(1..=32).contains(&prn) || !(1..=3).contains(&sf.id) {
             return None;
         }
@@ -256,8 +291,64 @@ impl Assembler {
             tgd: p1.tgd,
         };
         self.emitted[k] = Some((iode2, p1.toc as u32));
-        Some(orbit)
+        Some(LnavEphemeris {
+            orbit,
+            iode: iode2 as u8,
+            ura_m: URA_UPPER_M
+                .get(p1.ura as usize)
+                .copied()
+                .unwrap_or(f64::NAN),
+        })
     }
+}
+
+/// Scale exponents of α0..α3 and β0..β3 (IS-GPS-200 Table 20-X).
+const IONO_EXP: [i32; 8] = [-30, -27, -24, -24, 11, 14, 16, 16];
+/// Data-bit positions (word, start) of α0..α3, β0..β3 in page 18 (8 bits each).
+const IONO_POS: [(usize, u32); 8] = [
+    (3, 9),
+    (3, 17),
+    (4, 1),
+    (4, 9),
+    (4, 17),
+    (5, 1),
+    (5, 9),
+    (5, 17),
+];
+
+fn decode_iono(w: &[u32; 10]) -> Klobuchar {
+    let c: [f64; 8] = core::array::from_fn(|i| {
+        let (n, st) = IONO_POS[i];
+        sext(get(w, n, st, 8), 8) as f64 * 2f64.powi(IONO_EXP[i])
+    });
+    Klobuchar {
+        alpha: [c[0], c[1], c[2], c[3]],
+        beta: [c[4], c[5], c[6], c[7]],
+    }
+}
+
+/// Subframe 4 page 18 carrying the Klobuchar coefficients `k` (the UTC
+/// parameters zero), transmitted from time of week `tow_s` (a multiple of 6 s).
+pub fn encode_iono(k: &Klobuchar, tow_s: f64) -> Result<[u32; 10], LnavError> {
+    let mut w = Writer { d: [0; 10] };
+    w.put(1, 1, 8, PREAMBLE);
+    w.put(2, 1, 17, ((tow_s / 6.0).round() as u32 + 1) % 100_800);
+    w.put(2, 20, 3, 4);
+    w.put(3, 1, 2, 1); // data ID
+    w.put(3, 3, 6, SV_ID_IONO_UTC);
+    let c = [
+        k.alpha[0], k.alpha[1], k.alpha[2], k.alpha[3], k.beta[0], k.beta[1], k.beta[2], k.beta[3],
+    ];
+    for (i, v) in c.iter().enumerate() {
+        let (n, st) = IONO_POS[i];
+        w.put(
+            n,
+            st,
+            8,
+            q_signed(*v, IONO_EXP[i], 8, "Klobuchar coefficient")?,
+        );
+    }
+    Ok(w.finish())
 }
 
 /// Builds words from source-data fields, then parity.
@@ -319,12 +410,13 @@ fn q_unsigned(v: f64, e: i32, len: u32, name: &'static str) -> Result<u32, LnavE
 }
 
 /// Subframes 1, 2 and 3 of `o` with issue of data `iode` (8 bits; IODC =
-/// `iode`), transmitted from time of week `tow_sf1_s` (subframe 1 start, a
+/// `iode`) and accuracy `ura_m` ([`ura_index`]), transmitted from time of week `tow_sf1_s` (subframe 1 start, a
 /// multiple of 6 s; subframes 2 and 3 follow at +6 and +12 s). Values are
 /// quantised to their broadcast resolution.
 pub fn encode_ephemeris(
     o: &KeplerOrbit,
     iode: u8,
+    ura_m: f64,
     tow_sf1_s: f64,
 ) -> Result<[[u32; 10]; 3], LnavError> {
     let sow = |t: f64| t - (t / SECONDS_PER_WEEK).floor() * SECONDS_PER_WEEK;
@@ -348,6 +440,7 @@ pub fn encode_ephemeris(
             0 => {
                 w.put(3, 1, 10, (week as i64).rem_euclid(1024) as u32);
                 w.put(3, 11, 2, 1); // C/A code on L2
+                w.put(3, 13, 4, ura_index(ura_m));
                 w.put(3, 17, 6, o.health & 0x3F);
                 w.put(3, 23, 2, 0); // IODC MSBs
                 w.put(7, 17, 8, q_signed(o.tgd, -31, 8, "T_GD")?);
@@ -423,7 +516,7 @@ mod tests {
     #[test]
     fn encode_then_decode_recovers_the_orbit_to_its_broadcast_resolution() {
         let o = orbit();
-        let sfs = encode_ephemeris(&o, 77, 352_794.0).unwrap();
+        let sfs = encode_ephemeris(&o, 77, 2.0, 352_794.0).unwrap();
         let mut a = Assembler::default();
         let mut got = None;
         for (i, w) in sfs.iter().enumerate() {
@@ -432,7 +525,9 @@ mod tests {
             assert_eq!(sf.tow_next_s, 352_794.0 + 6.0 * (i as f64 + 1.0));
             got = a.push(3, &sf, 1590);
         }
-        let g = got.expect("ephemeris after subframes 1-3");
+        let e = got.expect("ephemeris after subframes 1-3");
+        assert_eq!((e.iode, e.ura_m), (77, 2.4));
+        let g = e.orbit;
         // Within ±2 h the positions agree to the broadcast resolution: half
         // an LSB of the angles (2^-32 semicircles ≈ 2 cm at GPS orbit
         // radius) and of the rates (Δn, Ω̇, IDOT: 2^-44 sc/s × 7200 s ≈
@@ -445,13 +540,13 @@ mod tests {
             assert!((g.clock_offset(t) - o.clock_offset(t)).abs() < 6.5e-10);
         }
         // A broadcast (already quantised) ephemeris survives exactly.
-        let again = encode_ephemeris(&g, 78, 352_794.0).unwrap();
+        let again = encode_ephemeris(&g, 78, 2.0, 352_794.0).unwrap();
         let mut b = Assembler::default();
         let mut g2 = None;
         for w in &again {
             g2 = b.push(3, &decode_subframe(w).unwrap(), 1590);
         }
-        assert_eq!(g2, Some(g));
+        assert_eq!(g2.map(|e| e.orbit), Some(g));
         assert_eq!((g.t_oe, g.t_oc), (o.t_oe, o.t_oc));
         assert!((g.tgd - o.tgd).abs() < 2f64.powi(-31));
         // The same issue of data again is not a new ephemeris.
@@ -462,7 +557,7 @@ mod tests {
     #[test]
     fn a_flipped_bit_fails_parity_and_mismatched_issues_do_not_join() {
         let o = orbit();
-        let sfs = encode_ephemeris(&o, 77, 352_794.0).unwrap();
+        let sfs = encode_ephemeris(&o, 77, 2.0, 352_794.0).unwrap();
         for word in 0..10 {
             for bit in [0u32, 7, 29] {
                 let mut w = sfs[1];
@@ -470,7 +565,7 @@ mod tests {
                 assert_eq!(decode_subframe(&w), Err(LnavError::Parity(word + 1)));
             }
         }
-        let other = encode_ephemeris(&o, 78, 352_794.0).unwrap();
+        let other = encode_ephemeris(&o, 78, 2.0, 352_794.0).unwrap();
         let mut a = Assembler::default();
         a.push(3, &decode_subframe(&sfs[0]).unwrap(), 1590);
         a.push(3, &decode_subframe(&sfs[1]).unwrap(), 1590);
@@ -481,7 +576,7 @@ mod tests {
 
     #[test]
     fn words_2_and_10_end_in_zero_parity_bits() {
-        let sfs = encode_ephemeris(&orbit(), 5, 6.0).unwrap();
+        let sfs = encode_ephemeris(&orbit(), 5, 2.0, 6.0).unwrap();
         for sf in sfs {
             assert_eq!(sf[1] & 3, 0);
             assert_eq!(sf[9] & 3, 0);
@@ -494,13 +589,13 @@ mod tests {
         let mut o = orbit();
         o.t_oe = 2048.0 * SECONDS_PER_WEEK + 0.0;
         o.t_oc = o.t_oe;
-        let sfs = encode_ephemeris(&o, 9, 604_200.0).unwrap();
+        let sfs = encode_ephemeris(&o, 9, 2.0, 604_200.0).unwrap();
         let mut a = Assembler::default();
         let mut got = None;
         for w in &sfs {
             got = a.push(3, &decode_subframe(w).unwrap(), 2047);
         }
-        let g = got.unwrap();
+        let g = got.unwrap().orbit;
         // Broadcast week 2047 mod 1024 = 1023; t_oe (0 s of week) lies more
         // than half a week after the transmission: the next week, 2048.
         assert_eq!(get(&sfs[0], 3, 1, 10), 1023);
@@ -539,9 +634,42 @@ mod tests {
     }
 
     #[test]
+    fn iono_page_round_trips_and_sets_the_assembler() {
+        // Coefficients on their broadcast grid (typical 2010 values).
+        let k = Klobuchar {
+            alpha: [1.1176e-8, 7.4506e-9, -5.9605e-8, -5.9605e-8],
+            beta: [90112.0, 0.0, -196608.0, -65536.0],
+        };
+        let w = encode_iono(&k, 600.0).unwrap();
+        let sf = decode_subframe(&w).unwrap();
+        assert_eq!(sf.id, 4);
+        let mut a = Assembler::default();
+        assert!(a.push(3, &sf, 1590).is_none());
+        let got = a.iono.unwrap();
+        for i in 0..4 {
+            // Half an LSB of each coefficient.
+            assert!((got.alpha[i] - k.alpha[i]).abs() <= 2f64.powi(IONO_EXP[i] - 1));
+            assert!((got.beta[i] - k.beta[i]).abs() <= 2f64.powi(IONO_EXP[i + 4] - 1));
+        }
+    }
+
+    #[test]
+    fn ura_index_follows_the_icd_intervals() {
+        assert_eq!(ura_index(0.0), 0);
+        assert_eq!(ura_index(2.4), 0);
+        assert_eq!(ura_index(2.8), 1);
+        assert_eq!(ura_index(6144.0), 14);
+        assert_eq!(ura_index(7000.0), 15);
+        assert_eq!(ura_index(f64::NAN), 15);
+    }
+
+    #[test]
     fn out_of_range_fields_are_errors() {
         let mut o = orbit();
         o.af0 = 1.0; // 1 s does not fit 22 bits of 2^-31 s
-        assert_eq!(encode_ephemeris(&o, 1, 0.0), Err(LnavError::Range("a_f0")));
+        assert_eq!(
+            encode_ephemeris(&o, 1, 2.0, 0.0),
+            Err(LnavError::Range("a_f0"))
+        );
     }
 }

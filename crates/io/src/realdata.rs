@@ -190,18 +190,22 @@ fn drive_preset_mounting_matches_kfgins_body_frame_at_rest() {
 #[ignore = "real data: run with `cargo test --release -- --ignored`"]
 fn real_broadcast_ephemerides_survive_lnav_subframes() {
     use crate::gps_lnav::{decode_subframe, encode_ephemeris, Assembler};
-    let ephs = crate::rinex::read_nav(&require("gnss/rinex/brdc1820.10n")).unwrap();
+    let nav = crate::rinex::read_nav_data(&require("gnss/rinex/brdc1820.10n")).unwrap();
+    let ephs = &nav.orbits;
     assert!(ephs.len() > 300, "{} ephemerides", ephs.len());
     for (k, o) in ephs.iter().enumerate() {
         let week = (o.t_oe / 604_800.0).floor() as u16;
         let tow = ((o.t_oe - f64::from(week) * 604_800.0) / 6.0).floor() * 6.0;
-        let sfs = encode_ephemeris(o, (k % 256) as u8, tow).unwrap();
+        let sfs = encode_ephemeris(o, (k % 256) as u8, nav.ura_m[k], tow).unwrap();
         let mut a = Assembler::default();
         let mut got = None;
         for w in &sfs {
             got = a.push(o.prn, &decode_subframe(w).unwrap(), week);
         }
-        let g = got.unwrap();
+        let e = got.unwrap();
+        let g = e.orbit;
+        let ura = navfuse_core::gnss::spp::ura_sigma_m;
+        assert_eq!(ura(e.ura_m), ura(nav.ura_m[k]), "PRN {} URA", o.prn);
         for dt in [-7200.0, 0.0, 7200.0] {
             let t = o.t_oe + dt;
             let d = (g.position_ecef(t) - o.position_ecef(t)).norm();
@@ -209,5 +213,22 @@ fn real_broadcast_ephemerides_survive_lnav_subframes() {
             assert!((g.clock_offset(t) - o.clock_offset(t)).abs() < 1e-12);
         }
         assert_eq!((g.t_oe, g.t_oc, g.health), (o.t_oe, o.t_oc, o.health));
+    }
+    let k = nav.iono.expect("header ionosphere");
+    let mut a = Assembler::default();
+    a.push(
+        1,
+        &decode_subframe(&crate::gps_lnav::encode_iono(&k, 0.0).unwrap()).unwrap(),
+        1590,
+    );
+    // The header prints 4 significant digits of the broadcast values.
+    let got = a.iono.expect("page 18 decoded");
+    let pairs = got
+        .alpha
+        .iter()
+        .chain(&got.beta)
+        .zip(k.alpha.iter().chain(&k.beta));
+    for (g, h) in pairs {
+        assert!((g - h).abs() <= 1e-3 * h.abs(), "{got:?} vs header {k:?}");
     }
 }

@@ -91,7 +91,7 @@ pub fn chi2_999(dof: usize) -> f64 {
 
 /// Upper bounds of the GPS URA index intervals N = 0..14 [m]
 /// (IS-GPS-200 §20.3.3.3.1.3).
-const URA_UPPER_M: [f64; 15] = [
+pub const URA_UPPER_M: [f64; 15] = [
     2.4, 3.4, 4.85, 6.85, 9.65, 13.65, 24.0, 48.0, 96.0, 192.0, 384.0, 768.0, 1536.0, 3072.0,
     6144.0,
 ];
