@@ -46,6 +46,10 @@ fn tweak(name: &str, cfg: &mut RunConfig) {
                 })
             }
             "s01" => {}
+            t if t.starts_with("tau") => {
+                let g = cfg.filter.gnss_error.get_or_insert_with(Default::default);
+                g.tau_s = Some(t[3..].parse().expect("tauN: N seconds"));
+            }
             "nhc_off" => {
                 cfg.filter.nhc = Some(crate::config::NhcCfg {
                     enabled: Some(false),
@@ -116,7 +120,7 @@ fn honesty_diag() {
     let jobs: Vec<(usize, u64, usize)> = (0..cells.len())
         .flat_map(|c| (0..seeds).flat_map(move |s| (0..nv).map(move |v| (c, s, v))))
         .collect();
-    let res: Vec<(Acc, Acc)> = jobs
+    let res: Vec<(Acc, Acc, String)> = jobs
         .par_iter()
         .map(|&(c, s, v)| {
             let cell = &cells[c];
@@ -140,8 +144,9 @@ fn honesty_diag() {
                 &mut cfg,
             );
             let (mut inn, mut out) = (Acc::default(), Acc::default());
-            let Ok(r) = run_variant(&cfg, &pr) else {
-                return (inn, out);
+            let r = match run_variant(&cfg, &pr) {
+                Ok(r) => r,
+                Err(e) => return (inn, out, e.to_string()),
             };
             let t0 = motion_start(&pr.run.traj).unwrap() + super::generalise::SCORE_AFTER_MOTION_S;
             for sol in r.solutions.iter().filter(|x| x.t >= t0) {
@@ -154,7 +159,7 @@ fn honesty_diag() {
                 let o = pr.outages.iter().any(|o| sol.t >= o[0] && sol.t < o[1]);
                 if o { &mut inn } else { &mut out }.add(en * en + ee * ee, nees);
             }
-            (inn, out)
+            (inn, out, r.augmented_states.clone())
         })
         .collect();
     println!(
@@ -166,17 +171,18 @@ fn honesty_diag() {
             let (mut ti, mut to) = (Acc::default(), Acc::default());
             for s in 0..seeds {
                 let k = jobs.iter().position(|j| *j == (c, s, v)).unwrap();
-                let (i, o) = res[k];
+                let (i, o, ref how) = res[k];
                 let mut a = i;
                 a.merge(&o);
                 println!(
-                    "{:<28} {:<22} {:>4}  {}  {}  {}",
+                    "{:<28} {:<22} {:>4}  {}  {}  {}  {}",
                     cell.name(),
                     vn,
                     s,
                     a.fmt(),
                     i.fmt(),
-                    o.fmt()
+                    o.fmt(),
+                    how
                 );
                 ti.merge(&i);
                 to.merge(&o);
