@@ -539,6 +539,19 @@ pub(crate) fn run_eskf_span(
             0,
         )
     };
+    // σ under a correlated fix error from here on (the bank's decisions
+    // above used the filter's own σ; the solutions are unchanged).
+    let (sens, sens_how) = crate::gnss_error::sensitivity_model(cfg, gnss);
+    if let Some(sm) = sens {
+        m.eskf
+            .start_sensitivity(sm)
+            .map_err(|e| cfg.err(format!("[filter.gnss_error] sensitivity: {e}")))?;
+    }
+    let augmented_states = if sens_how.is_empty() {
+        augmented_states
+    } else {
+        format!("{augmented_states}; {sens_how}")
+    };
     // Aiding events from the start of the remaining IMU span on (those
     // during a yaw bank are not used), merged with the fixes in time order.
     let heads = &aids;

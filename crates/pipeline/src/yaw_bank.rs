@@ -167,7 +167,7 @@ impl Member {
         }
         if let Some(sol) = sol {
             if self.with_std {
-                let p = self.eskf.covariance();
+                let p = self.eskf.reported_covariance();
                 let row = crate::sigma::std_row(
                     sol.t,
                     &p.diagonal(),

@@ -52,12 +52,15 @@ use nalgebra::{SMatrix, SVector};
 
 mod aiding;
 mod aug;
+mod sens;
 pub use aiding::{AidingConfig, AidingStats, MAX_LAG_S};
 use aug::{gated_update, Aug};
 pub use aug::{
     AugConfigError, AugSmootherRecord, AugmentedEstimate, AugmentedStates, GnssErrorStates,
     TimeOffsetState, IA_GNSS, IA_ODO, IA_TAU, NA, NF,
 };
+use sens::Sens;
+pub use sens::SensitivityModel;
 
 /// Number of error states.
 pub const NX: usize = 21;
@@ -296,6 +299,11 @@ pub struct SmootherRecord {
     /// not come from this one: `B_{k−1} = P⁺_{k−1} − A_k P⁻_k A_kᵀ` in
     /// Joseph form ([`rts_smooth`]); zero for the first record.
     pub p_base_prev: Cov,
+    /// With a sensitivity covariance ([`Eskf::start_sensitivity`]): the
+    /// variance it adds to the filter's at this checkpoint (diagonal,
+    /// floored at 0) and its position cross terms (NE, ED, DN) [m²]; added
+    /// to the smoothed covariance by [`rts_smooth`].
+    pub p_extra: Option<(StateVec, Vec3)>,
 }
 
 /// Output of the RTS backward pass at one checkpoint.
@@ -344,12 +352,21 @@ pub fn rts_smooth(records: &[SmootherRecord], p_last: &Cov, mut out: impl FnMut(
     let mut ds_a = SVector::<f64, NA>::zeros();
     let mut ps = *p_last;
     let last = &records[n - 1];
+    // The correlated GNSS error the sensitivity covariance adds is common
+    // to the forward and backward passes (both see the same b), so the
+    // smoother does not average it away: its forward variance is added to
+    // the smoothed one. Smoothed ≤ forward still holds, P^s + D ≤ P⁺ + D.
+    let extra = |r: &SmootherRecord, d: StateVec, c: Vec3| match r.p_extra {
+        Some((ed, ec)) => (d + ed, c + ec),
+        None => (d, c),
+    };
+    let (p_diag, p_pos_cross) = extra(last, last.p_post_diag, pos_cross_ned(p_last));
     out(&SmoothedEpoch {
         t: last.t,
         nav: last.nav,
         errors: last.errors,
-        p_diag: last.p_post_diag,
-        p_pos_cross: pos_cross_ned(p_last),
+        p_diag,
+        p_pos_cross,
     });
     for k in (0..n - 1).rev() {
         let next = &records[k + 1];
@@ -369,13 +386,89 @@ pub fn rts_smooth(records: &[SmootherRecord], p_last: &Cov, mut out: impl FnMut(
         let p_diag = records[k]
             .p_post_diag
             .zip_map(&ps.diagonal(), |p, q| q.clamp(0.0, p.max(0.0)));
+        let (p_diag, p_pos_cross) = extra(&records[k], p_diag, pos_cross_ned(&ps));
         out(&SmoothedEpoch {
             t: records[k].t,
             nav,
             errors,
             p_diag,
-            p_pos_cross: pos_cross_ned(&ps),
+            p_pos_cross,
         });
+    }
+}
+
+/// `P ← Φ (P + Q_d/2) Φᵀ + Q_d/2`, `Φ = I + F dt` with `fs` already set to
+/// this interval's `F` (`q`: the velocity and angle blocks of `Q_d` and the
+/// bias PSDs). Shared by the filter's covariance and the sensitivity one.
+#[inline(always)]
+fn propagate_p(
+    p: &mut Cov,
+    fs: &FSparse,
+    t: &mut Cov,
+    m: &mut Cov,
+    q: (&Mat3, &Mat3, &[Vec3; 4]),
+    dt: f64,
+) {
+    let (qv, qa, q_bias) = q;
+    for i in 0..3 {
+        for j in 0..3 {
+            p[(I_VEL + i, I_VEL + j)] += 0.5 * qv[(i, j)];
+            p[(I_ATT + i, I_ATT + j)] += 0.5 * qa[(i, j)];
+        }
+    }
+    for (b, q) in q_bias.iter().enumerate() {
+        for k in 0..3 {
+            p[(I_BG + 3 * b + k, I_BG + 3 * b + k)] += 0.5 * q[k] * dt;
+        }
+    }
+    // With X symmetric: T = X Fᵀ, M = Tᵀ = F X, N = M Fᵀ = F X Fᵀ, and
+    // Φ X Φᵀ = X + dt (T + M) + dt² N. Only contiguous column axpys.
+    fs.x_ft::<NX>(p, t, NX);
+    {
+        // M = Tᵀ (fixed-size loops so the compiler unrolls them).
+        let ts: &[f64; NX * NX] = t.as_slice().try_into().unwrap_or(&[0.0; NX * NX]);
+        let ms = m.as_mut_slice();
+        for c in 0..NX {
+            for r in 0..NX {
+                ms[NX * r + c] = ts[NX * c + r];
+            }
+        }
+    }
+    // N = M Fᵀ = F X Fᵀ with the full F: Φ X Φᵀ is then exact, so P stays
+    // positive semi-definite even at long steps or over days without
+    // updates (a truncated second-order term does not guarantee that).
+    // Only the lower triangle of P is formed (fused with the sum
+    // X + dt (T + M) + dt² N), then mirrored: P stays exactly symmetric.
+    let dt2 = dt * dt;
+    {
+        let ps: &mut [f64; NX * NX] = p
+            .as_mut_slice()
+            .try_into()
+            .unwrap_or_else(|_| unreachable!());
+        let ts: &[f64; NX * NX] = t.as_slice().try_into().unwrap_or_else(|_| unreachable!());
+        let ms: &[f64; NX * NX] = m.as_slice().try_into().unwrap_or_else(|_| unreachable!());
+        macro_rules! lower_cols {
+            ($($c:literal)*) => {
+                $(fs.lower_col::<$c>(ms, ts, ps, dt, dt2);)*
+            };
+        }
+        lower_cols!(0 1 2 3 4 5 6 7 8 9 10 11 12 13 14 15 16 17 18 19 20);
+        for c in 0..NX {
+            for r in c + 1..NX {
+                ps[NX * r + c] = ps[NX * c + r];
+            }
+        }
+    }
+    for i in 0..3 {
+        for j in 0..3 {
+            p[(I_VEL + i, I_VEL + j)] += 0.5 * qv[(i, j)];
+            p[(I_ATT + i, I_ATT + j)] += 0.5 * qa[(i, j)];
+        }
+    }
+    for (b, q) in q_bias.iter().enumerate() {
+        for k in 0..3 {
+            p[(I_BG + 3 * b + k, I_BG + 3 * b + k)] += 0.5 * q[k] * dt;
+        }
     }
 }
 
@@ -754,6 +847,9 @@ pub struct Eskf {
     /// Augmented states (`None`: the 21-state filter).
     aug: Option<Aug>,
     aiding: aiding::AidingState,
+    /// Covariance of the error under a correlated GNSS error model, with
+    /// this filter's gains (`None`: σ from `p`; [`Eskf::start_sensitivity`]).
+    sens: Option<Sens>,
 }
 
 /// The adaptive parts of the filter (all `None` by default).
@@ -890,6 +986,7 @@ impl Eskf {
             adapt: Adaptive::default(),
             aug: None,
             aiding: aiding::AidingState::default(),
+            sens: None,
             cfg,
         }
         .with_odometer_scale()
@@ -953,6 +1050,28 @@ impl Eskf {
             g.reset_record();
         }
         Ok(self)
+    }
+
+    /// From now on report σ from the covariance of this filter's error under
+    /// the correlated GNSS error model `m` (module `sens`): the filter's
+    /// gains, states and decisions are unchanged, only
+    /// [`Eskf::solution`]'s σ, [`Eskf::reported_covariance`] and the
+    /// smoothed σ change. Refused (`Err`) when the filter already models
+    /// the GNSS error as Gauss–Markov states or `m` is invalid.
+    pub fn start_sensitivity(&mut self, m: SensitivityModel) -> Result<(), AugConfigError> {
+        self.sens = Some(Sens::new(
+            m,
+            &self.p,
+            self.aug.as_ref(),
+            self.cfg.aiding.odometer.as_ref(),
+        )?);
+        Ok(())
+    }
+
+    /// The covariance σ is reported from: the sensitivity covariance when
+    /// [`Eskf::start_sensitivity`] was called, else the filter's own.
+    pub fn reported_covariance(&self) -> &Cov {
+        self.sens.as_ref().map_or(&self.p, |s| &s.p)
     }
 
     /// Estimates of the augmented states (`None` when not augmented).
@@ -1076,13 +1195,15 @@ impl Eskf {
         self.record.take()
     }
 
-    /// Solution at the current time with 1-σ from the covariance.
+    /// Solution at the current time with 1-σ from the covariance
+    /// ([`Eskf::reported_covariance`]).
     pub fn solution(&self) -> NavSolution {
+        let p = self.reported_covariance();
         let d = |i: usize| {
             Vec3::new(
-                self.p[(i, i)].max(0.0).sqrt(),
-                self.p[(i + 1, i + 1)].max(0.0).sqrt(),
-                self.p[(i + 2, i + 2)].max(0.0).sqrt(),
+                p[(i, i)].max(0.0).sqrt(),
+                p[(i + 1, i + 1)].max(0.0).sqrt(),
+                p[(i + 2, i + 2)].max(0.0).sqrt(),
             )
         };
         NavSolution {
@@ -1138,6 +1259,9 @@ impl Eskf {
         self.f_b = dv / dt;
         let fb = self.error_model(&pre, &c_bn, &e0, &self.w_ib_b, &self.f_b);
         self.propagate_cov(&fb, &c_bn, dt);
+        if let Some(sn) = &mut self.sens {
+            sn.propagate_aug(&self.f_sparse, dt);
+        }
         if let Some(a) = &mut self.aug {
             a.propagate(&self.f_sparse, dt);
             if a.has_time_offset() {
@@ -1282,70 +1406,13 @@ impl Eskf {
         // without updates.
         let qv = 0.5 * (qv + qv.transpose());
         let qa = 0.5 * (qa + qa.transpose());
-        let p = &mut self.p;
-        for i in 0..3 {
-            for j in 0..3 {
-                p[(I_VEL + i, I_VEL + j)] += 0.5 * qv[(i, j)];
-                p[(I_ATT + i, I_ATT + j)] += 0.5 * qa[(i, j)];
-            }
-        }
-        for (b, q) in self.q_bias.iter().enumerate() {
-            for k in 0..3 {
-                p[(I_BG + 3 * b + k, I_BG + 3 * b + k)] += 0.5 * q[k] * dt;
-            }
-        }
-        // With X symmetric: T = X Fᵀ, M = Tᵀ = F X, N = M Fᵀ = F X Fᵀ, and
-        // Φ X Φᵀ = X + dt (T + M) + dt² N. Only contiguous column axpys.
-        let fs = &mut self.f_sparse;
-        fs.set_full(fb);
-        let t = &mut self.scratch_t;
-        fs.x_ft::<NX>(p, t, NX);
-        let m = &mut self.scratch_m;
-        {
-            // M = Tᵀ (fixed-size loops so the compiler unrolls them).
-            let ts: &[f64; NX * NX] = t.as_slice().try_into().unwrap_or(&[0.0; NX * NX]);
-            let ms = m.as_mut_slice();
-            for c in 0..NX {
-                for r in 0..NX {
-                    ms[NX * r + c] = ts[NX * c + r];
-                }
-            }
-        }
-        // N = M Fᵀ = F X Fᵀ with the full F: Φ X Φᵀ is then exact, so P stays
-        // positive semi-definite even at long steps or over days without
-        // updates (a truncated second-order term does not guarantee that).
-        // Only the lower triangle of P is formed (fused with the sum
-        // X + dt (T + M) + dt² N), then mirrored: P stays exactly symmetric.
-        let dt2 = dt * dt;
-        {
-            let ps: &mut [f64; NX * NX] = p
-                .as_mut_slice()
-                .try_into()
-                .unwrap_or_else(|_| unreachable!());
-            let ts: &[f64; NX * NX] = t.as_slice().try_into().unwrap_or_else(|_| unreachable!());
-            let ms: &[f64; NX * NX] = m.as_slice().try_into().unwrap_or_else(|_| unreachable!());
-            macro_rules! lower_cols {
-                ($($c:literal)*) => {
-                    $(fs.lower_col::<$c>(ms, ts, ps, dt, dt2);)*
-                };
-            }
-            lower_cols!(0 1 2 3 4 5 6 7 8 9 10 11 12 13 14 15 16 17 18 19 20);
-            for c in 0..NX {
-                for r in c + 1..NX {
-                    ps[NX * r + c] = ps[NX * c + r];
-                }
-            }
-        }
-        for i in 0..3 {
-            for j in 0..3 {
-                p[(I_VEL + i, I_VEL + j)] += 0.5 * qv[(i, j)];
-                p[(I_ATT + i, I_ATT + j)] += 0.5 * qa[(i, j)];
-            }
-        }
-        for (b, q) in self.q_bias.iter().enumerate() {
-            for k in 0..3 {
-                p[(I_BG + 3 * b + k, I_BG + 3 * b + k)] += 0.5 * q[k] * dt;
-            }
+        self.f_sparse.set_full(fb);
+        let q = (&qv, &qa, &self.q_bias);
+        let (fs, t, m) = (&self.f_sparse, &mut self.scratch_t, &mut self.scratch_m);
+        propagate_p(&mut self.p, fs, t, m, q, dt);
+        if let Some(sn) = &mut self.sens {
+            // The sensitivity covariance: same Φ and Q (sens module).
+            propagate_p(&mut sn.p, fs, t, m, q, dt);
         }
         if self.cfg.smoother_every > 0 {
             // Ψ = Φ_accᵀ; Φ_acc ← Φ Φ_acc ⇔ Ψ ← Ψ + dt Ψ Fᵀ.
@@ -1395,15 +1462,33 @@ impl Eskf {
             _ => None,
         };
         let fd = self.cfg.gate_deweight_factor;
+        // The gain applied, for the sensitivity covariance.
+        let mut k_x = SMatrix::<f64, NX, M>::zeros();
+        let mut k_f = SMatrix::<f64, NF, M>::zeros();
+        let want_k = self.sens.is_some();
         let res = match &mut self.aug {
-            None => gated_update(&mut dx, &mut self.p, h, r, dz, g, fd, None),
+            None => {
+                let k = want_k.then_some(&mut k_x);
+                gated_update(&mut dx, &mut self.p, h, r, dz, g, fd, None, k)
+            }
             Some(a) => {
                 let mut pf = a.full(&self.p);
                 let mut hf = SMatrix::<f64, M, NF>::zeros();
                 hf.fixed_view_mut::<M, NX>(0, 0).copy_from(h);
                 hf.fixed_view_mut::<M, NA>(0, NX).copy_from(h_a);
                 let mut dxf = SVector::<f64, NF>::zeros();
-                let res = gated_update(&mut dxf, &mut pf, &hf, r, dz, g, fd, a.gain_mask.as_ref());
+                let k = want_k.then_some(&mut k_f);
+                let res = gated_update(
+                    &mut dxf,
+                    &mut pf,
+                    &hf,
+                    r,
+                    dz,
+                    g,
+                    fd,
+                    a.gain_mask.as_ref(),
+                    k,
+                );
                 if res.is_ok() {
                     if self.cfg.smoother_every > 0 && a.rec_p_prior.is_none() {
                         a.rec_p_prior = Some((a.p_xa, a.p_aa));
@@ -1415,10 +1500,17 @@ impl Eskf {
                 res
             }
         };
+        // The R the update applied: de-weighting (R·NIS/g) is the filter's
+        // estimate of this measurement's actual noise, so the sensitivity
+        // covariance takes it too.
+        let mut r_used = *r;
         let nis = match res {
             Ok((nis, deweighted)) => {
                 if deweighted {
                     self.stats.deweighted += 1;
+                    if let Some(gq) = g {
+                        r_used *= nis / gq;
+                    }
                 }
                 nis
             }
@@ -1433,6 +1525,15 @@ impl Eskf {
         };
         if self.cfg.smoother_every > 0 && self.rec_p_prior.is_none() {
             self.rec_p_prior = Some(p_prior);
+        }
+        if let Some(sn) = &mut self.sens {
+            if self.aug.is_some() {
+                let kx = k_f.fixed_rows::<NX>(0).into_owned();
+                let ka = k_f.fixed_rows::<NA>(NX).into_owned();
+                sn.update(h, h_a, &r_used, &kx, Some(&ka), kind);
+            } else {
+                sn.update(h, h_a, &r_used, &k_x, None, kind);
+            }
         }
         apply_correction(&mut self.nav, &mut self.err, &dx);
         self.rec_dx += dx;
@@ -1724,6 +1825,12 @@ impl Eskf {
             p_post_diag: self.p.diagonal(),
             aug,
             p_base_prev: base,
+            p_extra: self.sens.as_ref().map(|sn| {
+                (
+                    (sn.p.diagonal() - self.p.diagonal()).map(|x| x.max(0.0)),
+                    pos_cross_ned(&sn.p) - pos_cross_ned(&self.p),
+                )
+            }),
         });
         self.rec_have_prev = true;
         self.rec_p_post = self.p;

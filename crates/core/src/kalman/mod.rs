@@ -170,6 +170,25 @@ pub fn update_joseph_masked<const N: usize, const M: usize>(
     gate: Option<f64>,
     mask: Option<&SVector<f64, N>>,
 ) -> UpdateInfo {
+    update_joseph_gain(x, p, h, r, innovation, gate, mask, None)
+}
+
+/// [`update_joseph_masked`] that also writes the gain `K` it applied into
+/// `gain` (untouched when the update is rejected). The arithmetic is the
+/// same, so `x` and `P` are bit-identical to [`update_joseph_masked`]'s.
+/// Used to propagate a second covariance under another error model with
+/// this filter's gain (Gelb, *Applied Optimal Estimation*, 1974, §7.2).
+#[allow(clippy::too_many_arguments)]
+pub fn update_joseph_gain<const N: usize, const M: usize>(
+    x: &mut SVector<f64, N>,
+    p: &mut SMatrix<f64, N, N>,
+    h: &SMatrix<f64, M, N>,
+    r: &SMatrix<f64, M, M>,
+    innovation: &SVector<f64, M>,
+    gate: Option<f64>,
+    mask: Option<&SVector<f64, N>>,
+    gain: Option<&mut SMatrix<f64, N, M>>,
+) -> UpdateInfo {
     let hp: SMatrix<f64, M, N> = h * *p;
     let mut s: SMatrix<f64, M, M> = r.clone_owned();
     s.gemm(1.0, &hp, &h.transpose(), 1.0);
@@ -207,6 +226,9 @@ pub fn update_joseph_masked<const N: usize, const M: usize>(
         }
     }
     let k: SMatrix<f64, N, M> = kt.transpose();
+    if let Some(g) = gain {
+        g.copy_from(&k);
+    }
     x.gemv(1.0, &k, innovation, 1.0);
     // A P = P − K (H P)
     p.gemm(-1.0, &k, &hp, 1.0);

@@ -443,6 +443,7 @@ impl Aug {
 /// Joseph update with the χ² gate and de-weighting of [`super::Eskf::update`],
 /// for any state dimension; with `mask` the Schmidt–Kalman update
 /// ([`crate::kalman::update_joseph_masked`]). `Ok((nis, deweighted))`; `Err((reject, nis))`.
+/// With `gain`, the gain finally applied is written there.
 #[allow(clippy::too_many_arguments)]
 pub(super) fn gated_update<const N: usize, const M: usize>(
     dx: &mut SVector<f64, N>,
@@ -453,10 +454,12 @@ pub(super) fn gated_update<const N: usize, const M: usize>(
     gate: Option<f64>,
     deweight_factor: f64,
     mask: Option<&SVector<f64, N>>,
+    mut gain: Option<&mut SMatrix<f64, N, M>>,
 ) -> Result<(f64, bool), (UpdateReject, f64)> {
-    let upd = |dx: &mut SVector<f64, N>, p: &mut SMatrix<f64, N, N>, r: &SMatrix<f64, M, M>, g| {
-        crate::kalman::update_joseph_masked(dx, p, h, r, dz, g, mask)
-    };
+    let mut upd =
+        |dx: &mut SVector<f64, N>, p: &mut SMatrix<f64, N, N>, r: &SMatrix<f64, M, M>, g| {
+            crate::kalman::update_joseph_gain(dx, p, h, r, dz, g, mask, gain.as_deref_mut())
+        };
     let mut info = upd(dx, p, r, gate);
     if info.singular() || !info.nis.is_finite() {
         return Err((UpdateReject::Singular, info.nis));

@@ -196,6 +196,17 @@ fn coverage(gm: Option<GnssErrorStates>, seed: u64) -> f64 {
 
 /// [`coverage`] and Σ horizontal error², epochs.
 fn coverage_rms(gm: Option<GnssErrorStates>, seed: u64) -> (f64, f64, usize) {
+    let (c, e, n, _) = coverage_sens(gm, None, seed);
+    (c, e, n)
+}
+
+/// [`coverage_rms`] with an optional sensitivity model, also returning the
+/// solutions.
+fn coverage_sens(
+    gm: Option<GnssErrorStates>,
+    sens: Option<SensitivityModel>,
+    seed: u64,
+) -> (f64, f64, usize, Vec<NavSolution>) {
     let mut d = drive(seed, 600.0, (300.0, 360.0));
     let mut rng = Normal::new(seed ^ 0xfeed);
     let (sw, sg, tau) = (1.0, 2.0, 60.0);
@@ -220,8 +231,13 @@ fn coverage_rms(gm: Option<GnssErrorStates>, seed: u64) -> (f64, f64, usize) {
     let mut f = Eskf::new(cfg(), start_state(&d), ImuErrors::default(), &init_std())
         .with_augmented_states(aug)
         .unwrap();
+    if let Some(m) = sens {
+        f.start_sensitivity(m).unwrap();
+    }
     let (mut n, mut inside, mut e2) = (0usize, 0usize, 0.0);
+    let mut sols = Vec::new();
     replay(&mut f, &d, |_, imu, sol, truth| {
+        sols.push(*sol);
         if imu.t > 60.0 {
             let e = horizontal_error(sol, truth);
             e2 += e.x * e.x + e.y * e.y;
@@ -230,7 +246,116 @@ fn coverage_rms(gm: Option<GnssErrorStates>, seed: u64) -> (f64, f64, usize) {
             inside += usize::from(nees <= 5.991);
         }
     });
-    (inside as f64 / n as f64, e2, n)
+    (inside as f64 / n as f64, e2, n, sols)
+}
+
+/// The white filter with σ reported under the true GM model (module
+/// `sens`): written before the run — the solutions are bit-identical to
+/// the white filter's (only σ changes) and the coverage is lifted into the
+/// band the consider filter reaches ([0.85, 1.0], see
+/// [`consider_states_are_honest_and_not_less_accurate_than_white`]), at
+/// least 0.1 above the white filter's.
+#[test]
+fn sensitivity_sigma_is_honest_and_the_solution_bit_identical() {
+    let m = SensitivityModel {
+        tau_s: 60.0,
+        sigma_m: Vec3::new(2.0, 2.0, 3.0),
+    };
+    let (mut cov, mut cov_w) = (0.0, 0.0);
+    for seed in 0..4 {
+        let (cw, _, _, sw) = coverage_sens(None, None, 100 + seed);
+        let (cs, _, _, ss) = coverage_sens(None, Some(m), 100 + seed);
+        assert_eq!(sw.len(), ss.len());
+        for (a, b) in sw.iter().zip(&ss) {
+            assert!(
+                a.lat.to_bits() == b.lat.to_bits()
+                    && a.lon.to_bits() == b.lon.to_bits()
+                    && a.h.to_bits() == b.h.to_bits()
+                    && a.v_n == b.v_n
+                    && a.rpy == b.rpy,
+                "solution changed at t {}",
+                a.t
+            );
+        }
+        cov += cs / 4.0;
+        cov_w += cw / 4.0;
+    }
+    assert!(
+        (0.85..=1.0).contains(&cov) && cov > cov_w + 0.1,
+        "coverage95: white σ {cov_w:.3}, sensitivity σ {cov:.3}"
+    );
+}
+
+/// With no correlated part (σ_b = 0) the sensitivity covariance is the
+/// filter's own (the Joseph form with the filter's gain and the same R),
+/// up to rounding, forward and in the smoother's added variance; the
+/// smoothed σ never exceeds the forward reported σ.
+#[test]
+fn sensitivity_without_a_correlated_part_is_the_filter_covariance() {
+    let mut d = drive(7, 200.0, (100.0, 130.0));
+    corrupt(&mut d, Vec3::new(0.02, 0.02, 0.03), |_| Vec3::zeros());
+    let c = EskfConfig {
+        smoother_every: 10,
+        aiding: Default::default(),
+        ..cfg()
+    };
+    let mut f = Eskf::new(c, start_state(&d), ImuErrors::default(), &init_std());
+    f.start_sensitivity(SensitivityModel {
+        tau_s: 60.0,
+        sigma_m: Vec3::zeros(),
+    })
+    .unwrap();
+    let (mut worst, mut fixes) = (0.0f64, d.fixes.iter().peekable());
+    let mut at = (0.0, 0);
+    for imu in &d.imu {
+        while let Some(x) = fixes.next_if(|x| x.t <= imu.t + 1e-9) {
+            f.push(&Event::Gnss(*x));
+        }
+        f.push(&Event::Imu(*imu));
+        let (p, q) = (f.covariance(), f.reported_covariance());
+        for i in 0..NX {
+            if p[(i, i)] > 1e-20 {
+                let r = (q[(i, i)] - p[(i, i)]).abs() / p[(i, i)];
+                if r > worst {
+                    worst = r;
+                    at = (imu.t, i);
+                }
+            }
+        }
+        let _ = f.take_record();
+    }
+    assert!(
+        worst < 1e-6,
+        "largest relative difference {worst:e} at (t, state) {at:?}"
+    );
+    // σ_b > 0: smoothed ≤ forward reported σ at every checkpoint.
+    let mut g = Eskf::new(c, start_state(&d), ImuErrors::default(), &init_std());
+    g.start_sensitivity(SensitivityModel {
+        tau_s: 60.0,
+        sigma_m: Vec3::new(0.015, 0.015, 0.02),
+    })
+    .unwrap();
+    let (sols, recs) = run_records(&mut g, &d);
+    assert!(recs.iter().all(|r| r.p_extra.is_some()));
+    let mut sm = Vec::new();
+    rts_smooth(&recs, g.last_record_covariance(), |e| sm.push(*e));
+    sm.reverse();
+    let mut k = 0;
+    for e in &sm {
+        while sols[k].0.t < e.t {
+            k += 1;
+        }
+        let fw = sols[k].0.std_pos_ned;
+        for i in 0..3 {
+            assert!(
+                e.p_diag[I_POS + i].sqrt() <= fw[i] * (1.0 + 1e-9),
+                "t {}: smoothed {} > forward {}",
+                e.t,
+                e.p_diag[I_POS + i].sqrt(),
+                fw[i]
+            );
+        }
+    }
 }
 
 /// Schmidt–Kalman consider states with the true GM model: the position
