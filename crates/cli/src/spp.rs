@@ -12,12 +12,14 @@ use std::path::PathBuf;
 /// Single-point positioning (GPS L1 C/A code, broadcast ephemeris).
 #[derive(ClapArgs, Debug)]
 pub struct Args {
-    /// Rover observation file (RINEX 2.1x or 3.0x).
+    /// Rover observation file (RINEX 2.1x or 3.0x), or a u-blox log (`.ubx`:
+    /// RXM-RAWX epochs and RXM-SFRBX ephemerides, GPS L1 C/A).
     pub obs: PathBuf,
     /// Output solution file (RTKLIB `.pos`, Q = 5 single).
     pub out: PathBuf,
-    /// Navigation file(s) (RINEX 2/3 GPS).
-    #[arg(long, required = true)]
+    /// Navigation file(s) (RINEX 2/3); optional for a `.ubx` log, which
+    /// carries its own ephemerides.
+    #[arg(long)]
     pub nav: Vec<PathBuf>,
     /// Elevation mask [deg].
     #[arg(long, default_value_t = 15.0)]
@@ -54,6 +56,12 @@ pub fn run(a: Args) -> Result<(), Fail> {
         return Err(Fail::usage(format!(
             "--max-gdop must be > 0, got {}",
             a.max_gdop
+        )));
+    }
+    if a.nav.is_empty() && !navfuse_pipeline::spp::is_ubx(&a.obs) {
+        return Err(Fail::usage(format!(
+            "{}: a RINEX observation file needs --nav (only a .ubx log carries its own ephemerides)",
+            a.obs.display()
         )));
     }
     let tropo = match a.tropo.as_str() {

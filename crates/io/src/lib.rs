@@ -58,6 +58,7 @@ pub mod ubx;
 pub mod ubx_events;
 #[cfg(test)]
 mod ubx_events_tests;
+pub mod ubx_gnss;
 pub mod ubx_write;
 pub mod writers;
 pub mod yuma;

@@ -343,10 +343,10 @@ fn odometer_csv_without_usable_rows_is_an_error() {
                 [filter]\nplatform = \"car\"\nimu_preset = \"3dm-gx3-35\"\n\
                 [input.odometer_csv]\ntime = \"t\"\ncolumns = [\"speed\"]\n";
     let cfg: RunConfig = toml::from_str(text).unwrap();
-    let err = run(&cfg, &dir, &RunOptions::default())
-        .err()
-        .expect("an odometer file without rows must not run")
-        .to_string();
+    let Err(err) = run(&cfg, &dir, &RunOptions::default()) else {
+        panic!("an odometer file without rows must not run");
+    };
+    let err = err.to_string();
     assert!(
         err.contains("wheels.csv") && err.contains("no usable odometer rows"),
         "{err}"

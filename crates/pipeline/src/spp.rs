@@ -408,12 +408,28 @@ pub fn pos_row(sol: &SppSolution, var_scale: f64) -> (NavSolution, PosEpoch) {
     (s, e)
 }
 
-/// Read the inputs: the observation file (every system of a RINEX 3 file)
+/// Whether `p` is a UBX log (`.ubx`, any case): raw GPS epochs (RXM-RAWX)
+/// and its own ephemerides (RXM-SFRBX), [`navfuse_io::ubx_gnss`].
+pub fn is_ubx(p: &Path) -> bool {
+    p.extension()
+        .and_then(|e| e.to_str())
+        .is_some_and(|e| e.eq_ignore_ascii_case("ubx"))
+}
+
+/// Read the inputs: the observation file (or a UBX log, [`is_ubx`]) (every system of a RINEX 3 file)
 /// and the navigation file(s) (GPS with the header ionosphere; RINEX 3 files
 /// also their Galileo, BeiDou and QZSS records).
 pub fn load(obs: &Path, nav: &[PathBuf]) -> Result<(ObsFile, GnssObs, SppNav)> {
-    let (o, g) = read_obs_gnss(obs).map_err(|e| PipelineError::Input(e.to_string()))?;
     let mut n = SppNav::default();
+    let (o, g) = if is_ubx(obs) {
+        let (rdr, name) = navfuse_io::open(obs).map_err(|e| PipelineError::Input(e.to_string()))?;
+        let (o, nd, _, _) = navfuse_io::ubx_gnss::read_ubx_gnss(rdr, &name)
+            .map_err(|e| PipelineError::Input(e.to_string()))?;
+        n.gps = nd;
+        (o, GnssObs::default())
+    } else {
+        read_obs_gnss(obs).map_err(|e| PipelineError::Input(e.to_string()))?
+    };
     for p in nav {
         n.gps
             .merge(read_nav_data(p).map_err(|e| PipelineError::Input(e.to_string()))?);
@@ -430,6 +446,7 @@ pub fn load(obs: &Path, nav: &[PathBuf]) -> Result<(ObsFile, GnssObs, SppNav)> {
         return Err(PipelineError::Input(format!(
             "{}: no GPS, Galileo, BeiDou or QZSS ephemeris in the navigation file(s)",
             nav.iter()
+                .chain(is_ubx(obs).then_some(&obs.to_path_buf()))
                 .map(|p| p.display().to_string())
                 .collect::<Vec<_>>()
                 .join(", ")
