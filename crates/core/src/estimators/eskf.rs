@@ -52,11 +52,16 @@ use nalgebra::{SMatrix, SVector};
 
 mod aiding;
 mod aug;
+mod tight;
 pub use aiding::{AidingConfig, AidingStats, MAX_LAG_S};
 use aug::{gated_update, Aug};
 pub use aug::{
     AugConfigError, AugSmootherRecord, AugmentedEstimate, AugmentedStates, GnssErrorStates,
     TimeOffsetState, IA_GNSS, IA_ODO, IA_TAU, NA, NF,
+};
+pub use tight::{
+    ClockEstimate, ClockModel, SatCounts, TightConfig, TightConfigError, TightStats, IC_BIAS,
+    IC_DRIFT, IC_ISB, NC, REL_HUMIDITY,
 };
 
 /// Number of error states.
@@ -754,6 +759,8 @@ pub struct Eskf {
     /// Augmented states (`None`: the 21-state filter).
     aug: Option<Aug>,
     aiding: aiding::AidingState,
+    /// Tight coupling to raw GNSS (`None`: off, the plain filter).
+    tight: Option<tight::Tight>,
 }
 
 /// The adaptive parts of the filter (all `None` by default).
@@ -890,6 +897,7 @@ impl Eskf {
             adapt: Adaptive::default(),
             aug: None,
             aiding: aiding::AidingState::default(),
+            tight: None,
             cfg,
         }
         .with_odometer_scale()
@@ -1146,6 +1154,9 @@ impl Eskf {
                 let lever_v = self.nav.c_bn() * self.w_ib_b.cross(&self.cfg.lever_arm_b);
                 a.push_history(self.t + dt, self.nav.v_n + lever_v);
             }
+        }
+        if let Some(tc) = &mut self.tight {
+            tc.propagate(&self.f_sparse, dt);
         }
     }
 
@@ -1760,9 +1771,19 @@ impl Eskf {
             self.pending = self.pending.filter(|g| g.t > imu.t);
             return Some(self.solution());
         }
+        self.last_dt = imu.dt;
+        // Tight coupling: a raw GNSS epoch inside the interval splits it
+        // (module `tight`; nothing happens without tight coupling).
+        let rest;
+        let imu = match self.tight_before(imu) {
+            Some(r) => {
+                rest = r;
+                &rest
+            }
+            None => imu,
+        };
         let t0 = self.t;
         let t1 = imu.t;
-        self.last_dt = imu.dt;
         let mut fix = None;
         if let Some(g) = self.pending {
             if g.t <= t1 + TIME_ALIGN {
@@ -1800,6 +1821,7 @@ impl Eskf {
             None => self.propagate(&imu.dtheta_b, &imu.dvel_b, imu.dt),
         }
         self.t = t1;
+        self.tight_after();
         if self.cfg.nhc.is_some() || self.cfg.zupt.is_some() {
             self.vehicle_updates();
         }
@@ -1905,6 +1927,11 @@ impl Estimator for Eskf {
             }
             // Carrier phase is CP-ATT's input.
             Event::CarrierPhase(_) => None,
+            // Raw GNSS: used with tight coupling only (module `tight`).
+            Event::RawGnss(r) => {
+                self.push_raw(r);
+                None
+            }
         }
     }
 }

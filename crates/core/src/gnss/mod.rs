@@ -11,6 +11,7 @@
 //! - [`visible_by_elevation`]: satellites above an elevation mask, ordered by
 //!   decreasing elevation (the order of the paper's double differences).
 //! - [`dd`]: the paper's double differences (eq. 8–10) and their covariance.
+//! - [`raw`]: raw observations (pseudorange, phase, Doppler) as events.
 //! - [`tropo`]: Saastamoinen zenith delays and Niell mapping functions.
 //!
 //! Time: GPS seconds since the GPS epoch (`week · 604800 + tow`).
@@ -24,6 +25,7 @@ use crate::prelude::*;
 use crate::{Mat3, Vec3};
 
 pub mod dd;
+pub mod raw;
 pub mod tropo;
 
 /// Earth gravitational constant for GPS, IS-GPS-200 [m³/s²].
