@@ -330,9 +330,9 @@ pub fn simulate_raw(
                     signal: Signal::GpsL1Ca,
                     glo_fcn: 0,
                     flags,
+                    last_in_epoch: false,
                 },
                 sat,
-                last_in_epoch: false,
             });
         }
         out.push(RawTruthEpoch {

@@ -1407,7 +1407,12 @@ impl Eskf {
         };
         let fd = self.cfg.gate_deweight_factor;
         let res = match &mut self.aug {
-            None => gated_update(&mut dx, &mut self.p, h, r, dz, g, fd, None),
+            // With tight coupling every update is joint with the clock
+            // states (their correlation with the INS must follow).
+            None => match &mut self.tight {
+                None => gated_update(&mut dx, &mut self.p, h, r, dz, g, fd, None),
+                Some(t) => t.joint_update(&mut dx, &mut self.p, h, r, dz, g, fd),
+            },
             Some(a) => {
                 let mut pf = a.full(&self.p);
                 let mut hf = SMatrix::<f64, M, NF>::zeros();

@@ -388,7 +388,7 @@ impl Tight {
         if !self.building.push(*r) {
             self.stats.records_dropped += 1;
         }
-        if r.last_in_epoch {
+        if r.obs.last_in_epoch {
             self.close();
         }
     }
@@ -424,6 +424,33 @@ impl Tight {
             (f.fixed_view::<NX, NC>(0, NX) + f.fixed_view::<NC, NX>(NX, 0).transpose()) * 0.5;
         let cc = f.fixed_view::<NC, NC>(NX, NX);
         self.p_cc = (cc + cc.transpose()) * 0.5;
+    }
+
+    /// An INS-only update `h` (no clock terms) done jointly with the clock
+    /// block, so the clock–INS covariance stays consistent
+    /// ([`super::Eskf::update_aug`] with tight coupling on).
+    #[allow(clippy::too_many_arguments)]
+    pub(super) fn joint_update<const M: usize>(
+        &mut self,
+        dx: &mut super::StateVec,
+        p: &mut SMatrix<f64, NX, NX>,
+        h: &SMatrix<f64, M, NX>,
+        r: &SMatrix<f64, M, M>,
+        dz: &SVector<f64, M>,
+        gate: Option<f64>,
+        deweight_factor: f64,
+    ) -> Result<(f64, bool), (UpdateReject, f64)> {
+        let mut pf = self.full(p);
+        let mut hf = SMatrix::<f64, M, NT>::zeros();
+        hf.fixed_view_mut::<M, NX>(0, 0).copy_from(h);
+        let mut dxf = SVector::<f64, NT>::zeros();
+        let res = gated_update(&mut dxf, &mut pf, &hf, r, dz, gate, deweight_factor, None);
+        if res.is_ok() {
+            self.split(&pf, p);
+            dx.copy_from(&dxf.fixed_rows::<NX>(0));
+            self.x -= dxf.fixed_rows::<NC>(NX);
+        }
+        res
     }
 
     pub(super) fn estimate(&self) -> ClockEstimate {
