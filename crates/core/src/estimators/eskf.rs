@@ -1947,6 +1947,8 @@ mod adaptive_tests;
 mod aiding_tests;
 #[cfg(test)]
 mod aug_tests;
+#[cfg(test)]
+mod tight_tests;
 
 #[cfg(test)]
 mod tests {

@@ -593,17 +593,17 @@ pub fn run(o: Options) -> Result<(), ToolError> {
 mod tests {
     use super::*;
 
-    /// CI-sized (2 seeds, 300 s, synthetic constellation so it runs without
-    /// the data): the direction — tight beats loose under a 2- and
+    /// CI-sized (6 seeds, 390 s = 4 windows each, synthetic constellation
+    /// so it runs without the data): the direction — tight beats loose under a 2- and
     /// 3-satellite sky, both in the window maximum and in the drift inside
     /// the windows, and is within 5 % of loose with full sky. (The issue's
     /// 3× is not met by the full run either; see the module documentation.)
     #[test]
     fn tight_beats_loose_under_partial_sky() {
         let o = Options {
-            seeds: 2,
+            seeds: 6,
             seed0: 1,
-            duration: 300.0,
+            duration: 390.0,
             almanac: Some(PathBuf::from("/nonexistent")),
             json: None,
         };
@@ -611,7 +611,7 @@ mod tests {
         assert!(r.failed.is_empty(), "{:?}", r.failed);
         for n in ["2", "3"] {
             let p = &r.partial_sky[n];
-            assert!(p.windows >= 4, "{p:?}");
+            assert_eq!(p.windows, 24, "{p:?}");
             assert!(p.tight_m < p.loose_m, "{n}: {p:?}");
             assert!(p.tight_growth_m < p.loose_growth_m, "{n}: {p:?}");
         }

@@ -35,15 +35,22 @@
 //! or two satellites still update the filter: the clock absorbs the common
 //! part, the rest constrains position along the line-of-sight differences.
 //!
-//! **Weights**: `σ_ρ² = σ_code² + σ_mp² + σ_T² + var_sat` with
+//! **Weights**: `σ_ρ² = σ_code² + σ_mp² + σ_T² + var_sat` (the last two in the
+//! satellite's consider state when it has a slot) with
 //! `σ_code = σ_code,ref · 10^((C/N0_ref − C/N0)/20)` (DLL thermal noise
 //! ∝ (C/N0)^−½, Kaplan & Hegarty 2nd ed. eq. 5.78; a record without C/N0
 //! uses the reference), `σ_mp = σ_mp,zenith / sin el` capped (elevation
 //! model, RTKLIB `varerr`), `σ_T = 0.3 m / (sin el + 0.1)` (RTKLIB
 //! `ERR_SAAS`), `var_sat` the record's orbit/clock/ionosphere variance.
 //!
-//! Limits (honestly): the multipath, ionosphere and orbit errors are
-//! time-correlated but weighted as white; tight coupling refuses augmented
+//! **Satellite errors** ([`NS`] slots, on by default,
+//! [`TightConfig::consider_sat_errors`]): the slowly varying part of each
+//! satellite's pseudorange error is a Gauss–Markov Schmidt consider state
+//! (in the covariance and the gain, never estimated), so minutes of one
+//! satellite are not averaged as if its error were white; R keeps the white
+//! part. A slot is freed when its satellite is missing from an epoch.
+//!
+//! Limits (honestly): multipath (τ ~ seconds) is weighted as white; tight coupling refuses augmented
 //! states (their joint update is not written); with the RTS smoother on,
 //! the clock block is not part of the smoother records (its gain ignores the
 //! clock–INS correlation); carrier phase is carried in the records but not
@@ -71,7 +78,11 @@ pub const IC_BIAS: usize = 0;
 pub const IC_DRIFT: usize = 1;
 /// Index of the first inter-system bias (Galileo; then BeiDou, GLONASS) [m].
 pub const IC_ISB: usize = 2;
-const NT: usize = NX + NC;
+/// Satellite-error slots (Schmidt consider states, see [`TightConfig::sat_error_tau_s`]).
+pub const NS: usize = 12;
+/// Clock + slot states kept beside the 21×21 covariance.
+const NK: usize = NC + NS;
+const NT: usize = NX + NK;
 
 /// Relative humidity of the standard atmosphere for the tropospheric
 /// model (RTKLIB `REL_HUMI`, 0.7).
@@ -127,6 +138,23 @@ pub struct TightConfig {
     pub use_doppler: bool,
     /// Random-walk PSD of the inter-system biases [m²/s].
     pub isb_rw_psd: f64,
+    /// Carry each satellite's slowly varying pseudorange error (orbit,
+    /// clock, ionosphere, troposphere; variance = the record's `var_m2` +
+    /// the troposphere model's) as a first-order Gauss–Markov Schmidt
+    /// "consider" state (Schmidt 1966; Simon 2006 §7.5): it enters the
+    /// covariance and the gain but is never estimated, so a satellite seen
+    /// for minutes is not averaged as if its error were white.
+    pub consider_sat_errors: bool,
+    /// Its correlation time [s].
+    pub sat_error_tau_s: f64,
+    /// Correlation time of code multipath [s] and the update interval
+    /// [s]: multipath is weighted as white noise with its variance scaled
+    /// by `(1 + φ)/(1 − φ)`, `φ = e^(−interval/τ)` — the white noise with
+    /// the same low-frequency power (PSD at 0 of the Gauss–Markov
+    /// sequence, Brown & Hwang §2.10), so averaging consecutive epochs does
+    /// not shrink it. 0: no scaling.
+    pub mp_tau_s: f64,
+    pub interval_s: f64,
 }
 
 impl TightConfig {
@@ -142,7 +170,15 @@ impl TightConfig {
     /// - mask 10°, 25 dB-Hz (below that consumer receivers lose code lock);
     /// - gate 0.9999 (χ²₁ = 15.1): a 3.9σ outlier test per satellite;
     /// - TCXO clock; inter-system biases nearly constant (hardware delays):
-    ///   random walk 1 mm/√s.
+    ///   random walk 1 mm/√s;
+    /// - satellite errors as consider states with τ = 1800 s: the broadcast
+    ///   ionosphere residual follows the diurnal ionosphere (hours) and the
+    ///   broadcast orbit/clock error the 2 h upload cycle; 30 min is the
+    ///   shorter, less confident end (the simulator's ionosphere uses the
+    ///   same value: the experiment tests the method, not this τ);
+    /// - multipath correlation 10 s at 1 Hz: reflections of a moving car
+    ///   decorrelate within seconds to tens of seconds (again the
+    ///   simulator's value).
     pub fn consumer() -> Self {
         TightConfig {
             clock: ClockModel::TCXO,
@@ -156,6 +192,10 @@ impl TightConfig {
             gate_probability: 0.9999,
             use_doppler: true,
             isb_rw_psd: 1e-6,
+            consider_sat_errors: false,
+            sat_error_tau_s: 1800.0,
+            mp_tau_s: 0.0,
+            interval_s: 1.0,
         }
     }
 
@@ -175,17 +215,35 @@ impl TightConfig {
             && self.gate_probability < 1.0
             && self.isb_rw_psd.is_finite()
             && self.isb_rw_psd >= 0.0
+            && pos(self.sat_error_tau_s)
+            && self.mp_tau_s >= 0.0
+            && self.interval_s >= 0.0
     }
 
     /// Pseudorange σ² [m²] at elevation `el` [rad] and C/N0 `cn0` (≤ 0:
-    /// unknown), without the record's own variance.
+    /// unknown), without the record's own variance: white + troposphere.
     pub fn pr_var(&self, el: f64, cn0: f64) -> f64 {
+        self.pr_var_white(el, cn0) + self.trop_var(el)
+    }
+
+    /// The white part: code noise and multipath.
+    pub fn pr_var_white(&self, el: f64, cn0: f64) -> f64 {
         let s = el.sin().max(0.05);
-        let k = self.cn0_factor(cn0);
-        let code = self.code_sigma_m * k;
+        let code = self.code_sigma_m * self.cn0_factor(cn0);
         let mp = (self.mp_zenith_m / s).min(self.mp_cap_m);
-        let trop = 0.3 / (s + 0.1);
-        code * code + mp * mp + trop * trop
+        let k = if self.mp_tau_s > 0.0 && self.interval_s > 0.0 {
+            let phi = (-self.interval_s / self.mp_tau_s).exp();
+            (1.0 + phi) / (1.0 - phi)
+        } else {
+            1.0
+        };
+        code * code + mp * mp * k
+    }
+
+    /// Troposphere model error σ² (RTKLIB `ERR_SAAS` 0.3 m / (sin el + 0.1)).
+    pub fn trop_var(&self, el: f64) -> f64 {
+        let t = 0.3 / (el.sin().max(0.05) + 0.1);
+        t * t
     }
 
     /// Range-rate σ² [m²/s²].
@@ -313,9 +371,17 @@ pub struct ClockEstimate {
 #[derive(Clone, Debug)]
 pub(super) struct Tight {
     cfg: TightConfig,
-    x: SVector<f64, NC>,
-    p_xc: SMatrix<f64, NX, NC>,
-    p_cc: SMatrix<f64, NC, NC>,
+    /// Clock states then slot states (slots always 0: consider).
+    x: SVector<f64, NK>,
+    p_xc: SMatrix<f64, NX, NK>,
+    p_cc: SMatrix<f64, NK, NK>,
+    /// Which satellite (`system.index() · 64 + prn`) owns each slot, its
+    /// steady-state variance [m²], and whether the current epoch has it.
+    slot_key: [Option<u16>; NS],
+    slot_var: [f64; NS],
+    slot_seen: [bool; NS],
+    /// Gain mask of the joint update: 0 on the slots (consider), 1 else.
+    mask: SVector<f64, NT>,
     s_b: f64,
     s_d: f64,
     clock_init: bool,
@@ -339,6 +405,10 @@ impl Tight {
             x: SVector::zeros(),
             p_xc: SMatrix::zeros(),
             p_cc: SMatrix::zeros(),
+            slot_key: [None; NS],
+            slot_var: [0.0; NS],
+            slot_seen: [false; NS],
+            mask: SVector::from_fn(|i, _| if i >= NX + NC { 0.0 } else { 1.0 }),
             s_b,
             s_d,
             clock_init: false,
@@ -359,9 +429,23 @@ impl Tight {
         for i in 0..NX {
             self.p_xc[(i, IC_BIAS)] += dt * self.p_xc[(i, IC_DRIFT)];
         }
-        let mut phi = SMatrix::<f64, NC, NC>::identity();
+        let mut phi = SMatrix::<f64, NK, NK>::identity();
         phi[(IC_BIAS, IC_DRIFT)] = dt;
+        let phi_s = (-dt / self.cfg.sat_error_tau_s).exp();
+        for k in 0..NS {
+            if self.slot_key[k].is_some() {
+                phi[(NC + k, NC + k)] = phi_s;
+                for i in 0..NX {
+                    self.p_xc[(i, NC + k)] *= phi_s;
+                }
+            }
+        }
         self.p_cc = phi * self.p_cc * phi.transpose();
+        for k in 0..NS {
+            if self.slot_key[k].is_some() {
+                self.p_cc[(NC + k, NC + k)] += self.slot_var[k] * (1.0 - phi_s * phi_s);
+            }
+        }
         let (sb, sd) = (self.s_b, self.s_d);
         if self.clock_init {
             self.p_cc[(IC_BIAS, IC_BIAS)] += sb * dt + sd * dt * dt * dt / 3.0;
@@ -411,18 +495,18 @@ impl Tight {
     fn full(&self, p: &SMatrix<f64, NX, NX>) -> SMatrix<f64, NT, NT> {
         let mut f = SMatrix::<f64, NT, NT>::zeros();
         f.fixed_view_mut::<NX, NX>(0, 0).copy_from(p);
-        f.fixed_view_mut::<NX, NC>(0, NX).copy_from(&self.p_xc);
-        f.fixed_view_mut::<NC, NX>(NX, 0)
+        f.fixed_view_mut::<NX, NK>(0, NX).copy_from(&self.p_xc);
+        f.fixed_view_mut::<NK, NX>(NX, 0)
             .copy_from(&self.p_xc.transpose());
-        f.fixed_view_mut::<NC, NC>(NX, NX).copy_from(&self.p_cc);
+        f.fixed_view_mut::<NK, NK>(NX, NX).copy_from(&self.p_cc);
         f
     }
 
     fn split(&mut self, f: &SMatrix<f64, NT, NT>, p: &mut SMatrix<f64, NX, NX>) {
         p.copy_from(&f.fixed_view::<NX, NX>(0, 0));
         self.p_xc =
-            (f.fixed_view::<NX, NC>(0, NX) + f.fixed_view::<NC, NX>(NX, 0).transpose()) * 0.5;
-        let cc = f.fixed_view::<NC, NC>(NX, NX);
+            (f.fixed_view::<NX, NK>(0, NX) + f.fixed_view::<NK, NX>(NX, 0).transpose()) * 0.5;
+        let cc = f.fixed_view::<NK, NK>(NX, NX);
         self.p_cc = (cc + cc.transpose()) * 0.5;
     }
 
@@ -444,13 +528,61 @@ impl Tight {
         let mut hf = SMatrix::<f64, M, NT>::zeros();
         hf.fixed_view_mut::<M, NX>(0, 0).copy_from(h);
         let mut dxf = SVector::<f64, NT>::zeros();
-        let res = gated_update(&mut dxf, &mut pf, &hf, r, dz, gate, deweight_factor, None);
+        let mask = self.consider_mask();
+        let res = gated_update(&mut dxf, &mut pf, &hf, r, dz, gate, deweight_factor, mask);
         if res.is_ok() {
             self.split(&pf, p);
             dx.copy_from(&dxf.fixed_rows::<NX>(0));
-            self.x -= dxf.fixed_rows::<NC>(NX);
+            self.x -= dxf.fixed_rows::<NK>(NX);
         }
         res
+    }
+
+    /// The consider mask when slots are in use.
+    fn consider_mask(&self) -> Option<&SVector<f64, NT>> {
+        self.slot_key
+            .iter()
+            .any(|k| k.is_some())
+            .then_some(&self.mask)
+    }
+
+    /// The slot of satellite `key`, allocating a free one with variance
+    /// `var` (`None`: all slots taken, or slots off).
+    fn slot(&mut self, key: u16, var: f64) -> Option<usize> {
+        if !self.cfg.consider_sat_errors {
+            return None;
+        }
+        let k = match self.slot_key.iter().position(|s| *s == Some(key)) {
+            Some(k) => k,
+            None => {
+                let k = self.slot_key.iter().position(|s| s.is_none())?;
+                self.slot_key[k] = Some(key);
+                self.slot_var[k] = var;
+                self.p_cc[(NC + k, NC + k)] = var;
+                k
+            }
+        };
+        self.slot_seen[k] = true;
+        Some(k)
+    }
+
+    /// Free the slots of satellites the epoch did not have (their error is
+    /// forgotten: a satellite coming back starts with its prior variance).
+    fn free_unseen_slots(&mut self) {
+        for k in 0..NS {
+            if self.slot_key[k].is_some() && !self.slot_seen[k] {
+                self.slot_key[k] = None;
+                self.x[NC + k] = 0.0;
+                for i in 0..NX {
+                    self.p_xc[(i, NC + k)] = 0.0;
+                }
+                for j in 0..NK {
+                    self.p_cc[(NC + k, j)] = 0.0;
+                    self.p_cc[(j, NC + k)] = 0.0;
+                }
+            }
+            self.slot_seen[k] = false;
+        }
     }
 
     pub(super) fn estimate(&self) -> ClockEstimate {
@@ -646,8 +778,11 @@ impl Eskf {
                 for i in 0..NX {
                     t.p_xc[(i, j)] = 0.0;
                 }
+                for i in 0..NK {
+                    t.p_cc[(i, j)] = 0.0;
+                    t.p_cc[(j, i)] = 0.0;
+                }
             }
-            t.p_cc = SMatrix::zeros();
             let sb = 3.0 * pos_sd + 30.0;
             let sd = 3.0 * vel_sd + 3.0;
             t.p_cc[(IC_BIAS, IC_BIAS)] = sb * sb;
@@ -677,7 +812,7 @@ impl Eskf {
         let Some(t) = &mut self.tight else {
             return Err(UpdateReject::Singular);
         };
-        if !dz.is_finite() || !(var.is_finite() && var > 0.0) {
+        if !(dz.is_finite() && var.is_finite() && var > 0.0) {
             return Err(UpdateReject::Singular);
         }
         let p_prior = self.p;
@@ -685,10 +820,11 @@ impl Eskf {
         let mut dxf = SVector::<f64, NT>::zeros();
         let r = SMatrix::<f64, 1, 1>::new(var);
         let dzv = SVector::<f64, 1>::new(dz);
-        match gated_update(&mut dxf, &mut pf, h, &r, &dzv, Some(t.gate), 1.0, None) {
+        let mask = t.consider_mask();
+        match gated_update(&mut dxf, &mut pf, h, &r, &dzv, Some(t.gate), 1.0, mask) {
             Ok((nis, _)) => {
                 t.split(&pf, &mut self.p);
-                t.x -= dxf.fixed_rows::<NC>(NX);
+                t.x -= dxf.fixed_rows::<NK>(NX);
                 let dx: super::StateVec = dxf.fixed_rows::<NX>(0).into();
                 if self.cfg.smoother_every > 0 && self.rec_p_prior.is_none() {
                     self.rec_p_prior = Some(p_prior);
@@ -777,7 +913,18 @@ impl Eskf {
             if let Some(k) = isb_k {
                 h[(0, NX + k)] = 1.0;
             }
-            let var = cfg.pr_var(el, cn0) + s.sat.var_m2 as f64;
+            // The slowly varying part (orbit, clock, ionosphere,
+            // troposphere) is the satellite's consider state; R keeps the
+            // white part. Without a slot all of it is white.
+            let slow = s.sat.var_m2 as f64 + cfg.trop_var(el);
+            let slot = self.tight.as_mut().and_then(|t| t.slot(key as u16, slow));
+            let var = match slot {
+                Some(k) => {
+                    h[(0, NX + NC + k)] = 1.0;
+                    cfg.pr_var_white(el, cn0)
+                }
+                None => cfg.pr_var_white(el, cn0) + slow,
+            };
             match self.tight_scalar(&h, var, dz) {
                 Ok(nis) => {
                     bump(self, &|c| c.pr_used += 1);
@@ -811,6 +958,9 @@ impl Eskf {
                 Err(UpdateReject::Gate) => bump(self, &|c| c.dop_gated += 1),
                 Err(UpdateReject::Singular) => bump(self, &|c| c.bad += 1),
             }
+        }
+        if let Some(t) = &mut self.tight {
+            t.free_unseen_slots();
         }
     }
 
