@@ -142,3 +142,91 @@ fn works_with_eight_three_two_and_one_satellites() {
     assert!((c.bias_m - (bias0 + drift * 120.0)).abs() < 1.0, "{c:?}");
     let _ = C_LIGHT;
 }
+
+/// Cost of one tightly coupled epoch with 20 satellites (pseudorange +
+/// Doppler each): the same 600 s at 100 Hz with and without the raw
+/// records; prints µs per epoch. `cargo test --release -p navfuse-core
+/// tight_epoch_cost -- --ignored --nocapture`.
+#[test]
+#[ignore]
+fn tight_epoch_cost_with_20_satellites() {
+    let rx = geodetic_to_ecef(&Geodetic {
+        lat: LAT,
+        lon: LON,
+        h: H,
+    });
+    let cne = c_en(LAT, LON).transpose();
+    let g = crate::earth::gravity(LAT, H);
+    let mut ep = RawEpoch::new(0.0);
+    for k in 0..20 {
+        let (az, el) = (k as f64 * 0.9, 0.3 + 0.06 * k as f64);
+        let p = rx + cne * Vec3::new(el.cos() * az.cos(), el.cos() * az.sin(), -el.sin()) * 2.0e7;
+        ep.push(RawSat {
+            obs: RawObs {
+                pseudorange_m: geometric_range(&p, &rx).0
+                    + slant_delay(el, LAT, H, day_of_year(T0), REL_HUMIDITY),
+                doppler_hz: 0.0,
+                cn0_dbhz: 45.0,
+                prn: k as u8 + 1,
+                ..Default::default()
+            },
+            sat: SatState {
+                pos_e: p,
+                valid: true,
+                ..Default::default()
+            },
+        });
+    }
+    let run = |raw: bool| {
+        let std = InitStd {
+            pos: Vec3::repeat(3.0),
+            vel: Vec3::repeat(0.1),
+            att: Vec3::repeat(0.01),
+            bg: Vec3::zeros(),
+            ba: Vec3::zeros(),
+            sg: Vec3::zeros(),
+            sa: Vec3::zeros(),
+        };
+        let nav = NavState {
+            lat: LAT,
+            lon: LON,
+            h: H,
+            ..Default::default()
+        };
+        let mut f = Eskf::new(EskfConfig::seed001(), nav, ImuErrors::default(), &std)
+            .with_tight_coupling(TightConfig::consumer())
+            .unwrap();
+        let start = std::time::Instant::now();
+        for k in 1..=60_000u32 {
+            let t = T0 + k as f64 * 0.01;
+            f.push(&Event::Imu(ImuSample {
+                t,
+                dt: 0.01,
+                dtheta_b: Vec3::zeros(),
+                dvel_b: Vec3::new(0.0, 0.0, -g * 0.01),
+            }));
+            if raw && k % 100 == 0 {
+                let mut e = ep;
+                e.t = t;
+                for s in e.sats.iter_mut() {
+                    s.obs.t = t;
+                }
+                for r in e.events() {
+                    f.push(&r);
+                }
+            }
+        }
+        (
+            start.elapsed().as_secs_f64(),
+            f.tight_stats().unwrap().total().pr_used,
+        )
+    };
+    let (with, used) = run(true);
+    let (without, _) = run(false);
+    std::println!(
+        "20 satellites: {:.1} µs per epoch (pr used {used}); IMU-only {:.2} µs per sample",
+        (with - without) / 600.0 * 1e6,
+        without / 60_000.0 * 1e6
+    );
+    assert!(used > 10_000);
+}
