@@ -3,7 +3,7 @@
 //! of [`navfuse_pipeline::experiments`].
 
 use clap::{Args as ClapArgs, Subcommand};
-use navfuse_pipeline::experiments::{aiding, seed002, seed003, seed004};
+use navfuse_pipeline::experiments::{aiding, seed002, seed003, seed004, tight};
 
 /// Reproduce a seed paper's experiment and print its table beside ours.
 #[derive(ClapArgs, Debug)]
@@ -26,6 +26,8 @@ pub enum Which {
     Align(crate::exp_platform::AlignArgs),
     /// Issue 17: odometer drift in a 60 s outage and dual-antenna yaw at standstill (simulated car, consumer MEMS).
     Aiding(aiding::Options),
+    /// Issue 14: tightly vs loosely coupled under a 2/3-satellite sky (simulated car, consumer MEMS, raw GNSS).
+    Tight(tight::Options),
     /// Soak `navfuse live` against a looping replay server: memory, CPU, latency, reconnects.
     Soak(crate::live::soak::Args),
 }
@@ -38,6 +40,7 @@ pub fn run(args: Args) -> Result<(), String> {
         Which::Generalise(a) => crate::exp_platform::generalise(a),
         Which::Align(a) => crate::exp_platform::align(a),
         Which::Aiding(a) => Ok(aiding::run(a)?),
+        Which::Tight(a) => Ok(tight::run(a)?),
         Which::Soak(a) => crate::live::soak::run(a),
     }
 }

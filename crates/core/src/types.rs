@@ -164,6 +164,9 @@ pub enum Event {
     Mag(MagSample),
     /// One satellite of a multi-antenna carrier-phase epoch.
     CarrierPhase(CarrierPhaseSat),
+    /// One satellite/signal of a raw GNSS epoch (issue 14; the tightly
+    /// coupled ESKF's input, [`crate::gnss::raw`]).
+    RawGnss(crate::gnss::raw::RawSat),
 }
 
 impl Event {
@@ -176,6 +179,7 @@ impl Event {
             Event::Heading(h) => h.t,
             Event::Mag(m) => m.t,
             Event::CarrierPhase(c) => c.t,
+            Event::RawGnss(r) => r.obs.t,
         }
     }
 }

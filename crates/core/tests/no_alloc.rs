@@ -408,3 +408,91 @@ fn yaw_gsf_push_does_not_allocate() {
     assert_eq!(used, 0, "{used} heap allocations in the yaw GSF loop");
     assert_eq!(estimates, 30);
 }
+
+/// The tightly coupled ESKF (issue 14): raw pseudorange/Doppler records of
+/// 6 static synthetic satellites at 1 Hz, 100 Hz IMU at rest, with the car
+/// constraints of the seed 001 preset's ZUPT — no heap use per event.
+#[test]
+fn tight_eskf_push_does_not_allocate() {
+    use navfuse_core::estimators::eskf::TightConfig;
+    use navfuse_core::geodesy::{c_en, geodetic_to_ecef, Geodetic};
+    use navfuse_core::gnss::raw::{geometric_range, RawEpoch, RawObs, RawSat, SatState};
+    let (lat0, lon0, h) = (0.7f64, -1.8f64, 100.0);
+    let g = navfuse_core::earth::gravity(lat0, h);
+    let rx = geodetic_to_ecef(&Geodetic {
+        lat: lat0,
+        lon: lon0,
+        h,
+    });
+    let cne = c_en(lat0, lon0).transpose();
+    let sats: Vec<(Vec3, f64)> = (0..6)
+        .map(|k| {
+            let (az, el) = (k as f64 * 1.0, 0.4 + 0.15 * k as f64);
+            let u_n = Vec3::new(el.cos() * az.cos(), el.cos() * az.sin(), -el.sin());
+            (rx + cne * u_n * 2.0e7, el)
+        })
+        .collect();
+    let nav = NavState {
+        lat: lat0,
+        lon: lon0,
+        h,
+        ..Default::default()
+    };
+    let mut eskf = Eskf::new(
+        EskfConfig::seed001(),
+        nav,
+        ImuErrors::default(),
+        &init_std(),
+    )
+    .with_tight_coupling(TightConfig::consumer())
+    .unwrap();
+    let mut events = Vec::with_capacity(7000);
+    for k in 1..=6000u32 {
+        let t = 1.4e9 + k as f64 * 0.01;
+        events.push(Event::Imu(ImuSample {
+            t,
+            dt: 0.01,
+            dtheta_b: Vec3::zeros(),
+            dvel_b: Vec3::new(0.0, 0.0, -g * 0.01),
+        }));
+        if k % 100 == 0 {
+            let mut ep = RawEpoch::new(t);
+            for (i, (p, el)) in sats.iter().enumerate() {
+                let trop = navfuse_core::gnss::tropo::slant_delay(
+                    *el,
+                    lat0,
+                    h,
+                    navfuse_core::gnss::tropo::day_of_year(t),
+                    navfuse_core::estimators::eskf::REL_HUMIDITY,
+                );
+                ep.push(RawSat {
+                    obs: RawObs {
+                        pseudorange_m: geometric_range(p, &rx).0 + 1.0e5 + trop,
+                        doppler_hz: 0.0,
+                        cn0_dbhz: 45.0,
+                        prn: i as u8 + 1,
+                        ..Default::default()
+                    },
+                    sat: SatState {
+                        pos_e: *p,
+                        valid: true,
+                        ..Default::default()
+                    },
+                });
+            }
+            events.extend(ep.events());
+        }
+    }
+    let (warm, rest) = events.split_at(1000);
+    for e in warm {
+        eskf.push(e);
+    }
+    let before = allocs();
+    for e in rest {
+        eskf.push(e);
+    }
+    assert_eq!(allocs(), before, "push allocated");
+    // 60 epochs × 6; the last one waits for an IMU sample after it.
+    assert_eq!(eskf.tight_stats().unwrap().total().pr_used, 354);
+    assert!(eskf.solution().lat.is_finite());
+}

@@ -281,7 +281,8 @@ impl Estimator for AligningEskf {
                 }
                 None
             }
-            Event::CarrierPhase(_) => None,
+            // Raw GNSS: no live tight coupling yet (issue 14).
+            Event::CarrierPhase(_) | Event::RawGnss(_) => None,
         }
     }
 }

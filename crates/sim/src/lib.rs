@@ -15,6 +15,7 @@ pub mod imu_model;
 pub mod motion_csv;
 pub mod output;
 pub mod platform;
+pub mod raw_gnss;
 pub mod rot;
 pub mod scenario;
 pub mod trajectory;

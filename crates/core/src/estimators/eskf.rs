@@ -53,6 +53,7 @@ use nalgebra::{SMatrix, SVector};
 mod aiding;
 mod aug;
 mod sens;
+mod tight;
 pub use aiding::{AidingConfig, AidingStats, MAX_LAG_S};
 use aug::{gated_update, Aug};
 pub use aug::{
@@ -61,6 +62,10 @@ pub use aug::{
 };
 use sens::Sens;
 pub use sens::SensitivityModel;
+pub use tight::{
+    ClockEstimate, ClockModel, SatCounts, TightConfig, TightConfigError, TightStats, IC_BIAS,
+    IC_DRIFT, IC_ISB, NC, REL_HUMIDITY,
+};
 
 /// Number of error states.
 pub const NX: usize = 21;
@@ -850,6 +855,8 @@ pub struct Eskf {
     /// Covariance of the error under a correlated GNSS error model, with
     /// this filter's gains (`None`: σ from `p`; [`Eskf::start_sensitivity`]).
     sens: Option<Sens>,
+    /// Tight coupling to raw GNSS (`None`: off, the plain filter).
+    tight: Option<tight::Tight>,
 }
 
 /// The adaptive parts of the filter (all `None` by default).
@@ -987,6 +994,7 @@ impl Eskf {
             aug: None,
             aiding: aiding::AidingState::default(),
             sens: None,
+            tight: None,
             cfg,
         }
         .with_odometer_scale()
@@ -1059,6 +1067,9 @@ impl Eskf {
     /// smoothed σ change. Refused (`Err`) when the filter already models
     /// the GNSS error as Gauss–Markov states or `m` is invalid.
     pub fn start_sensitivity(&mut self, m: SensitivityModel) -> Result<(), AugConfigError> {
+        if self.tight.is_some() {
+            return Err(AugConfigError::TightCoupling);
+        }
         self.sens = Some(Sens::new(
             m,
             &self.p,
@@ -1271,6 +1282,9 @@ impl Eskf {
                 a.push_history(self.t + dt, self.nav.v_n + lever_v);
             }
         }
+        if let Some(tc) = &mut self.tight {
+            tc.propagate(&self.f_sparse, dt);
+        }
     }
 
     /// `F` blocks at `s` (the state at the start of the interval), KF-GINS's
@@ -1467,10 +1481,17 @@ impl Eskf {
         let mut k_f = SMatrix::<f64, NF, M>::zeros();
         let want_k = self.sens.is_some();
         let res = match &mut self.aug {
-            None => {
-                let k = want_k.then_some(&mut k_x);
-                gated_update(&mut dx, &mut self.p, h, r, dz, g, fd, None, k)
-            }
+            // With tight coupling every update is joint with the clock
+            // states (their correlation with the INS must follow); the
+            // sensitivity covariance is not started then
+            // ([`Eskf::start_sensitivity`]).
+            None => match &mut self.tight {
+                None => {
+                    let k = want_k.then_some(&mut k_x);
+                    gated_update(&mut dx, &mut self.p, h, r, dz, g, fd, None, k)
+                }
+                Some(t) => t.joint_update(&mut dx, &mut self.p, h, r, dz, g, fd),
+            },
             Some(a) => {
                 let mut pf = a.full(&self.p);
                 let mut hf = SMatrix::<f64, M, NF>::zeros();
@@ -1867,9 +1888,19 @@ impl Eskf {
             self.pending = self.pending.filter(|g| g.t > imu.t);
             return Some(self.solution());
         }
+        self.last_dt = imu.dt;
+        // Tight coupling: a raw GNSS epoch inside the interval splits it
+        // (module `tight`; nothing happens without tight coupling).
+        let rest;
+        let imu = match self.tight_before(imu) {
+            Some(r) => {
+                rest = r;
+                &rest
+            }
+            None => imu,
+        };
         let t0 = self.t;
         let t1 = imu.t;
-        self.last_dt = imu.dt;
         let mut fix = None;
         if let Some(g) = self.pending {
             if g.t <= t1 + TIME_ALIGN {
@@ -1907,6 +1938,7 @@ impl Eskf {
             None => self.propagate(&imu.dtheta_b, &imu.dvel_b, imu.dt),
         }
         self.t = t1;
+        self.tight_after();
         if self.cfg.nhc.is_some() || self.cfg.zupt.is_some() {
             self.vehicle_updates();
         }
@@ -2012,6 +2044,11 @@ impl Estimator for Eskf {
             }
             // Carrier phase is CP-ATT's input.
             Event::CarrierPhase(_) => None,
+            // Raw GNSS: used with tight coupling only (module `tight`).
+            Event::RawGnss(r) => {
+                self.push_raw(r);
+                None
+            }
         }
     }
 }
@@ -2022,6 +2059,8 @@ mod adaptive_tests;
 mod aiding_tests;
 #[cfg(test)]
 mod aug_tests;
+#[cfg(test)]
+mod tight_tests;
 
 #[cfg(test)]
 mod tests {

@@ -11,6 +11,7 @@
 //! - [`visible_by_elevation`]: satellites above an elevation mask, ordered by
 //!   decreasing elevation (the order of the paper's double differences).
 //! - [`dd`]: the paper's double differences (eq. 8–10) and their covariance.
+//! - [`raw`]: raw observations (pseudorange, phase, Doppler) as events.
 //! - [`tropo`]: Saastamoinen zenith delays and Niell mapping functions.
 //! - [`orbit_gnss`]: Galileo/BeiDou (incl. GEO)/QZSS broadcast orbits.
 //! - [`iono`]: Klobuchar broadcast ionosphere (IS-GPS-200 Fig. 20-4).
@@ -29,6 +30,7 @@ use crate::{Mat3, Vec3};
 pub mod dd;
 pub mod iono;
 pub mod orbit_gnss;
+pub mod raw;
 pub mod spp;
 pub mod tropo;
 

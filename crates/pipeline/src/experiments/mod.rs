@@ -25,6 +25,7 @@ mod score;
 pub mod seed002;
 pub mod seed003;
 pub mod seed004;
+pub mod tight;
 
 pub use score::{h_error_ne, motion_start};
 

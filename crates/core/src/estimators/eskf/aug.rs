@@ -119,6 +119,9 @@ pub enum AugConfigError {
     TimeOffset,
     /// Odometer: see [`OdometerConfig::is_valid`].
     Odometer,
+    /// The sensitivity covariance follows the 21-state (or augmented)
+    /// update only, not the joint update of tight coupling.
+    TightCoupling,
 }
 
 impl core::fmt::Display for AugConfigError {
@@ -130,6 +133,10 @@ impl core::fmt::Display for AugConfigError {
                     "GNSS error states: need tau_s > 0 and finite sigma_m >= 0"
                 )
             }
+            AugConfigError::TightCoupling => write!(
+                f,
+                "sensitivity covariance: not available with tight coupling"
+            ),
             AugConfigError::TimeOffset => write!(
                 f,
                 "time-offset state: need a finite initial value, std > 0 and a random-walk PSD >= 0"
