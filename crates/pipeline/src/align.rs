@@ -12,7 +12,9 @@
 //!    - the GNSS course, for platforms whose course is their heading
 //!      (non-holonomic: car, robot), once the course σ ≈ σ_v/speed is below
 //!      [`COURSE_MAX_STD`] — a speed threshold from the velocity σ, not a
-//!      fixed speed;
+//!      fixed speed; one epoch's course, a chord of positions, or the
+//!      course over several epochs carried by the z gyro
+//!      ([`crate::course_filter`], for slow vehicles);
 //!    - a Gaussian-sum filter over yaw hypotheses ([`YawGsf`]) fed with the
 //!      IMU and the GNSS velocity, for any platform, once its yaw σ is below
 //!      [`GSF_HANDOVER_STD`]. The GSF also carries roll and pitch through
