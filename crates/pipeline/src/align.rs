@@ -12,7 +12,9 @@
 //!    - the GNSS course, for platforms whose course is their heading
 //!      (non-holonomic: car, robot), once the course σ ≈ σ_v/speed is below
 //!      [`COURSE_MAX_STD`] — a speed threshold from the velocity σ, not a
-//!      fixed speed;
+//!      fixed speed; one epoch's course, a chord of positions, or the
+//!      course over several epochs carried by the z gyro
+//!      ([`crate::course_filter`], for slow vehicles);
 //!    - a Gaussian-sum filter over yaw hypotheses ([`YawGsf`]) fed with the
 //!      IMU and the GNSS velocity, for any platform, once its yaw σ is below
 //!      [`GSF_HANDOVER_STD`]. The GSF also carries roll and pitch through
@@ -384,10 +386,20 @@ pub fn align(
         let ib = imu.partition_point(|s| s.t < tb);
         cum_z[ib] - cum_z[ia]
     };
+    // The course over several epochs, carried by the z gyro with its bias
+    // ([`crate::course_filter`]): a slow vehicle's single-epoch course is
+    // never below COURSE_MAX_STD (0.1 m/s Doppler σ at 1 m/s: 5.7°).
+    let mut course_f = crate::course_filter::CourseFilter::new(
+        bg0.z,
+        bg_std.z,
+        model.noise.arw.z,
+        model.sensor.map_or(1e-3, |s| s.init_sg_std),
+    );
     let mut k = 0usize;
     let mut best: Option<(usize, f64)> = None; // (fix index, yaw σ)
     let mut chosen: Option<(usize, f64, f64, &'static str)> = None; // (j, yaw, σ, method)
     let t_imu0 = imu[0].t - imu[0].dt;
+    let mut course_t = t_imu0;
     // The bank's gate (see [`crate::yaw_bank::BankGate`]).
     let (mut bank_t_obs, mut bank_fallback) = (f64::INFINITY, f64::NAN);
     for j in 0..gnss.len() {
@@ -405,6 +417,16 @@ pub fn align(
         let Some((v, sv)) = gnss_velocity(gnss, j) else {
             continue;
         };
+        // Only the fix's own (Doppler) velocity: velocities differenced from
+        // positions share fixes with their neighbours, not independent
+        // courses (the chord test in `course_at` covers those).
+        if use_course && g.v_n.is_some() {
+            if course_f.started() {
+                course_f.propagate(g.t, yaw_turn(course_t, g.t));
+            }
+            course_f.update(g.t, &v, &sv);
+            course_t = g.t;
+        }
         if gsf.push_gnss_velocity(g.t, &v, &sv).is_err() {
             continue;
         }
@@ -419,7 +441,14 @@ pub fn align(
             break;
         }
         if use_course {
-            if let Some((yaw, course_std)) = course_at(gnss, j, &v, &sv, &yaw_turn) {
+            let (yaw_f, std_f) = course_f.yaw();
+            let one = course_at(gnss, j, &v, &sv, &yaw_turn);
+            let pick = match one {
+                Some((y, s)) if s <= std_f => Some((y, s)),
+                _ if std_f <= COURSE_MAX_STD => Some((yaw_f, std_f)),
+                o => o,
+            };
+            if let Some((yaw, course_std)) = pick {
                 chosen = Some((j, yaw, course_std.hypot(COURSE_MOUNT_STD), "course"));
                 break;
             }

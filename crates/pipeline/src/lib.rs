@@ -19,6 +19,7 @@ pub mod align;
 pub mod allan;
 pub mod check;
 pub mod config;
+pub mod course_filter;
 pub mod cp_att_run;
 pub mod csv_map;
 pub mod csv_sniff;

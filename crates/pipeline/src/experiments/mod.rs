@@ -17,6 +17,8 @@ pub mod attitude;
 pub mod baseline;
 #[cfg(test)]
 mod consider_tests;
+#[cfg(test)]
+mod course_align_tests;
 pub mod generalise;
 #[cfg(test)]
 mod honesty_diag;
