@@ -38,29 +38,6 @@ fn uav_offsets_recovered_within_10_ms() {
     check(Platform::Uav, 2);
 }
 
-/// Diagnosis of the course-based estimate's sign asymmetry (prints only).
-#[test]
-#[ignore = "diagnostic print: cargo test --release -- --ignored course_asymmetry --nocapture"]
-fn course_asymmetry() {
-    for seed in 0..10u64 {
-        for tau in [0.05, -0.05, 0.2, -0.2] {
-            let opt = PlatformOptions {
-                imu: ImuGrade::Industrial,
-                gnss: GnssGrade::Rtk,
-                imu_time_offset_s: tau,
-                static_start: seed.is_multiple_of(2),
-                ..Default::default()
-            };
-            let pr = platform_run(Platform::Car, seed, &opt).expect("simulation");
-            let e = crate::time_offset::auto_estimate(&pr.run.imu, &pr.run.gnss);
-            eprintln!(
-                "seed {seed} τ {tau:+}: {}",
-                crate::time_offset::describe(&e)
-            );
-        }
-    }
-}
-
 /// Issue 13's must-show 2 on a car (seed chosen before the run, not one of
 /// the experiment's seeds 0–9).
 #[test]

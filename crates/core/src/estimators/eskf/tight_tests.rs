@@ -145,10 +145,10 @@ fn works_with_eight_three_two_and_one_satellites() {
 
 /// Cost of one tightly coupled epoch with 20 satellites (pseudorange +
 /// Doppler each): the same 600 s at 100 Hz with and without the raw
-/// records; prints µs per epoch. `cargo test --release -p navfuse-core
-/// tight_epoch_cost -- --ignored --nocapture`.
+/// records; prints µs per epoch and asserts real-time margin.
+/// `cargo test --release -p navfuse-core tight_epoch_cost -- --ignored --nocapture`.
 #[test]
-#[ignore]
+#[ignore = "timing: cargo test --release -p navfuse-core tight_epoch_cost -- --ignored"]
 fn tight_epoch_cost_with_20_satellites() {
     let rx = geodetic_to_ecef(&Geodetic {
         lat: LAT,
@@ -228,5 +228,12 @@ fn tight_epoch_cost_with_20_satellites() {
         (with - without) / 600.0 * 1e6,
         without / 60_000.0 * 1e6
     );
+    // The pseudoranges are used (none gated on this clean geometry), and an
+    // epoch costs far less than the 1 s between epochs (measured 625 µs on a
+    // loaded 2-core machine; bound 5 ms, 1/200 of the interval): the filter
+    // keeps up with a 1 Hz 20-satellite receiver in real time.
+    assert!(used >= 600 * 20 * 99 / 100, "{used} pseudoranges used");
+    let per_epoch = (with - without) / 600.0;
+    assert!(per_epoch < 5e-3, "{per_epoch} s per epoch");
     assert!(used > 10_000);
 }
