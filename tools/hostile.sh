@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # Hostile inputs against every batch command (convert, run, kf-gins, eval,
-# baseline, allan) and live: truncated file, binary garbage, a 10 MB single line, a
+# baseline, spp, allan) and live: truncated file, binary garbage, a 10 MB single line, a
 # 1 GB file without a newline (sparse), an empty file, the wrong format for
 # the extension, NaN/inf values, time going backwards, duplicate stamps.
 # For each: exit code, the first line of the message, max RSS
@@ -83,7 +83,7 @@ run_case() {
     [ -z "$left" ] && left="none"
     local verdict=ok
     if [ $rc -eq 124 ]; then verdict="HANG"; elif [ $rc -eq 70 ] || [ $rc -eq 101 ] || grep -q panicked stderr.txt; then verdict="PANIC"; fi
-    if [ "$case" = 1GB_nonewline ] && [ "${rss%.*}" -gt 64 ]; then verdict="$verdict RSS>64MiB"; fi
+    if [[ "$case" == *1GB_nonewline ]] && [ "${rss%.*}" -gt 64 ]; then verdict="$verdict RSS>64MiB"; fi
     if [ $rc -ne 0 ] && [ "$left" != none ]; then verdict="$verdict PARTIAL-OUTPUT"; fi
     if echo "$left" | grep -q navfuse-tmp; then verdict="$verdict TEMP-LEFT"; fi
     rows+=("| $cmd | $case | $rc | \`$msg\` | $rss | $left | $verdict |")
@@ -143,6 +143,18 @@ mkdir -p baseline && cd baseline
 head -n 4000 "$R/07590920.05o" > good.obs
 make_variants good.obs 05o "$R/07590920.05n"
 for c in $cases; do run_case baseline "$c" out -- baseline --rover "h_$c.05o" --base "$R/30400920.05o" --nav "$R/07590920.05n" --out out/b.csv; done
+cd ..
+fi
+
+# spp: the GEONET observation file replaced, then the navigation file.
+if want spp; then
+mkdir -p spp && cd spp
+head -n 4000 "$R/07590920.05o" > good.obs
+make_variants good.obs 05o "$R/07590920.05n"
+for c in $cases; do run_case spp "$c" out -- spp "h_$c.05o" --nav "$R/07590920.05n" out/s.pos; done
+cp "$R/07590920.05n" good.nav
+make_variants good.nav 05n "$R/07590920.05o"
+for c in $cases; do run_case spp "nav-$c" out -- spp "$R/07590920.05o" --nav "h_$c.05n" out/s.pos; done
 cd ..
 fi
 
