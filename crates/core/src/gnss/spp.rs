@@ -312,6 +312,18 @@ pub struct SppSolution {
     pub vel: Option<SppVelocity>,
 }
 
+/// One row of the design matrix for unknowns [x, y, z, clock per system]:
+/// −(line of sight, ECEF, receiver to satellite) and 1 in the satellite's
+/// system clock column (the pseudorange and Doppler models share it).
+fn design_row(e_e: &Vec3, sys: usize) -> VecX {
+    let mut h = VecX::zeros();
+    h[0] = -e_e.x;
+    h[1] = -e_e.y;
+    h[2] = -e_e.z;
+    h[3 + sys] = 1.0;
+    h
+}
+
 /// Per-satellite working state of one epoch.
 #[derive(Clone, Copy, Debug, Default)]
 struct Sat {
@@ -607,11 +619,7 @@ impl Spp {
                 continue;
             }
             present[s.sys] = true;
-            let mut h = VecX::zeros();
-            h[0] = -s.e_e.x;
-            h[1] = -s.e_e.y;
-            h[2] = -s.e_e.z;
-            h[3 + s.sys] = 1.0;
+            let h = design_row(&s.e_e, s.sys);
             let w = 1.0 / s.var;
             n += h * h.transpose() * w;
             b += h * (w * s.v);
@@ -655,11 +663,7 @@ impl Spp {
             if !s.used {
                 continue;
             }
-            let mut h = VecX::zeros();
-            h[0] = -s.e_e.x;
-            h[1] = -s.e_e.y;
-            h[2] = -s.e_e.z;
-            h[3 + s.sys] = 1.0;
+            let h = design_row(&s.e_e, s.sys);
             let qv = (s.var - (h.transpose() * q * h)[(0, 0)]).max(1e-12 * s.var);
             let w = s.v.abs() / qv.sqrt();
             if w > w_max {
@@ -680,11 +684,7 @@ impl Spp {
                 continue;
             }
             present[s.sys] = true;
-            let mut h = VecX::zeros();
-            h[0] = -s.e_e.x;
-            h[1] = -s.e_e.y;
-            h[2] = -s.e_e.z;
-            h[3 + s.sys] = 1.0;
+            let h = design_row(&s.e_e, s.sys);
             n += h * h.transpose();
         }
         for k in 0..MAX_SYS {
@@ -753,11 +753,7 @@ impl Spp {
                     + cfg.sigma_b_m * cfg.sigma_b_m / sin_el)
                     / shape0;
                 let var = cfg.sigma_doppler_mps * cfg.sigma_doppler_mps * shape;
-                let mut h = VecX::zeros();
-                h[0] = -e.x;
-                h[1] = -e.y;
-                h[2] = -e.z;
-                h[3 + s.sys] = 1.0;
+                let h = design_row(&e, s.sys);
                 n += h * h.transpose() / var;
                 b += h * (v / var);
                 vtpv += v * v / var;
