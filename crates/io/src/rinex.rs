@@ -65,6 +65,104 @@ pub(crate) fn field(line: &str, a: usize, b: usize) -> &str {
     }
 }
 
+/// Column layout of a Kepler navigation record (RINEX 2.11 / 3.04 Table
+/// A4/A8): the epoch line's six date/time fields, where its three clock
+/// values start, and the indent of the seven broadcast-orbit lines; every
+/// value is 19 characters wide.
+pub(crate) struct RecordLayout {
+    pub date: [(usize, usize); 6],
+    pub clk_start: usize,
+    pub indent: usize,
+}
+
+/// RINEX 3 epoch line: `G01 2010 07 01 00 00 00` then the clock values.
+pub(crate) const LAYOUT_V3: RecordLayout = RecordLayout {
+    date: [(4, 8), (9, 11), (12, 14), (15, 17), (18, 20), (21, 23)],
+    clk_start: 23,
+    indent: 4,
+};
+
+/// RINEX 2 epoch line: ` 1 10  7  1  0  0  0.0` then the clock values.
+const LAYOUT_V2: RecordLayout = RecordLayout {
+    date: [(3, 5), (6, 8), (9, 11), (12, 14), (15, 17), (17, 22)],
+    clk_start: 22,
+    indent: 3,
+};
+
+/// The six date/time fields of the epoch line `lines[i]` (as written:
+/// RINEX 2 years may have two digits).
+pub(crate) fn record_date(
+    lines: &[&str],
+    i: usize,
+    name: &str,
+    lay: &RecordLayout,
+) -> Result<[f64; 6], ReadError> {
+    let mut dt = [0.0f64; 6];
+    for (k, (a, b)) in lay.date.iter().enumerate() {
+        let s = field(lines[i], *a, *b).trim();
+        dt[k] = s.parse().map_err(|_| {
+            err(
+                name,
+                i + 1,
+                ["year", "month", "day", "hour", "minute", "second"][k],
+                format!("not a number: `{s}`"),
+            )
+        })?;
+    }
+    Ok(dt)
+}
+
+/// The 29 values (3 clock + 7 × 4 orbit, `names` in order) of the 8-line
+/// record whose epoch line is `lines[i]`. A blank value is an error where
+/// `required(index)`, else 0; with `finite_only` a NaN/inf value is an
+/// error too. Errors name the file, line and field.
+pub(crate) fn record_values(
+    lines: &[&str],
+    i: usize,
+    name: &str,
+    lay: &RecordLayout,
+    names: &[&str; 29],
+    required: impl Fn(usize) -> bool,
+    finite_only: bool,
+) -> Result<[f64; 29], ReadError> {
+    const W: usize = 19;
+    let (l0, ln0) = (lines[i], i + 1);
+    let mut v = [0.0f64; 29];
+    for k in 0..3 {
+        let s = field(l0, lay.clk_start + k * W, lay.clk_start + (k + 1) * W);
+        v[k] = ffloat(s)
+            .map_err(|m| err(name, ln0, names[k], m))?
+            .ok_or_else(|| err(name, ln0, names[k], "blank"))?;
+    }
+    for r in 0..7 {
+        let ln = i + 1 + r;
+        let Some(l) = lines.get(ln) else {
+            return Err(err(
+                name,
+                ln0,
+                "<record>",
+                "truncated navigation record (needs 8 lines)",
+            ));
+        };
+        for k in 0..4 {
+            let idx = 3 + r * 4 + k;
+            if idx >= 29 {
+                break;
+            }
+            let s = field(l, lay.indent + k * W, lay.indent + (k + 1) * W);
+            match ffloat(s).map_err(|m| err(name, ln + 1, names[idx], m))? {
+                Some(x) if finite_only && !x.is_finite() => {
+                    return Err(err(name, ln + 1, names[idx], "not finite"))
+                }
+                Some(x) => v[idx] = x,
+                None if required(idx) => return Err(err(name, ln + 1, names[idx], "blank")),
+                None => {}
+            }
+        }
+    }
+    Ok(v)
+}
+
 /// A navigation file's GPS content: ephemerides with their broadcast
 /// accuracy, and the header's Klobuchar coefficients.
 #[derive(Clone, Debug, PartialEq, Default)]
@@ -177,48 +275,15 @@ pub fn parse_nav_data(text: &str, name: &str) -> Result<NavData, ReadError> {
             continue;
         }
         // Epoch line.
-        let (prn_s, date_fields, clk_start, w) = if v3 {
-            (
-                field(l0, 1, 3),
-                vec![(4, 8), (9, 11), (12, 14), (15, 17), (18, 20), (21, 23)],
-                23,
-                19,
-            )
+        let (prn_s, lay) = if v3 {
+            (field(l0, 1, 3), &LAYOUT_V3)
         } else {
-            (
-                field(l0, 0, 2),
-                vec![(3, 5), (6, 8), (9, 11), (12, 14), (15, 17), (17, 22)],
-                22,
-                19,
-            )
+            (field(l0, 0, 2), &LAYOUT_V2)
         };
         let prn: u8 = prn_s
             .trim()
             .parse()
             .map_err(|_| err(name, ln0, "PRN", format!("not a PRN: `{}`", prn_s.trim())))?;
-        let mut dt = [0.0f64; 6];
-        for (k, (a, b)) in date_fields.iter().enumerate() {
-            let s = field(l0, *a, *b).trim();
-            dt[k] = s.parse().map_err(|_| {
-                err(
-                    name,
-                    ln0,
-                    ["year", "month", "day", "hour", "minute", "second"][k],
-                    format!("not a number: `{s}`"),
-                )
-            })?;
-        }
-        let year = two_digit_year(dt[0] as i32);
-        let t_oc = gps_seconds(
-            year,
-            dt[1] as u32,
-            dt[2] as u32,
-            dt[3] as u32,
-            dt[4] as u32,
-            dt[5],
-        );
-        let off = if v3 { 4 } else { 3 };
-        let mut v = [0.0f64; 29];
         let names = [
             "af0",
             "af1",
@@ -250,37 +315,18 @@ pub fn parse_nav_data(text: &str, name: &str) -> Result<NavData, ReadError> {
             "transmission time",
             "fit interval",
         ];
-        for k in 0..3 {
-            let s = field(l0, clk_start + k * w, clk_start + (k + 1) * w);
-            v[k] = ffloat(s)
-                .map_err(|m| err(name, ln0, names[k], m))?
-                .ok_or_else(|| err(name, ln0, names[k], "blank"))?;
-        }
-        for r in 0..7 {
-            let ln = i + 1 + r;
-            let Some(l) = lines.get(ln) else {
-                return Err(err(
-                    name,
-                    ln0,
-                    "<record>",
-                    "truncated navigation record (needs 8 lines)",
-                ));
-            };
-            for k in 0..4 {
-                let idx = 3 + r * 4 + k;
-                if idx >= 29 {
-                    break;
-                }
-                let s = field(l, off + k * w, off + (k + 1) * w);
-                match ffloat(s).map_err(|m| err(name, ln + 1, names[idx], m))? {
-                    Some(x) => v[idx] = x,
-                    None if idx <= 22 || idx == 24 || idx == 25 => {
-                        return Err(err(name, ln + 1, names[idx], "blank"))
-                    }
-                    None => {}
-                }
-            }
-        }
+        let required = |idx: usize| idx <= 22 || idx == 24 || idx == 25;
+        let dt = record_date(&lines, i, name, lay)?;
+        let v = record_values(&lines, i, name, lay, &names, required, false)?;
+        let year = two_digit_year(dt[0] as i32);
+        let t_oc = gps_seconds(
+            year,
+            dt[1] as u32,
+            dt[2] as u32,
+            dt[3] as u32,
+            dt[4] as u32,
+            dt[5],
+        );
         let week = v[21];
         let t_oe = week * SECONDS_PER_WEEK + v[11];
         if !(4000.0..6000.0).contains(&v[10]) {

@@ -15,7 +15,7 @@
 //! the record unhealthy (for Galileo that is conservative: the word holds
 //! the E1-B, E5a and E5b signal flags together).
 
-use crate::rinex::{err, ffloat, field, gps_seconds};
+use crate::rinex::{err, field, gps_seconds, record_date, record_values, LAYOUT_V3};
 use crate::ReadError;
 use navfuse_core::gnss::orbit_gnss::{OrbitKind, BDT_MINUS_GPST};
 use navfuse_core::gnss::{KeplerOrbit, SECONDS_PER_WEEK};
@@ -153,21 +153,7 @@ pub fn parse_nav_gnss(text: &str, name: &str) -> Result<GnssNav, ReadError> {
             .ok()
             .filter(|p| (1..=99).contains(p))
             .ok_or_else(|| err(name, ln0, "PRN", format!("not a PRN: `{prn_s}`")))?;
-        let mut dt = [0.0f64; 6];
-        for (k, (a, b)) in [(4, 8), (9, 11), (12, 14), (15, 17), (18, 20), (21, 23)]
-            .iter()
-            .enumerate()
-        {
-            let s = field(l0, *a, *b).trim();
-            dt[k] = s.parse().map_err(|_| {
-                err(
-                    name,
-                    ln0,
-                    ["year", "month", "day", "hour", "minute", "second"][k],
-                    format!("not a number: `{s}`"),
-                )
-            })?;
-        }
+        let dt = record_date(&lines, i, name, &LAYOUT_V3)?;
         let valid_date = (1980.0..2200.0).contains(&dt[0])
             && (1.0..=12.0).contains(&dt[1])
             && (1.0..=31.0).contains(&dt[2])
@@ -177,39 +163,8 @@ pub fn parse_nav_gnss(text: &str, name: &str) -> Result<GnssNav, ReadError> {
         if !valid_date {
             return Err(err(name, ln0, "epoch", "date/time out of range"));
         }
-        let mut v = [0.0f64; 29];
-        for k in 0..3 {
-            let s = field(l0, 23 + k * 19, 23 + (k + 1) * 19);
-            v[k] = ffloat(s)
-                .map_err(|m| err(name, ln0, NAMES[k], m))?
-                .ok_or_else(|| err(name, ln0, NAMES[k], "blank"))?;
-        }
-        for r in 0..7 {
-            let ln = i + 1 + r;
-            let Some(l) = lines.get(ln) else {
-                return Err(err(
-                    name,
-                    ln0,
-                    "<record>",
-                    "truncated navigation record (needs 8 lines)",
-                ));
-            };
-            for k in 0..4 {
-                let idx = 3 + r * 4 + k;
-                if idx >= 29 {
-                    break;
-                }
-                let s = field(l, 4 + k * 19, 4 + (k + 1) * 19);
-                match ffloat(s).map_err(|m| err(name, ln + 1, NAMES[idx], m))? {
-                    Some(x) if x.is_finite() => v[idx] = x,
-                    Some(_) => return Err(err(name, ln + 1, NAMES[idx], "not finite")),
-                    None if idx <= 19 || idx == 21 || idx == 24 => {
-                        return Err(err(name, ln + 1, NAMES[idx], "blank"))
-                    }
-                    None => {}
-                }
-            }
-        }
+        let required = |idx: usize| idx <= 19 || idx == 21 || idx == 24;
+        let v = record_values(&lines, i, name, &LAYOUT_V3, &NAMES, required, true)?;
         if !(4000.0..7000.0).contains(&v[10]) {
             return Err(err(
                 name,

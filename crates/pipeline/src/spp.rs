@@ -196,6 +196,15 @@ fn by_prn(nav: &NavData) -> Vec<Vec<usize>> {
     v
 }
 
+/// Order of two ephemerides' t_oe for an epoch at `t`: the nearer first; on
+/// a tie the later one (the newer upload).
+fn nearer_toe(t: f64, ta: f64, tb: f64) -> std::cmp::Ordering {
+    (ta - t)
+        .abs()
+        .total_cmp(&(tb - t).abs())
+        .then(tb.total_cmp(&ta))
+}
+
 /// Solve every epoch of `obs`; `on_epoch` gets each solution.
 pub fn solve_obs(
     obs: &ObsFile,
@@ -243,14 +252,7 @@ pub fn solve_obs(
                 .flatten()
                 .copied()
                 .filter(|&i| (nav.orbits[i].t_oe - ep.t).abs() <= MAX_EPH_AGE_S)
-                // Nearest t_oe; on a tie the later one (newer upload).
-                .min_by(|&a, &b| {
-                    let (ta, tb) = (nav.orbits[a].t_oe, nav.orbits[b].t_oe);
-                    (ta - ep.t)
-                        .abs()
-                        .total_cmp(&(tb - ep.t).abs())
-                        .then(tb.total_cmp(&ta))
-                });
+                .min_by(|&a, &b| nearer_toe(ep.t, nav.orbits[a].t_oe, nav.orbits[b].t_oe));
             let Some(k) = best else {
                 sum.sat_no_ephemeris += 1;
                 continue;
@@ -292,12 +294,7 @@ pub fn solve_obs(
                 .iter()
                 .filter(|e| e.sys == *sys && e.orbit.prn == *prn)
                 .filter(|e| (e.orbit.t_oe - ep.t).abs() <= max_age)
-                .min_by(|a, b| {
-                    (a.orbit.t_oe - ep.t)
-                        .abs()
-                        .total_cmp(&(b.orbit.t_oe - ep.t).abs())
-                        .then(b.orbit.t_oe.total_cmp(&a.orbit.t_oe))
-                });
+                .min_by(|a, b| nearer_toe(ep.t, a.orbit.t_oe, b.orbit.t_oe));
             let Some(e) = best else {
                 sum.sat_no_ephemeris += 1;
                 continue;
