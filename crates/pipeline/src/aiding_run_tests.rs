@@ -48,12 +48,18 @@ type = "cruise"
 duration_s = 40
 "#;
 
-#[test]
-fn ubx_odometer_and_heading_reach_the_eskf_and_bound_the_outage_drift() {
-    let dir = crate::test_dir("ubx-aiding");
+/// The scenario simulated with seed 7 and written to `dir/log.ubx`.
+fn ubx_drive(dir: &std::path::Path) -> navfuse_sim::SimRun {
     let sc = Scenario::from_toml(SCENARIO, "ubx_aiding").unwrap();
     let sim = simulate(&sc, 7, None, None).unwrap();
     navfuse_sim::ubx_out::write_ubx(&sim, &dir.join("log.ubx"), 0.02).unwrap();
+    sim
+}
+
+#[test]
+fn ubx_odometer_and_heading_reach_the_eskf_and_bound_the_outage_drift() {
+    let dir = crate::test_dir("ubx-aiding");
+    let sim = ubx_drive(&dir);
     let truth = &sim.traj.truth;
     // A 40 s outage from 60 s on (through the first turn).
     let base = "[input]\nubx = \"log.ubx\"\nubx_metres_per_tick = 0.02\n[filter]\n\
@@ -113,9 +119,7 @@ fn ubx_odometer_and_heading_reach_the_eskf_and_bound_the_outage_drift() {
 fn odometer_csv_reaches_the_eskf_and_bounds_the_outage_drift() {
     use navfuse_sim::aiding::{wheel_speed, WheelSpec};
     let dir = crate::test_dir("odo-csv");
-    let sc = Scenario::from_toml(SCENARIO, "ubx_aiding").unwrap();
-    let sim = simulate(&sc, 7, None, None).unwrap();
-    navfuse_sim::ubx_out::write_ubx(&sim, &dir.join("log.ubx"), 0.02).unwrap();
+    let sim = ubx_drive(&dir);
     let spec = WheelSpec {
         lever_arm_b: navfuse_core::Vec3::new(-1.0, 0.0, 0.3),
         scale_error: 0.01,
@@ -335,9 +339,7 @@ fn nmea_heading_reaches_the_eskf_and_holds_yaw_in_an_outage() {
 #[test]
 fn odometer_csv_without_usable_rows_is_an_error() {
     let dir = crate::test_dir("odo-csv-empty");
-    let sc = Scenario::from_toml(SCENARIO, "ubx_aiding").unwrap();
-    let sim = simulate(&sc, 7, None, None).unwrap();
-    navfuse_sim::ubx_out::write_ubx(&sim, &dir.join("log.ubx"), 0.02).unwrap();
+    ubx_drive(&dir);
     std::fs::write(dir.join("wheels.csv"), "t,speed\n").unwrap();
     let text = "[input]\nubx = \"log.ubx\"\nodometer = \"wheels.csv\"\n\
                 [filter]\nplatform = \"car\"\nimu_preset = \"3dm-gx3-35\"\n\
