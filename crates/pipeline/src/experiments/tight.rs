@@ -25,17 +25,13 @@
 //! partial sky; with full sky tight ≤ loose.
 
 use super::ExperimentError;
-use crate::profile::Platform as Profile;
-use crate::sensors::imu_noise_preset;
 use crate::ToolError;
-use navfuse_core::estimators::eskf::{
-    Eskf, EskfConfig, ImuErrors, InitStd, TightConfig, TightStats,
-};
+use navfuse_core::estimators::eskf::{Eskf, TightConfig, TightStats};
 use navfuse_core::geodesy::{c_en, ecef_to_geodetic, geodetic_to_ecef, Geodetic};
 use navfuse_core::gnss::raw::{geometric_range, geometric_range_rate, RawEpoch};
 use navfuse_core::gnss::tropo::{day_of_year, slant_delay};
 use navfuse_core::gnss::KeplerOrbit;
-use navfuse_core::ins::mech::{q_bn_from_rpy, NavState};
+use navfuse_core::ins::mech::q_bn_from_rpy;
 use navfuse_core::{Estimator, Event, GnssFix, Mat3, Vec3};
 use navfuse_sim::carrier_phase::synthetic_constellation;
 use navfuse_sim::platform::{platform_run, GnssGrade, ImuGrade, Platform, PlatformOptions};
@@ -267,34 +263,9 @@ fn windows(t0: f64, duration: f64) -> Vec<[f64; 2]> {
     v
 }
 
-/// The car filter at the truth of the first IMU interval (as [`super::aiding`]).
+/// The car filter at the truth of the first IMU interval, no aiding.
 fn car_filter(traj: &Trajectory, lever: Vec3) -> Result<Eskf, String> {
-    let sn = imu_noise_preset(ImuGrade::Consumer.preset()).map_err(|e| e.to_string())?;
-    let base = EskfConfig {
-        noise: sn.noise,
-        lever_arm_b: lever,
-        scale_factors: true,
-        ..EskfConfig::seed001()
-    };
-    let cfg = Profile::Car.profile().apply(base);
-    let t = &traj.truth[1];
-    let nav = NavState {
-        lat: t.lat,
-        lon: t.lon,
-        h: t.h,
-        v_n: t.v_n,
-        q_bn: q_bn_from_rpy(&t.rpy),
-    };
-    let std = InitStd {
-        pos: Vec3::repeat(1.0),
-        vel: Vec3::repeat(0.1),
-        att: Vec3::new(0.5, 0.5, 2.0).map(f64::to_radians),
-        bg: Vec3::repeat(sn.init_bg_std),
-        ba: Vec3::repeat(sn.init_ba_std),
-        sg: Vec3::repeat(sn.init_sg_std),
-        sa: Vec3::repeat(sn.init_sa_std),
-    };
-    Ok(Eskf::new(cfg, nav, ImuErrors::default(), &std))
+    super::aiding::car_filter_at_truth(traj, lever, Default::default())
 }
 
 /// The orbits: the almanac at `path` (or the default), else synthetic.
