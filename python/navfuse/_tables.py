@@ -16,10 +16,13 @@ GNSS_COLUMNS: list[str] = list(_navfuse.GNSS_COLUMNS)
 EVAL_COLUMNS: list[str] = list(_navfuse.EVAL_COLUMNS)
 
 
-def frame(data: bytes, columns: Sequence[str]) -> pd.DataFrame:
-    """A DataFrame from row-major float64 ``data`` with ``columns``."""
+def frame(data: bytes | bytearray, columns: Sequence[str]) -> pd.DataFrame:
+    """A DataFrame from row-major float64 ``data`` with ``columns``. A
+    ``bytearray`` (fresh from the extension, referenced nowhere else) is
+    wrapped without a copy; immutable ``bytes`` are copied so the frame is
+    writable."""
     arr = np.frombuffer(data, dtype="<f8").reshape(-1, len(columns))
-    return pd.DataFrame(arr, columns=list(columns), copy=True)
+    return pd.DataFrame(arr, columns=list(columns), copy=not isinstance(data, bytearray))
 
 
 def _matrix(x: Any, columns: Sequence[str], required: int, optional_groups: Sequence[int],

@@ -1,6 +1,7 @@
 """navfuse.kf_gins and navfuse.Eskf.process against the CLI on drive_0708
 (real data: fails when it is missing)."""
 
+import resource
 import subprocess
 import time
 
@@ -9,27 +10,40 @@ import numpy as np
 import navfuse
 
 
+def _cpu(who):
+    r = resource.getrusage(who)
+    return r.ru_utime + r.ru_stime
+
+
 def _cli_run(cli, yaml, out):
-    t = time.perf_counter()
+    """(wall, CPU) seconds of one CLI run; CPU is the child's user + system."""
+    c, t = _cpu(resource.RUSAGE_CHILDREN), time.perf_counter()
     subprocess.run([str(cli), "kf-gins", str(yaml), "--output", str(out)], check=True,
                    capture_output=True)
-    return time.perf_counter() - t
+    return time.perf_counter() - t, _cpu(resource.RUSAGE_CHILDREN) - c
 
 
 def _py_run(yaml, out):
-    t = time.perf_counter()
+    """(wall, CPU, result) of one navfuse.kf_gins call, CPU of this process."""
+    c, t = _cpu(resource.RUSAGE_SELF), time.perf_counter()
     r = navfuse.kf_gins(yaml, output=out)
-    return time.perf_counter() - t, r
+    return time.perf_counter() - t, _cpu(resource.RUSAGE_SELF) - c, r
 
 
 def test_kf_gins_matches_the_cli_and_costs_at_most_10_percent_more(cli, data_dir, tmp_path):
     yaml = data_dir / "drive_0708" / "kfgins" / "kf-gins_outage.yaml"
-    # Best of three each, alternated, so machine load hits both alike.
-    t_cli, t_py = [], []
-    for k in range(3):
-        t_cli.append(_cli_run(cli, yaml, tmp_path / f"cli{k}"))
-        dt, r = _py_run(yaml, tmp_path / f"py{k}")
-        t_py.append(dt)
+    # Best of seven each, alternated, on CPU time (user + system). One run is
+    # ~0.1 s: on wall time a scheduler hiccup is 10 %, and best-of-three wall
+    # time failed CI once at 1.15 on a loaded 2-core runner while the same
+    # build measured 0.88-0.99 on an idle one (CPU ratio 0.90-0.92 there).
+    w_cli, w_py, t_cli, t_py = [], [], [], []
+    for k in range(7):
+        w, c = _cli_run(cli, yaml, tmp_path / f"cli{k}")
+        w_cli.append(w)
+        t_cli.append(c)
+        w, c, r = _py_run(yaml, tmp_path / f"py{k}")
+        w_py.append(w)
+        t_py.append(c)
     for name in ["KF_GINS_Navresult.nav", "KF_GINS_IMU_ERR.txt", "KF_GINS_STD.txt"]:
         a = (tmp_path / "cli0" / name).read_bytes()
         b = (tmp_path / "py0" / name).read_bytes()
@@ -45,8 +59,8 @@ def test_kf_gins_matches_the_cli_and_costs_at_most_10_percent_more(cli, data_dir
     print(f"DataFrame vs CLI .nav: max |Δlat| {dlat:.2e} deg, max |Δh| {dh:.2e} m")
     assert dlat < 1e-8 and dh < 1e-3
     ratio = min(t_py) / min(t_cli)
-    print(f"wall time: CLI {min(t_cli):.3f} s, navfuse.kf_gins {min(t_py):.3f} s, "
-          f"ratio {ratio:.3f}")
+    print(f"CPU time: CLI {min(t_cli):.3f} s, navfuse.kf_gins {min(t_py):.3f} s, "
+          f"ratio {ratio:.3f} (wall {min(w_py) / min(w_cli):.3f})")
     assert ratio <= 1.10, f"Python overhead {100 * (ratio - 1):.1f} % > 10 %"
 
 

@@ -16,7 +16,7 @@ use navfuse_pipeline::{run as run_pipeline, run_eskf, RunConfig, RunOptions};
 use pyo3::create_exception;
 use pyo3::exceptions::PyException;
 use pyo3::prelude::*;
-use pyo3::types::{PyBytes, PyDict};
+use pyo3::types::{PyByteArray, PyBytes, PyDict};
 use std::path::{Path, PathBuf};
 use tables::Table;
 
@@ -55,9 +55,10 @@ pub(crate) fn stats_json(s: &EskfStats) -> serde_json::Value {
     })
 }
 
-/// Solutions as bytes in a new Python `bytes`.
-fn sol_bytes<'py>(py: Python<'py>, s: &[navfuse_core::NavSolution]) -> Bound<'py, PyBytes> {
-    PyBytes::new(py, &tables::solutions_bytes(s))
+/// Solutions as bytes in a new Python `bytearray`: mutable, so the
+/// DataFrame can own the buffer without a second copy (`_tables.frame`).
+fn sol_bytes<'py>(py: Python<'py>, s: &[navfuse_core::NavSolution]) -> Bound<'py, PyByteArray> {
+    PyByteArray::new(py, &tables::solutions_bytes(s))
 }
 
 /// `navfuse kf-gins YAML` in-process: returns a dict with `solution` and
