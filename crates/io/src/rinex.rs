@@ -114,8 +114,9 @@ pub(crate) fn record_date(
 
 /// The 29 values (3 clock + 7 × 4 orbit, `names` in order) of the 8-line
 /// record whose epoch line is `lines[i]`. A blank value is an error where
-/// `required(index)`, else 0; with `finite_only` a NaN/inf value is an
-/// error too. Errors name the file, line and field.
+/// `required(index)`, else 0; a NaN/inf value is always an error (an orbit
+/// or clock term that is not a number would propagate into every position
+/// computed from it). Errors name the file, line and field.
 pub(crate) fn record_values(
     lines: &[&str],
     i: usize,
@@ -123,7 +124,6 @@ pub(crate) fn record_values(
     lay: &RecordLayout,
     names: &[&str; 29],
     required: impl Fn(usize) -> bool,
-    finite_only: bool,
 ) -> Result<[f64; 29], ReadError> {
     const W: usize = 19;
     let (l0, ln0) = (lines[i], i + 1);
@@ -133,6 +133,9 @@ pub(crate) fn record_values(
         v[k] = ffloat(s)
             .map_err(|m| err(name, ln0, names[k], m))?
             .ok_or_else(|| err(name, ln0, names[k], "blank"))?;
+        if !v[k].is_finite() {
+            return Err(err(name, ln0, names[k], "not finite"));
+        }
     }
     for r in 0..7 {
         let ln = i + 1 + r;
@@ -151,7 +154,7 @@ pub(crate) fn record_values(
             }
             let s = field(l, lay.indent + k * W, lay.indent + (k + 1) * W);
             match ffloat(s).map_err(|m| err(name, ln + 1, names[idx], m))? {
-                Some(x) if finite_only && !x.is_finite() => {
+                Some(x) if !x.is_finite() => {
                     return Err(err(name, ln + 1, names[idx], "not finite"))
                 }
                 Some(x) => v[idx] = x,
@@ -317,7 +320,7 @@ pub fn parse_nav_data(text: &str, name: &str) -> Result<NavData, ReadError> {
         ];
         let required = |idx: usize| idx <= 22 || idx == 24 || idx == 25;
         let dt = record_date(&lines, i, name, lay)?;
-        let v = record_values(&lines, i, name, lay, &names, required, false)?;
+        let v = record_values(&lines, i, name, lay, &names, required)?;
         let year = two_digit_year(dt[0] as i32);
         let t_oc = gps_seconds(
             year,
@@ -1068,6 +1071,14 @@ mod tests {
         let trunc: String = NAV.lines().take(6).collect::<Vec<_>>().join("\n");
         let e = parse_nav(&trunc, "t.n").unwrap_err().to_string();
         assert!(e.contains("truncated"), "{e}");
+        // A NaN/inf orbit or clock term is named, not propagated (Rust's
+        // float parser accepts both spellings).
+        let nan = NAV.replace("0.483528291807D-02", "               NaN");
+        let e = parse_nav(&nan, "t.n").unwrap_err().to_string();
+        assert!(e.starts_with("t.n:5: field `e`: not finite"), "{e}");
+        let inf = NAV.replace("-0.397903932026D-11", "                inf");
+        let e = parse_nav(&inf, "t.n").unwrap_err().to_string();
+        assert!(e.starts_with("t.n:3: field `af1`: not finite"), "{e}");
     }
 
     const OBS: &str =

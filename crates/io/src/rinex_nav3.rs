@@ -164,7 +164,7 @@ pub fn parse_nav_gnss(text: &str, name: &str) -> Result<GnssNav, ReadError> {
             return Err(err(name, ln0, "epoch", "date/time out of range"));
         }
         let required = |idx: usize| idx <= 19 || idx == 21 || idx == 24;
-        let v = record_values(&lines, i, name, &LAYOUT_V3, &NAMES, required, true)?;
+        let v = record_values(&lines, i, name, &LAYOUT_V3, &NAMES, required)?;
         if !(4000.0..7000.0).contains(&v[10]) {
             return Err(err(
                 name,
