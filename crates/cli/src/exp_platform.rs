@@ -25,6 +25,10 @@ pub struct GeneraliseArgs {
     /// separated (e.g. `0,0.05,-0.05,0.2,-0.2` for the time-offset check).
     #[arg(long, value_delimiter = ',', allow_hyphen_values = true)]
     pub offsets: Option<Vec<f64>>,
+    /// Also run the default given the true time offset (the time-offset
+    /// check's reference: what estimating the offset costs).
+    #[arg(long)]
+    pub known_offset: bool,
     /// Write the results as JSON here.
     #[arg(long)]
     pub json: Option<PathBuf>,
@@ -59,15 +63,20 @@ pub fn generalise(a: GeneraliseArgs) -> Result<(), String> {
         seeds: a.seeds,
         seed0: a.seed0,
         duration_s: a.duration,
+        known_offset: a.known_offset,
     };
     eprintln!(
-        "generalise: {} cells × {} seeds × 3 configurations, {} s each",
+        "generalise: {} cells × {} seeds × {} configurations, {} s each",
         cells.len(),
         a.seeds,
+        3 + usize::from(a.known_offset),
         a.duration
     );
     let r = generalise::run_generalise(&cells, &opt).map_err(|e| e.to_string())?;
     print!("{}", generalise::format_table(&r));
+    if a.known_offset {
+        print!("{}", generalise::format_known_offset(&r));
+    }
     if let Some(p) = &a.json {
         write_json(p, &r)?;
     }

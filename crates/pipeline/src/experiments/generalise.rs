@@ -138,6 +138,9 @@ pub struct GeneraliseOptions {
     pub seed0: u64,
     /// Trajectory length [s].
     pub duration_s: f64,
+    /// Also run [`Variant::DefaultKnownOffset`] (the time-offset check's
+    /// reference): `default_known_offset` and the paired ratios to it.
+    pub known_offset: bool,
 }
 
 impl Default for GeneraliseOptions {
@@ -146,6 +149,7 @@ impl Default for GeneraliseOptions {
             seeds: 10,
             seed0: 0,
             duration_s: 600.0,
+            known_offset: false,
         }
     }
 }
@@ -189,6 +193,11 @@ pub struct PairedReport {
     pub outage_vs_oracle: PairedRatio,
     pub h_rms_vs_kfgins: PairedRatio,
     pub outage_vs_kfgins: PairedRatio,
+    /// Default over the default given the true offset (with `known_offset`).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub h_rms_vs_known_offset: Option<PairedRatio>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub outage_vs_known_offset: Option<PairedRatio>,
 }
 
 /// One cell's result.
@@ -202,6 +211,9 @@ pub struct CellReport {
     pub default: VariantScores,
     pub oracle: VariantScores,
     pub kfgins_model: VariantScores,
+    /// The default given the true offset (`known_offset` only).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub default_known_offset: Option<VariantScores>,
     pub paired: PairedReport,
     pub targets: Targets,
 }
@@ -240,18 +252,26 @@ pub fn cell_options(cell: &Cell, seed: u64, duration_s: f64) -> PlatformOptions 
     }
 }
 
-/// Scores of the three variants of one seed (`Err`: the message).
-type SeedScores = [Result<RunScore, String>; 3];
+/// Scores of the variants of one seed (`Err`: the message): the three of
+/// [`Variant::ALL`], then [`Variant::DefaultKnownOffset`] (`Err` "not run"
+/// without `known_offset`).
+type SeedScores = [Result<RunScore, String>; 4];
 
-fn run_seed(cell: &Cell, seed: u64, duration_s: f64) -> SeedScores {
+fn run_seed(cell: &Cell, seed: u64, duration_s: f64, known_offset: bool) -> SeedScores {
     let pr = match platform_run(cell.platform, seed, &cell_options(cell, seed, duration_s)) {
         Ok(pr) => pr,
         Err(e) => {
             let m = format!("simulation: {e}");
-            return [Err(m.clone()), Err(m.clone()), Err(m)];
+            return [Err(m.clone()), Err(m.clone()), Err(m.clone()), Err(m)];
         }
     };
-    Variant::ALL.map(|v| score_variant(v, &pr))
+    let [d, o, k] = Variant::ALL.map(|v| score_variant(v, &pr));
+    let known = if known_offset {
+        score_variant(Variant::DefaultKnownOffset, &pr)
+    } else {
+        Err("not run".into())
+    };
+    [d, o, k, known]
 }
 
 fn score_variant(v: Variant, pr: &PlatformRun) -> Result<RunScore, String> {
@@ -319,13 +339,15 @@ fn per_seed(cell_seeds: &[(u64, &SeedScores)], k: usize) -> (Vec<f64>, Vec<f64>)
         .unzip()
 }
 
-fn paired_report(rows: &[(u64, &SeedScores)]) -> PairedReport {
-    let [(dh, dout), (oh, oout), (kh, kout)] = [0, 1, 2].map(|k| per_seed(rows, k));
+fn paired_report(rows: &[(u64, &SeedScores)], known_offset: bool) -> PairedReport {
+    let [(dh, dout), (oh, oout), (kh, kout), (nh, nout)] = [0, 1, 2, 3].map(|k| per_seed(rows, k));
     PairedReport {
         h_rms_vs_oracle: paired_ratio(&dh, &oh),
         outage_vs_oracle: paired_ratio(&dout, &oout),
         h_rms_vs_kfgins: paired_ratio(&dh, &kh),
         outage_vs_kfgins: paired_ratio(&dout, &kout),
+        h_rms_vs_known_offset: known_offset.then(|| paired_ratio(&dh, &nh)),
+        outage_vs_known_offset: known_offset.then(|| paired_ratio(&dout, &nout)),
     }
 }
 
@@ -356,7 +378,7 @@ pub fn run_generalise(
         .collect();
     let results: Vec<SeedScores> = jobs
         .par_iter()
-        .map(|&(c, s)| run_seed(&cells[c], s, opt.duration_s))
+        .map(|&(c, s)| run_seed(&cells[c], s, opt.duration_s, opt.known_offset))
         .collect();
     let per = opt.seeds as usize;
     let reports = cells
@@ -367,7 +389,7 @@ pub fn run_generalise(
                 .map(|i| (opt.seed0 + i as u64, &results[c * per + i]))
                 .collect();
             let [d, o, k] = [0, 1, 2].map(|k| pool(&rows, k));
-            let paired = paired_report(&rows);
+            let paired = paired_report(&rows, opt.known_offset);
             let targets = Targets {
                 default_vs_oracle: within(&d, &o, ORACLE_RATIO_TARGET),
                 default_vs_kfgins: within(&d, &k, 1.0),
@@ -391,6 +413,7 @@ pub fn run_generalise(
                 default: d,
                 oracle: o,
                 kfgins_model: k,
+                default_known_offset: opt.known_offset.then(|| pool(&rows, 3)),
                 paired,
                 targets,
             }
@@ -411,6 +434,53 @@ pub fn run_generalise(
         },
         wall_seconds: t0.elapsed().as_secs_f64(),
     })
+}
+
+/// The time-offset check's table (`known_offset`): per cell the applied
+/// offsets' range, the default's h_rms and outage drift against the default
+/// given the true offset and against the oracle, with the paired ratios.
+pub fn format_known_offset(r: &GeneraliseReport) -> String {
+    let mut s = format!(
+        "{:<30} {:>17} {:>14} {:>14} {:>14} {:>22} {:>22}\n",
+        "cell (known offset check)",
+        "applied τ [ms]",
+        "h d/known [m]",
+        "out d/known",
+        "h d/oracle",
+        "paired h d/known",
+        "paired out d/known"
+    );
+    let pr = |p: &Option<PairedRatio>| {
+        p.map_or("-".into(), |p| {
+            format!("{:.3} [{:.3}, {:.3}]", p.gmean, p.lo95, p.hi95)
+        })
+    };
+    for c in &r.cells {
+        let Some(k) = &c.default_known_offset else {
+            continue;
+        };
+        let taus = &c.default.time_offset_applied_s;
+        let (lo, hi) = taus
+            .iter()
+            .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &t| {
+                (a.min(t), b.max(t))
+            });
+        let name = format!("{}:{}:{}:{}", c.platform, c.imu, c.gnss, c.offset_s);
+        s += &format!(
+            "{:<30} {:>17} {:>14} {:>14} {:>14} {:>22} {:>22}\n",
+            name,
+            format!("{:.1}…{:.1}", lo * 1e3, hi * 1e3),
+            format!("{:.3}/{:.3}", c.default.h_rms_m, k.h_rms_m),
+            format!(
+                "{:.2}/{:.2}",
+                c.default.outage_rms_of_max_m, k.outage_rms_of_max_m
+            ),
+            format!("{:.3}/{:.3}", c.default.h_rms_m, c.oracle.h_rms_m),
+            pr(&c.paired.h_rms_vs_known_offset),
+            pr(&c.paired.outage_vs_known_offset),
+        );
+    }
+    s
 }
 
 /// The compact table: one row per cell, h_rms and outage drift of default /
@@ -503,6 +573,7 @@ mod tests {
             seeds: 1,
             seed0: 1,
             duration_s: 180.0,
+            known_offset: false,
         };
         let r = run_generalise(&cells, &opt).unwrap();
         assert_eq!(r.cells.len(), 4);
@@ -534,7 +605,41 @@ mod tests {
         assert!(j["cells"][0]["default"]["h_rms_m"].is_number());
         assert!(j["cells"][0]["kfgins_model"]["failures"].is_array());
         assert_eq!(j["cells"][0]["paired"]["h_rms_vs_kfgins"]["n"], 1);
+        // The known-offset reference is absent unless asked for.
+        assert!(j["cells"][0].get("default_known_offset").is_none());
+        assert!(j["cells"][0]["paired"]
+            .get("h_rms_vs_known_offset")
+            .is_none());
         println!("{}", format_table(&r));
+    }
+
+    /// With `known_offset` the τ = 0.1 s cell also runs the default given
+    /// the true offset: scored, paired with the default, in the JSON and the
+    /// check's table.
+    #[test]
+    fn known_offset_reference_is_run_and_paired() {
+        let cells = select_cells("car:industrial:rtk:0.1").unwrap();
+        let opt = GeneraliseOptions {
+            seeds: 1,
+            seed0: 1,
+            duration_s: 180.0,
+            known_offset: true,
+        };
+        let r = run_generalise(&cells, &opt).unwrap();
+        let c = &r.cells[0];
+        let k = c.default_known_offset.as_ref().expect("reference run");
+        assert_eq!(k.runs_ok, 1, "{k:?}");
+        assert!(k.h_rms_m.is_finite() && k.h_rms_m > 0.0);
+        assert_eq!(c.paired.h_rms_vs_known_offset.map(|p| p.n), Some(1));
+        let j = serde_json::to_value(&r).unwrap();
+        assert!(j["cells"][0]["default_known_offset"]["h_rms_m"].is_number());
+        let t = format_known_offset(&r);
+        assert!(
+            t.lines()
+                .nth(1)
+                .is_some_and(|l| l.starts_with("car:industrial:rtk:0.1")),
+            "{t}"
+        );
     }
 
     #[test]

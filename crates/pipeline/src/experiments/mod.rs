@@ -59,9 +59,14 @@ pub enum Variant {
     /// gating) with the same IMU noise, the oracle's initial state and no
     /// time offset (`"none"`).
     KfginsModel,
+    /// The default plus `imu_time_offset` = τ only: the reference of the
+    /// time-offset check (what estimating τ costs, everything else being
+    /// the default's), run by `generalise` on request.
+    DefaultKnownOffset,
 }
 
 impl Variant {
+    /// The matrix's three variants.
     pub const ALL: [Variant; 3] = [Variant::Default, Variant::Oracle, Variant::KfginsModel];
 }
 
@@ -87,6 +92,10 @@ pub fn variant_config(variant: Variant, pr: &PlatformRun) -> RunConfig {
         .expect("every sim platform is a pipeline profile");
     match variant {
         Variant::Default => cfg.filter.platform = Some(platform),
+        Variant::DefaultKnownOffset => {
+            cfg.filter.platform = Some(platform);
+            cfg.input.imu_time_offset = Some(TimeOffsetCfg::Seconds(pr.imu_time_offset_s));
+        }
         Variant::Oracle => {
             cfg.filter.platform = Some(platform);
             // The oracle's GNSS model is white with the reported σ.
