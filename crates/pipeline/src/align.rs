@@ -105,6 +105,10 @@ pub struct Alignment {
     pub hypotheses: Vec<(NavState, InitStd, f64)>,
     /// When the bank may decide (meaningful with `hypotheses`).
     pub bank_gate: crate::yaw_bank::BankGate,
+    /// Roll and pitch came from the in-motion specific-force pair: their
+    /// error is the accelerometer bias over g, and the filter is started
+    /// with that correlation ([`navfuse_core::estimators::eskf::Eskf::with_tilt_from_force`]).
+    pub tilt_from_force: bool,
 }
 
 /// No bank: no gate.
@@ -298,6 +302,7 @@ pub fn align(
             warnings,
             hypotheses: Vec::new(),
             bank_gate: NO_GATE,
+            tilt_from_force: false,
         });
     }
 
@@ -349,6 +354,7 @@ pub fn align(
             warnings,
             hypotheses: Vec::new(),
             bank_gate: NO_GATE,
+            tilt_from_force: false,
         });
     }
 
@@ -548,6 +554,7 @@ pub fn align(
     };
     let tilt_for = |yaw: f64| pair.and_then(|p| p.tilt(yaw)).unwrap_or(fallback);
     let (roll, pitch) = tilt_for(yaw);
+    let tilt_from_force = att_std_given.is_none() && pair.and_then(|p| p.tilt(yaw)).is_some();
     let tilt_std = match (pair.and_then(|p| p.tilt(yaw)), cal.is_some()) {
         (Some(_), _) => pair.map_or(GSF_TILT_STD, |p| p.tilt_std),
         (None, true) => GSF_TILT_STD.min(1.0f64.to_radians()),
@@ -638,6 +645,7 @@ pub fn align(
             t_observable: bank_t_obs,
             fallback_yaw: bank_fallback,
         },
+        tilt_from_force,
     })
 }
 

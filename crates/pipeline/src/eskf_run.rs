@@ -485,17 +485,22 @@ pub(crate) fn run_eskf_span(
     let mut a = align(cfg, imu, gnss, aux, &model)?;
     let (aug, augmented_states) = crate::gnss_error::augmented_states(cfg, gnss)?;
     let new_eskf = |nav, std: &InitStd| {
-        Eskf::new(ecfg, nav, a.errors, std)
-            .with_adaptive_noise(setup.adaptive)
-            .map_err(|e| cfg.err(format!("[filter] adaptive constraint noise: {e:?}")))?
-            .with_augmented_states(aug)
-            .map_err(|e| cfg.err(format!("[filter] augmented states: {e}")))
-            .and_then(|e| match setup.nis_adaptation {
-                None => Ok(e),
-                Some(n) => e
-                    .with_nis_adaptation(n)
-                    .ok_or_else(|| cfg.err("[filter] nis_adaptation: invalid settings")),
-            })
+        let e = Eskf::new(ecfg, nav, a.errors, std);
+        if a.tilt_from_force {
+            e.with_tilt_from_force()
+        } else {
+            e
+        }
+        .with_adaptive_noise(setup.adaptive)
+        .map_err(|e| cfg.err(format!("[filter] adaptive constraint noise: {e:?}")))?
+        .with_augmented_states(aug)
+        .map_err(|e| cfg.err(format!("[filter] augmented states: {e}")))
+        .and_then(|e| match setup.nis_adaptation {
+            None => Ok(e),
+            Some(n) => e
+                .with_nis_adaptation(n)
+                .ok_or_else(|| cfg.err("[filter] nis_adaptation: invalid settings")),
+        })
     };
     let k_start = a.k_start;
     let t_filter = Instant::now();

@@ -143,9 +143,14 @@ impl AligningEskf {
         if a.method == "gsf-unconverged" && !force {
             return None;
         }
-        let mut eskf = Eskf::new(ecfg, a.nav, a.errors, &a.init_std)
-            .with_adaptive_noise(self.setup.adaptive)
-            .ok()?;
+        let e0 = Eskf::new(ecfg, a.nav, a.errors, &a.init_std);
+        let mut eskf = if a.tilt_from_force {
+            e0.with_tilt_from_force()
+        } else {
+            e0
+        }
+        .with_adaptive_noise(self.setup.adaptive)
+        .ok()?;
         if let Some(n) = self.setup.nis_adaptation {
             eskf = eskf.with_nis_adaptation(n)?;
         }
