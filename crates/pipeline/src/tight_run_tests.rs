@@ -1,0 +1,472 @@
+//! `navfuse run` with `[filter] coupling = "tight"` (issue 14) on a
+//! simulated car drive whose raw GNSS is written by our encoders: as a u-blox
+//! log (RXM-RAWX + RXM-SFRBX, [`navfuse_io::ubx_gnss::write_ubx_gnss`]) and
+//! as RINEX 3 observations + a RINEX 2 navigation file (minimal writers
+//! below; navfuse-io has readers only).
+//!
+//! Scenario (fixed before any run): [`platform_run`] car, seed 3, 300 s,
+//! static start, consumer MEMS ("phone"), the scenario's antenna lever arm;
+//! raw GNSS at 1 Hz from [`synthetic_constellation`] (24 GPS satellites,
+//! t_oe on the 16 s LNAV grid at the middle of the drive) with the
+//! simulator's documented consumer-receiver error model
+//! ([`navfuse_sim::raw_gnss`]). The simulator's ionosphere is the residual
+//! after the broadcast model; the logs carry a Klobuchar model (the
+//! coefficients of the GEONET 2005-04-02 navigation header in the shared
+//! data, a mid-latitude spring day) whose delay is added to the code and
+//! taken from the phase, so a reader that applies it sees the simulated
+//! residual. Observables are rounded to the RINEX resolution (1 mm, 0.001
+//! cycle, 0.001 Hz) and C/N0 to UBX's whole dB-Hz before both encoders so
+//! the two paths carry the same numbers.
+
+use crate::config::RunConfig;
+use crate::experiments::h_error_ne;
+use crate::experiments::tight::simulate_drive_raw;
+use crate::run::{run, RunOptions};
+use navfuse_core::geodesy::{c_en, geodetic_to_ecef, Geodetic};
+use navfuse_core::gnss::iono::Klobuchar;
+use navfuse_core::gnss::{LAMBDA_L1, SECONDS_PER_WEEK};
+use navfuse_core::types::NavSolution;
+use navfuse_io::rinex::{NavData, ObsEpoch, ObsFile, ObsValue};
+use navfuse_io::time::{calendar_from_gps, TimeSystem};
+use navfuse_sim::carrier_phase::synthetic_constellation;
+use navfuse_sim::platform::{platform_run, GnssGrade, ImuGrade, Platform, PlatformOptions};
+use navfuse_sim::raw_gnss::RawConfig;
+use std::fmt::Write as _;
+use std::path::{Path, PathBuf};
+
+/// GEONET 0759, 2005-04-02 (`gnss/rinex/07590920.05n`): ION ALPHA / BETA.
+const KLOBUCHAR: Klobuchar = Klobuchar {
+    alpha: [1.1180e-08, 1.4900e-08, -5.9600e-08, -5.9600e-08],
+    beta: [8.8060e+04, 1.6380e+04, -1.9660e+05, -1.3110e+05],
+};
+
+struct Drive {
+    dir: PathBuf,
+    sim: navfuse_sim::SimRun,
+    obs: ObsFile,
+    nav: NavData,
+}
+
+/// Simulate the drive, write `imu.csv` and `raw.ubx` into a fresh folder.
+fn drive(tag: &str, duration_s: f64) -> Drive {
+    let dir = crate::test_dir(tag);
+    let seed = 3;
+    let opts = PlatformOptions {
+        duration_s,
+        static_start: true,
+        imu: ImuGrade::Consumer,
+        gnss: GnssGrade::Consumer,
+        ..Default::default()
+    };
+    let sim = platform_run(Platform::Car, seed, &opts).unwrap().run;
+    let t0 = sim.traj.truth[0].t;
+    let t_ref = ((t0 + 0.5 * duration_s) / 16.0).round() * 16.0;
+    // Angles into the LNAV fields' ±π range (the same orbits).
+    let orbits: Vec<_> = synthetic_constellation(t_ref)
+        .into_iter()
+        .map(|mut o| {
+            let w = |a: f64| {
+                (a + std::f64::consts::PI).rem_euclid(std::f64::consts::TAU) - std::f64::consts::PI
+            };
+            o.m0 = w(o.m0);
+            o.omega0 = w(o.omega0);
+            o
+        })
+        .collect();
+    let cfg = RawConfig {
+        seed: seed * 7919 + 17,
+        ..Default::default()
+    };
+    let eps = simulate_drive_raw(&sim, &orbits, &cfg);
+    let r3 = |x: f64| (x * 1e3).round() / 1e3;
+    let mut obs = ObsFile {
+        version: 3.04,
+        marker: "SIM".into(),
+        types: vec!["C1".into(), "L1".into(), "D1".into(), "S1".into()],
+        codes: vec!["C1C".into(), "L1C".into(), "D1C".into(), "S1C".into()],
+        ..Default::default()
+    };
+    for e in &eps {
+        let tr = sim.traj.at(e.t);
+        let rx = geodetic_to_ecef(&Geodetic {
+            lat: tr.lat,
+            lon: tr.lon,
+            h: tr.h,
+        });
+        let cen = c_en(tr.lat, tr.lon);
+        let tow = e.epoch.t - (e.epoch.t / SECONDS_PER_WEEK).floor() * SECONDS_PER_WEEK;
+        let sats = e
+            .epoch
+            .sats()
+            .iter()
+            .map(|s| {
+                let u = cen * (s.sat.pos_e - rx).normalize();
+                let el = (-u.z).asin();
+                let i = KLOBUCHAR.delay_l1(tr.lat, tr.lon, u.y.atan2(u.x), el, tow);
+                let lli = s.obs.flags & 1;
+                let v = |value: f64, lli: u8| Some(ObsValue { value, lli });
+                (
+                    s.obs.prn,
+                    vec![
+                        v(r3(s.obs.pseudorange_m + i), 0),
+                        v(r3((s.obs.carrier_m - i) / LAMBDA_L1), lli),
+                        v(r3(s.obs.doppler_hz), 0),
+                        // UBX carries whole dB-Hz.
+                        v((s.obs.cn0_dbhz as f64).round(), 0),
+                    ],
+                )
+            })
+            .collect();
+        obs.epochs.push(ObsEpoch {
+            t: e.epoch.t,
+            flag: 0,
+            sats,
+        });
+    }
+    let nav = NavData {
+        ura_m: vec![cfg.sat_sigma_m; orbits.len()],
+        orbits,
+        iono: Some(KLOBUCHAR),
+    };
+    let bytes = navfuse_io::ubx_gnss::write_ubx_gnss(&obs, &nav).unwrap();
+    std::fs::write(dir.join("raw.ubx"), bytes).unwrap();
+    navfuse_sim::output::write_run(&sim, &dir).unwrap();
+    Drive { dir, sim, obs, nav }
+}
+
+/// The run configuration: the sim's `imu.csv` (GPS seconds, increments),
+/// `gnss` and the `[filter]` lines given.
+fn config(d: &Drive, gnss: &str, filter: &str) -> RunConfig {
+    let l = d.sim.scenario.gnss.lever_arm_m;
+    let text = format!(
+        "[input]\nimu = \"imu.csv\"\nimu_rate = {}\ngnss = \"{gnss}\"\n\
+         [input.csv]\ntime = \"t_gps_s\"\ntime_base = \"gps_seconds\"\n\
+         gyro = [\"dtheta_x_rad\", \"dtheta_y_rad\", \"dtheta_z_rad\"]\n\
+         accel = [\"dvel_x_m_s\", \"dvel_y_m_s\", \"dvel_z_m_s\"]\n\
+         gyro_unit = \"rad\"\naccel_unit = \"m/s2\"\nform = \"increment\"\n\
+         [filter]\nimu_preset = \"phone\"\nlever_arm = [{}, {}, {}]\n{filter}\n",
+        d.sim.scenario.imu.rate_hz, l[0], l[1], l[2]
+    );
+    toml::from_str(&text).unwrap_or_else(|e| panic!("{e}\n{text}"))
+}
+
+fn go(d: &Drive, cfg: &RunConfig, name: &str) -> crate::run::RunOutcome {
+    let opts = RunOptions {
+        output: Some(d.dir.join(name)),
+        ..Default::default()
+    };
+    run(cfg, &d.dir, &opts).unwrap_or_else(|e| panic!("{name}: {e}"))
+}
+
+/// Horizontal RMS [m] of the solutions against the truth, from 30 s after
+/// the filter start (the alignment's transient) on.
+fn h_rms(d: &Drive, sols: &[NavSolution]) -> f64 {
+    let t0 = sols[0].t + 30.0;
+    let e2: Vec<f64> = sols
+        .iter()
+        .filter(|s| s.t >= t0)
+        .map(|s| {
+            let (n, e) = h_error_ne(s.lat, s.lon, &d.sim.traj.at(s.t));
+            n * n + e * e
+        })
+        .collect();
+    (e2.iter().sum::<f64>() / e2.len() as f64).sqrt()
+}
+
+/// σ_UERE [m] of the simulator's consumer model at elevation `el`: code
+/// (C/N0 34 + 14 sin el), multipath, ionosphere residual × obliquity,
+/// satellite orbit/clock, troposphere residual (zenith 0.05 m × ~1/sin el).
+fn uere(c: &RawConfig, el: f64) -> f64 {
+    let s = el.sin();
+    let code =
+        c.code_sigma_ref_m * 10f64.powf(((c.cn0_ref_dbhz - (34.0 + 14.0 * s)) / 20.0).max(0.0));
+    let mp = (c.mp_zenith_m / s).min(c.mp_cap_m);
+    let iono = c.iono_zenith_m * navfuse_sim::raw_gnss::obliquity(el);
+    let trop = c.tropo_zenith_m / s;
+    (code * code + mp * mp + iono * iono + c.sat_sigma_m.powi(2) + trop * trop).sqrt()
+}
+
+/// Test 1 (written before the result was seen). The tight run on the
+/// `.ubx` log:
+/// - horizontal RMS ≤ 2 · HDOP · σ_UERE(45°): the position error of a
+///   code solution is HDOP × the range error (Misra & Enge 2nd ed. §6.1);
+///   HDOP is the median of the SPP epochs of the same data, σ_UERE the
+///   simulator's model at 45° (≈ 2.0 m, dominated by the slowly varying
+///   ionosphere and satellite errors, τ 30–60 min, which 300 s cannot
+///   average); the factor 2 allows for one realisation of those slow errors
+///   (a 2σ excursion);
+/// - not worse than the loosely coupled run on the SPP fixes of the same
+///   file by more than 10 % (the issue: "with full sky, tight ≤ loose";
+///   10 % for one seed's realisation);
+/// - summary.json accounts for every observation and reports the clock.
+#[test]
+fn tight_run_on_a_ubx_log_meets_the_code_error_bound_and_loose() {
+    let d = drive("tight-run", 300.0);
+    let tight = go(&d, &config(&d, "raw.ubx", "coupling = \"tight\""), "tight");
+    let loose = go(
+        &d,
+        &{
+            let mut c = config(&d, "raw.ubx", "");
+            c.input.gnss_format = Some("raw".into());
+            c
+        },
+        "loose",
+    );
+    let (rt, rl) = (h_rms(&d, &tight.trajectory), h_rms(&d, &loose.trajectory));
+    let mut hdops = Vec::new();
+    let sn = crate::spp::SppNav {
+        gps: d.nav.clone(),
+        other: Vec::new(),
+    };
+    crate::spp::solve_obs(&d.obs, &Default::default(), &sn, &Default::default(), |s| {
+        hdops.push(s.dop.hdop);
+        Ok(())
+    })
+    .unwrap();
+    hdops.sort_by(f64::total_cmp);
+    let hdop = hdops[hdops.len() / 2];
+    let bound = 2.0 * hdop * uere(&RawConfig::default(), 45f64.to_radians());
+    let tc = &tight.summary["tight_coupling"];
+    eprintln!(
+        "h RMS: tight {rt:.3} m, loose {rl:.3} m; bound {bound:.2} m (HDOP {hdop:.2}); \
+         tight: {} / loose: {}\n{}",
+        tight.message,
+        loose.message,
+        serde_json::to_string_pretty(&tc["total"]).unwrap()
+    );
+    eprintln!(
+        "NIS pr {} dop {}; clock {}; nis_check tight {} loose {}",
+        tc["mean_nis_pseudorange"],
+        tc["mean_nis_doppler"],
+        tc["clock"],
+        tight.summary["nis_check"],
+        loose.summary["nis_check"]
+    );
+    assert!(rt <= bound, "tight h RMS {rt} > {bound}");
+    assert!(rt <= 1.10 * rl, "tight {rt} vs loose {rl}");
+    // Every observation accounted for.
+    let t = &tc["total"];
+    let n = |k: &str| t[k].as_u64().unwrap();
+    let sum = n("pseudorange_used")
+        + n("pseudorange_gated_chi2")
+        + n("below_elevation_mask")
+        + n("below_cn0")
+        + n("bad")
+        + n("no_code")
+        + n("no_ephemeris")
+        + n("unhealthy")
+        + n("unsupported_system")
+        + n("over_capacity")
+        + n("before_filter_start")
+        + n("cut_by_outage")
+        + n("not_applied");
+    let read: usize = d.obs.epochs.iter().map(|e| e.sats.len()).sum();
+    assert_eq!(tc["observations"].as_u64().unwrap(), read as u64);
+    assert_eq!(n("observations"), read as u64);
+    assert_eq!(sum, read as u64, "{t}");
+    assert!(n("pseudorange_used") > read as u64 / 2, "{t}");
+    assert!(n("doppler_used") > read as u64 / 2, "{t}");
+    assert!(tc["clock"]["bias_std_m"].as_f64().unwrap() < 10.0, "{tc}");
+    let per = tc["per_satellite"].as_object().unwrap();
+    assert!(
+        per.len() >= 6 && per.keys().all(|k| k.starts_with('G')),
+        "{tc}"
+    );
+    assert_eq!(tight.summary["filter"]["coupling"], "tight");
+    // The journal has the per-epoch pseudorange and Doppler entries.
+    let j = std::fs::read_to_string(d.dir.join("tight/solution.innovations.csv")).unwrap();
+    assert!(j.contains("pseudorange") && j.contains("doppler"));
+    let _ = std::fs::remove_dir_all(&d.dir);
+}
+
+/// `d19.12`-like field of a RINEX 2 navigation record.
+fn d19(x: f64) -> String {
+    format!("{:>19}", format!("{x:.12E}"))
+}
+
+/// Minimal RINEX 2.11 GPS navigation writer (header ionosphere, 8-line records).
+fn write_rinex2_nav(p: &Path, nav: &NavData) {
+    let h = |t: String, l: &str| format!("{t:<60}{l}\n");
+    let mut s = h(
+        format!("{:9.2}{:11}{:<20}{:<20}", 2.11, "", "N: GPS NAV DATA", ""),
+        "RINEX VERSION / TYPE",
+    );
+    if let Some(k) = nav.iono {
+        let four = |v: [f64; 4]| {
+            format!(
+                "  {}",
+                v.iter()
+                    .map(|x| format!("{:>12}", format!("{x:.4E}")))
+                    .collect::<String>()
+            )
+        };
+        s += &h(four(k.alpha), "ION ALPHA");
+        s += &h(four(k.beta), "ION BETA");
+    }
+    s += &h(String::new(), "END OF HEADER");
+    for (o, ura) in nav.orbits.iter().zip(&nav.ura_m) {
+        let c = calendar_from_gps(o.t_oc, TimeSystem::Gpst, 1);
+        let week = (o.t_oe / SECONDS_PER_WEEK).floor();
+        let toe = o.t_oe - week * SECONDS_PER_WEEK;
+        let _ = writeln!(
+            s,
+            "{:2} {:02} {:2} {:2} {:2} {:2}{:5.1}{}{}{}",
+            o.prn,
+            c.year % 100,
+            c.month,
+            c.day,
+            c.hour,
+            c.minute,
+            c.second,
+            d19(o.af0),
+            d19(o.af1),
+            d19(o.af2)
+        );
+        let rows: [[f64; 4]; 7] = [
+            [0.0, o.crs, o.delta_n, o.m0],
+            [o.cuc, o.e, o.cus, o.sqrt_a],
+            [toe, o.cic, o.omega0, o.cis],
+            [o.i0, o.crc, o.argp, o.omega_dot],
+            [o.idot, 0.0, week, 0.0],
+            [*ura, o.health as f64, o.tgd, 0.0],
+            [toe, 4.0, 0.0, 0.0],
+        ];
+        for r in rows {
+            s += "   ";
+            for x in r {
+                s += &d19(x);
+            }
+            s += "\n";
+        }
+    }
+    std::fs::write(p, s).unwrap();
+}
+
+/// Minimal RINEX 3.04 GPS observation writer for `C1C L1C D1C S1C`.
+fn write_rinex3_obs(p: &Path, f: &ObsFile) {
+    let h = |t: String, l: &str| format!("{t:<60}{l}\n");
+    let mut s = h(
+        format!("{:9.2}{:11}{:<20}{:<20}", 3.04, "", "O", "G"),
+        "RINEX VERSION / TYPE",
+    );
+    s += &h(f.marker.clone(), "MARKER NAME");
+    s += &h("G    4 C1C L1C D1C S1C".into(), "SYS / # / OBS TYPES");
+    s += &h(String::new(), "END OF HEADER");
+    for e in &f.epochs {
+        let c = calendar_from_gps(e.t, TimeSystem::Gpst, 7);
+        let _ = writeln!(
+            s,
+            "> {:4} {:02} {:02} {:02} {:02}{:11.7}  {}{:3}",
+            c.year,
+            c.month,
+            c.day,
+            c.hour,
+            c.minute,
+            c.second,
+            e.flag,
+            e.sats.len()
+        );
+        for (prn, vals) in &e.sats {
+            let _ = write!(s, "G{prn:02}");
+            for v in vals {
+                match v {
+                    Some(o) if o.lli != 0 => {
+                        let _ = write!(s, "{:14.3}{} ", o.value, o.lli);
+                    }
+                    Some(o) => {
+                        let _ = write!(s, "{:14.3}  ", o.value);
+                    }
+                    None => s += &" ".repeat(16),
+                }
+            }
+            s += "\n";
+        }
+    }
+    std::fs::write(p, s).unwrap();
+}
+
+/// Test 2, issue 14 must-show 3 (tight-coupling half): the same simulated
+/// raw data through the `.ubx` path and through RINEX 3 observations + a
+/// RINEX 2 navigation file give the same tight trajectory within 1 mm. The
+/// navigation file holds the ephemerides as the UBX log's LNAV subframes
+/// carry them (read back from the log), so both paths evaluate the same
+/// orbits.
+#[test]
+fn ubx_and_rinex_paths_give_the_same_tight_trajectory() {
+    let d = drive("tight-paths", 150.0);
+    let (_, _, from_log) = crate::spp::load(&d.dir.join("raw.ubx"), &[]).unwrap();
+    write_rinex2_nav(&d.dir.join("brdc.nav"), &from_log.gps);
+    write_rinex3_obs(&d.dir.join("rover.obs"), &d.obs);
+    let a = go(&d, &config(&d, "raw.ubx", "coupling = \"tight\""), "ubx");
+    let mut c = config(&d, "rover.obs", "coupling = \"tight\"");
+    c.input.nav = Some("brdc.nav".into());
+    let b = go(&d, &c, "rinex");
+    assert_eq!(a.trajectory.len(), b.trajectory.len());
+    let (rm, _) = navfuse_core::earth::radii(a.trajectory[0].lat);
+    let worst = a
+        .trajectory
+        .iter()
+        .zip(&b.trajectory)
+        .map(|(x, y)| {
+            let dn = (x.lat - y.lat) * rm;
+            let de = (x.lon - y.lon) * rm * x.lat.cos();
+            (dn * dn + de * de + (x.h - y.h).powi(2)).sqrt()
+        })
+        .fold(0.0f64, f64::max);
+    eprintln!(
+        "UBX vs RINEX tight trajectory: {} epochs, largest 3-D difference {worst:.2e} m",
+        a.trajectory.len()
+    );
+    assert!(worst < 1e-3, "{worst} m");
+    let (ta, tb) = (
+        &a.summary["tight_coupling"]["total"],
+        &b.summary["tight_coupling"]["total"],
+    );
+    assert_eq!(
+        ta["pseudorange_used"], tb["pseudorange_used"],
+        "{ta} / {tb}"
+    );
+    let _ = std::fs::remove_dir_all(&d.dir);
+}
+
+/// Test 3: configuration errors name the key.
+#[test]
+fn tight_config_errors_name_the_key() {
+    let d = drive("tight-cfg", 40.0);
+    let err = |c: &RunConfig| {
+        run(
+            c,
+            &d.dir,
+            &RunOptions {
+                output: Some(d.dir.join("x")),
+                ..Default::default()
+            },
+        )
+        .unwrap_err()
+        .to_string()
+    };
+    let e = err(&config(&d, "raw.ubx", "coupling = \"tigth\""));
+    assert!(e.contains("coupling") && e.contains("tigth"), "{e}");
+    write_rinex3_obs(&d.dir.join("rover.obs"), &d.obs);
+    let e = err(&config(&d, "rover.obs", "coupling = \"tight\""));
+    assert!(e.contains("nav") && e.contains("rover.obs"), "{e}");
+    let mut c = config(&d, "raw.ubx", "coupling = \"tight\"\nestimator = \"pf-lc\"");
+    let e = err(&c);
+    assert!(e.contains("coupling") && e.contains("pf-lc"), "{e}");
+    c = config(
+        &d,
+        "raw.ubx",
+        "coupling = \"tight\"\n[filter.gnss_error]\nmodel = \"white\"",
+    );
+    let e = err(&c);
+    assert!(
+        e.contains("[filter.gnss_error]") && e.contains("tight"),
+        "{e}"
+    );
+    let mut c = config(&d, "raw.ubx", "");
+    c.input.nav = Some("brdc.nav".into());
+    c.input.gnss_format = Some("ubx".into());
+    let e = err(&c);
+    assert!(e.contains("[input] nav"), "{e}");
+    let _ = std::fs::remove_dir_all(&d.dir);
+}
