@@ -492,6 +492,18 @@ pub fn run_eskf(
     Ok(r)
 }
 
+/// Switch the filter to tight coupling. Not inlined: the filter is moved
+/// by value here, and that copy must not enlarge [`run_eskf_span`]'s stack
+/// frame (it runs on 2 MiB worker threads in the experiments).
+#[inline(never)]
+fn make_tight(cfg: &RunConfig, eskf: &mut Eskf) -> Result<()> {
+    *eskf = eskf
+        .clone()
+        .with_tight_coupling(crate::tight_run::tight_config())
+        .map_err(|e| cfg.err(format!("[filter] coupling = \"tight\": {e}")))?;
+    Ok(())
+}
+
 /// [`run_eskf`] on a selected span; `with_std`: keep the σ rows of every
 /// solution ([`EskfRun::std`]).
 pub(crate) fn run_eskf_span(
@@ -617,11 +629,7 @@ pub(crate) fn run_eskf_span(
     // Tight coupling from the end of the alignment on: the alignment (and
     // a yaw bank) used the SPP fixes of the same epochs.
     if tight.is_some() {
-        m.eskf = m
-            .eskf
-            .clone()
-            .with_tight_coupling(crate::tight_run::tight_config())
-            .map_err(|e| cfg.err(format!("[filter] coupling = \"tight\": {e}")))?;
+        make_tight(cfg, &mut m.eskf)?;
         g = gnss.len();
     }
     // σ under a correlated fix error from here on (the bank's decisions
@@ -694,6 +702,15 @@ pub(crate) fn run_eskf_span(
     let seconds_filter = t_filter.elapsed().as_secs_f64();
     let mut smoothed = Vec::new();
     let mut smoothed_std = Vec::new();
+    let mut warnings = a.warnings;
+    if cfg.filter.smooth && tight.is_some() {
+        warnings.push(
+            "[filter] smooth with coupling = \"tight\": the RTS smoother runs on the 21 INS \
+             states with their own covariance; the receiver clock states are not smoothed and \
+             their correlation with the INS states is left out of the smoother gain"
+                .into(),
+        );
+    }
     if cfg.filter.smooth {
         smoothed.reserve(records.len());
         rts_smooth(&records, eskf.last_record_covariance(), |e| {
@@ -719,7 +736,7 @@ pub(crate) fn run_eskf_span(
         align_method: a.method,
         align_wait_s: a.wait_s,
         align_yaw_std_deg: a.yaw_std.to_degrees(),
-        warnings: a.warnings,
+        warnings,
         adapted: eskf.adapted_noise(),
         nis_adaptation: eskf.nis_adaptation(),
         platform: setup.profile.map(|p| p.platform),

@@ -273,6 +273,25 @@ fn tight_run_on_a_ubx_log_meets_the_code_error_bound_and_loose() {
         "{tc}"
     );
     assert_eq!(tight.summary["filter"]["coupling"], "tight");
+    // The RTS smoother runs on the tight filter's 21 INS states (the clock
+    // block is not smoothed, a warning says so) and must not make the
+    // trajectory worse than the forward filter.
+    let sm = go(
+        &d,
+        &config(&d, "raw.ubx", "coupling = \"tight\"\nsmooth = true"),
+        "smooth",
+    );
+    let rs = h_rms(&d, &sm.smoothed);
+    eprintln!("tight smoothed h RMS {rs:.3} m (forward {rt:.3} m)");
+    assert!(
+        // One smoother record every 10 IMU samples (`smoother_every`).
+        sm.smoothed.len() * 10 >= sm.trajectory.len(),
+        "{} smoothed / {} forward",
+        sm.smoothed.len(),
+        sm.trajectory.len()
+    );
+    assert!(rs <= rt, "smoothed {rs} vs forward {rt}");
+    assert!(sm.summary["warnings"].to_string().contains("clock"));
     // The journal has the per-epoch pseudorange and Doppler entries.
     let j = std::fs::read_to_string(d.dir.join("tight/solution.innovations.csv")).unwrap();
     assert!(j.contains("pseudorange") && j.contains("doppler"));
