@@ -276,11 +276,23 @@ pub fn run(cfg: &RunConfig, base_dir: &Path, opts: &RunOptions) -> Result<RunOut
         serde_json::to_string_pretty(&summary).map_err(|e| PipelineError::Output(e.to_string()))?;
     navfuse_io::atomic::write_atomic(&p, json).map_err(PipelineError::io(&p, ""))?;
     let st = &r.stats;
+    let gnss_used = match &r.tight {
+        Some(t) => format!(
+            "tight: pseudoranges used {} / gated {}, Dopplers used {} / gated {} of {} observations",
+            t.total.pseudorange_used,
+            t.total.pseudorange_gated_chi2,
+            t.total.doppler_used,
+            t.total.doppler_gated_chi2,
+            t.observations
+        ),
+        None => format!(
+            "GNSS used {} / gated {}",
+            st.gnss_pos_used, st.gnss_pos_rejected_gate
+        ),
+    };
     let message = format!(
-        "navfuse run: {} solutions, GNSS used {} / gated {}; {}; summary {}",
+        "navfuse run: {} solutions, {gnss_used}; {}; summary {}",
         r.solutions.len(),
-        st.gnss_pos_used,
-        st.gnss_pos_rejected_gate,
         summary.alignment,
         p.display()
     );
