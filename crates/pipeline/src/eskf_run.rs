@@ -702,15 +702,6 @@ pub(crate) fn run_eskf_span(
     let seconds_filter = t_filter.elapsed().as_secs_f64();
     let mut smoothed = Vec::new();
     let mut smoothed_std = Vec::new();
-    let mut warnings = a.warnings;
-    if cfg.filter.smooth && tight.is_some() {
-        warnings.push(
-            "[filter] smooth with coupling = \"tight\": the RTS smoother runs on the 21 INS \
-             states with their own covariance; the receiver clock states are not smoothed and \
-             their correlation with the INS states is left out of the smoother gain"
-                .into(),
-        );
-    }
     if cfg.filter.smooth {
         smoothed.reserve(records.len());
         rts_smooth(&records, eskf.last_record_covariance(), |e| {
@@ -736,7 +727,7 @@ pub(crate) fn run_eskf_span(
         align_method: a.method,
         align_wait_s: a.wait_s,
         align_yaw_std_deg: a.yaw_std.to_degrees(),
-        warnings,
+        warnings: a.warnings,
         adapted: eskf.adapted_noise(),
         nis_adaptation: eskf.nis_adaptation(),
         platform: setup.profile.map(|p| p.platform),

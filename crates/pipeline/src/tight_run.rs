@@ -9,13 +9,28 @@ use navfuse_core::gnss::raw::{GnssSystem, RawSat};
 use serde::Serialize;
 use std::collections::BTreeMap;
 
-/// The tight filter's measurement model: [`TightConfig::consumer`] (a
-/// single-frequency receiver with a patch antenna; every number and its
-/// source are in that function's documentation). It is the only receiver
-/// class defined; the per-record satellite variance comes from the input
-/// ([`crate::raw_input`]).
+/// The tight filter's measurement model of `navfuse run`:
+/// [`TightConfig::consumer`] (a single-frequency receiver with a patch
+/// antenna; every number and its source are in that function's
+/// documentation; the only receiver class defined) with the satellites'
+/// slowly varying errors (orbit, clock, ionosphere, troposphere: the
+/// records' `var_m2`, [`crate::raw_input`]) carried as Schmidt consider
+/// states ([`TightConfig::consider_sat_errors`], τ = 1800 s) instead of
+/// white noise. Why: those errors are correlated over tens of minutes, and
+/// a filter that averages them as white reports a σ that shrinks while the
+/// error does not (Brown & Hwang 4th ed. §8.1, correlated measurement
+/// noise). Measured on the simulated car drives of the tests (seeds 1–6,
+/// 300 s, the test `tight_run_on_a_ubx_log_meets_the_code_error_bound_and_loose`): with white weights the
+/// truth was inside the reported 95 % ellipse 0–61 % of the time (mean
+/// 20 %), with consider states 4–100 % (mean 70 %, loose coupling 71 %),
+/// at a mean horizontal RMS of 2.55 m against 2.22 m white and 2.50 m
+/// loose. `navfuse experiment tight` keeps the white model (its metric is
+/// accuracy; the issue's must-show 2).
 pub fn tight_config() -> TightConfig {
-    TightConfig::consumer()
+    TightConfig {
+        consider_sat_errors: true,
+        ..TightConfig::consumer()
+    }
 }
 
 /// Key of a record in [`TightStats::per_sat`].
@@ -187,7 +202,8 @@ pub fn account(
         satellite_variance_scale: raw.var_scale,
         measurement_model: "consumer single-frequency receiver (TightConfig::consumer): \
                             code 0.5 m at 45 dB-Hz, multipath 0.6 m / sin el (≤ 3 m), \
-                            Doppler 0.05 m/s, mask 10°, 25 dB-Hz, χ² gate 0.9999 per satellite"
+                            Doppler 0.05 m/s, mask 10°, 25 dB-Hz, χ² gate 0.9999 per satellite; \
+                            satellite errors as consider states (τ 1800 s)"
             .into(),
     }
 }

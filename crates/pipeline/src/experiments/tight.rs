@@ -337,7 +337,9 @@ fn run_seed(
     let t0 = traj.truth[0].t;
     let t_oa = orbits.first().map_or(0.0, |o| o.t_oe);
     let wins = windows(t0, duration);
-    let tc = crate::tight_run::tight_config();
+    // The white-error model (accuracy, the metric); `navfuse run`
+    // adds consider states for its σ (crate::tight_run::tight_config).
+    let tc = TightConfig::consumer();
     let mut out = Vec::new();
     for sky in skies {
         let cfg = RawConfig {
