@@ -566,7 +566,9 @@ pub(crate) fn run_eskf_span(
         }
         (
             Default::default(),
-            "none (tight coupling: each satellite's errors are in its weights)".to_string(),
+            "none (tight coupling: each satellite's slowly varying error is a consider \
+             state of the tight filter)"
+                .to_string(),
         )
     } else {
         crate::gnss_error::augmented_states(cfg, gnss)?

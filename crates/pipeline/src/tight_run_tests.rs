@@ -474,6 +474,22 @@ fn ubx_and_rinex_paths_give_the_same_tight_trajectory() {
         ta["pseudorange_used"], tb["pseudorange_used"],
         "{ta} / {tb}"
     );
+    // An `[outage]` removes the raw records too, counted as cut.
+    let mut c = config(&d, "raw.ubx", "coupling = \"tight\"");
+    c.outage = Some(crate::config::OutageCfg {
+        start: 60.0,
+        length: 20.0,
+        period: 1000.0,
+    });
+    let o = go(&d, &c, "outage");
+    let t = &o.summary["tight_coupling"]["total"];
+    let cut = t["cut_by_outage"].as_u64().unwrap();
+    let per_epoch = d.obs.epochs[0].sats.len() as u64;
+    assert!(
+        (19 * per_epoch..=21 * per_epoch + 20).contains(&cut),
+        "{cut} cut, {per_epoch} per epoch"
+    );
+    assert_eq!(t["not_applied"], 0, "{t}");
     let _ = std::fs::remove_dir_all(&d.dir);
 }
 
