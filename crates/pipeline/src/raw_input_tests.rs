@@ -122,3 +122,28 @@ fn every_observation_is_a_record_or_counted() {
         assert!((p - rx).norm() < 60.0, "{}", (p - rx).norm());
     }
 }
+
+/// Real data (GEONET 0759, RINEX 2 obs + nav, 1 h): every observation a
+/// record or counted; the records' satellite variance scale is the SPP's
+/// pooled variance factor; the fixes are the SPP's.
+#[test]
+#[ignore = "real data: cargo test --release -p navfuse-pipeline -- --ignored"]
+fn geonet_rinex_raw_input_accounts_for_every_observation() {
+    let obs = navfuse_io::data::require("gnss/rinex/07590920.05o");
+    let nav = navfuse_io::data::require("gnss/rinex/07590920.05n");
+    let r = load_raw(&obs, &[nav]).unwrap();
+    let rej: u64 = r.rejected.values().map(PreCounts::total).sum();
+    eprintln!(
+        "{} observations: {} records, {rej} rejected ({:?}); {} fixes; variance scale {:.3}",
+        r.observations,
+        r.records.len(),
+        r.report.rejected,
+        r.fixes.len(),
+        r.var_scale
+    );
+    assert_eq!(r.records.len() as u64 + rej, r.observations);
+    assert_eq!(r.fixes.len(), r.spp.solved);
+    assert!(r.records.len() as u64 > r.observations / 2);
+    assert_eq!(r.var_scale, r.spp.variance_factor);
+    assert!(r.records.iter().all(|x| x.sat.iono_m > 0.0));
+}
