@@ -48,6 +48,7 @@ mod other;
 pub mod outputs;
 pub mod pos_out;
 pub mod profile;
+pub mod raw_drive;
 pub mod raw_input;
 pub mod resolved;
 pub mod run;

@@ -1,44 +1,20 @@
-//! `navfuse run` with `[filter] coupling = "tight"` (issue 14) on a
-//! simulated car drive whose raw GNSS is written by our encoders: as a u-blox
-//! log (RXM-RAWX + RXM-SFRBX, [`navfuse_io::ubx_gnss::write_ubx_gnss`]) and
-//! as RINEX 3 observations + a RINEX 2 navigation file (minimal writers
-//! below; navfuse-io has readers only).
-//!
-//! Scenario (fixed before any run): [`platform_run`] car, seed 3, 300 s,
-//! static start, consumer MEMS ("phone"), the scenario's antenna lever arm;
-//! raw GNSS at 1 Hz from [`synthetic_constellation`] (24 GPS satellites,
-//! t_oe on the 16 s LNAV grid at the middle of the drive) with the
-//! simulator's documented consumer-receiver error model
-//! ([`navfuse_sim::raw_gnss`]). The simulator's ionosphere is the residual
-//! after the broadcast model; the logs carry a Klobuchar model (the
-//! coefficients of the GEONET 2005-04-02 navigation header in the shared
-//! data, a mid-latitude spring day) whose delay is added to the code and
-//! taken from the phase, so a reader that applies it sees the simulated
-//! residual. Observables are rounded to the RINEX resolution (1 mm, 0.001
-//! cycle, 0.001 Hz) and C/N0 to UBX's whole dB-Hz before both encoders so
-//! the two paths carry the same numbers.
+//! `navfuse run` with `[filter] coupling = "tight"` (issue 14) on simulated
+//! car drives whose raw GNSS is written by our encoders
+//! ([`crate::raw_drive`]: scenario, error model and the Klobuchar model the
+//! log carries): as a u-blox log (RXM-RAWX + RXM-SFRBX) and as RINEX 3
+//! observations + a RINEX 2 navigation file (minimal writers below;
+//! navfuse-io has readers only).
 
 use crate::config::RunConfig;
 use crate::experiments::h_error_ne;
-use crate::experiments::tight::simulate_drive_raw;
 use crate::run::{run, RunOptions};
-use navfuse_core::geodesy::{c_en, geodetic_to_ecef, Geodetic};
-use navfuse_core::gnss::iono::Klobuchar;
-use navfuse_core::gnss::{LAMBDA_L1, SECONDS_PER_WEEK};
+use navfuse_core::gnss::SECONDS_PER_WEEK;
 use navfuse_core::types::NavSolution;
-use navfuse_io::rinex::{NavData, ObsEpoch, ObsFile, ObsValue};
+use navfuse_io::rinex::{NavData, ObsFile};
 use navfuse_io::time::{calendar_from_gps, TimeSystem};
-use navfuse_sim::carrier_phase::synthetic_constellation;
-use navfuse_sim::platform::{platform_run, GnssGrade, ImuGrade, Platform, PlatformOptions};
 use navfuse_sim::raw_gnss::RawConfig;
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
-
-/// GEONET 0759, 2005-04-02 (`gnss/rinex/07590920.05n`): ION ALPHA / BETA.
-const KLOBUCHAR: Klobuchar = Klobuchar {
-    alpha: [1.1180e-08, 1.4900e-08, -5.9600e-08, -5.9600e-08],
-    beta: [8.8060e+04, 1.6380e+04, -1.9660e+05, -1.3110e+05],
-};
 
 struct Drive {
     dir: PathBuf,
@@ -47,109 +23,29 @@ struct Drive {
     nav: NavData,
 }
 
-/// Simulate the drive, write `imu.csv` and `raw.ubx` into a fresh folder.
 fn drive(tag: &str, duration_s: f64) -> Drive {
     drive_seed(tag, duration_s, 3)
 }
 
+/// [`crate::raw_drive::write_raw_drive`] into a fresh folder.
 fn drive_seed(tag: &str, duration_s: f64, seed: u64) -> Drive {
     let dir = crate::test_dir(&format!("{tag}-{seed}"));
-    let opts = PlatformOptions {
-        duration_s,
-        static_start: true,
-        imu: ImuGrade::Consumer,
-        gnss: GnssGrade::Consumer,
-        ..Default::default()
-    };
-    let sim = platform_run(Platform::Car, seed, &opts).unwrap().run;
-    let t0 = sim.traj.truth[0].t;
-    let t_ref = ((t0 + 0.5 * duration_s) / 16.0).round() * 16.0;
-    // Angles into the LNAV fields' ±π range (the same orbits).
-    let orbits: Vec<_> = synthetic_constellation(t_ref)
-        .into_iter()
-        .map(|mut o| {
-            let w = |a: f64| {
-                (a + std::f64::consts::PI).rem_euclid(std::f64::consts::TAU) - std::f64::consts::PI
-            };
-            o.m0 = w(o.m0);
-            o.omega0 = w(o.omega0);
-            o
-        })
-        .collect();
-    let cfg = RawConfig {
-        seed: seed * 7919 + 17,
-        ..Default::default()
-    };
-    let eps = simulate_drive_raw(&sim, &orbits, &cfg);
-    let r3 = |x: f64| (x * 1e3).round() / 1e3;
-    let mut obs = ObsFile {
-        version: 3.04,
-        marker: "SIM".into(),
-        types: vec!["C1".into(), "L1".into(), "D1".into(), "S1".into()],
-        codes: vec!["C1C".into(), "L1C".into(), "D1C".into(), "S1C".into()],
-        ..Default::default()
-    };
-    for e in &eps {
-        let tr = sim.traj.at(e.t);
-        let rx = geodetic_to_ecef(&Geodetic {
-            lat: tr.lat,
-            lon: tr.lon,
-            h: tr.h,
-        });
-        let cen = c_en(tr.lat, tr.lon);
-        let tow = e.epoch.t - (e.epoch.t / SECONDS_PER_WEEK).floor() * SECONDS_PER_WEEK;
-        let sats = e
-            .epoch
-            .sats()
-            .iter()
-            .map(|s| {
-                let u = cen * (s.sat.pos_e - rx).normalize();
-                let el = (-u.z).asin();
-                let i = KLOBUCHAR.delay_l1(tr.lat, tr.lon, u.y.atan2(u.x), el, tow);
-                let lli = s.obs.flags & 1;
-                let v = |value: f64, lli: u8| Some(ObsValue { value, lli });
-                (
-                    s.obs.prn,
-                    vec![
-                        v(r3(s.obs.pseudorange_m + i), 0),
-                        v(r3((s.obs.carrier_m - i) / LAMBDA_L1), lli),
-                        v(r3(s.obs.doppler_hz), 0),
-                        // UBX carries whole dB-Hz.
-                        v((s.obs.cn0_dbhz as f64).round(), 0),
-                    ],
-                )
-            })
-            .collect();
-        obs.epochs.push(ObsEpoch {
-            t: e.epoch.t,
-            flag: 0,
-            sats,
-        });
+    let d = crate::raw_drive::write_raw_drive(&dir, seed, duration_s).unwrap();
+    Drive {
+        dir,
+        sim: d.sim,
+        obs: d.obs,
+        nav: d.nav,
     }
-    let nav = NavData {
-        ura_m: vec![cfg.sat_sigma_m; orbits.len()],
-        orbits,
-        iono: Some(KLOBUCHAR),
-    };
-    let bytes = navfuse_io::ubx_gnss::write_ubx_gnss(&obs, &nav).unwrap();
-    std::fs::write(dir.join("raw.ubx"), bytes).unwrap();
-    navfuse_sim::output::write_run(&sim, &dir).unwrap();
-    Drive { dir, sim, obs, nav }
 }
 
-/// The run configuration: the sim's `imu.csv` (GPS seconds, increments),
-/// `gnss` and the `[filter]` lines given.
+/// The drive's `tight.toml` with `gnss` and the `[filter] coupling` line
+/// replaced by `filter`.
 fn config(d: &Drive, gnss: &str, filter: &str) -> RunConfig {
-    let l = d.sim.scenario.gnss.lever_arm_m;
-    let text = format!(
-        "[input]\nimu = \"imu.csv\"\nimu_rate = {}\ngnss = \"{gnss}\"\n\
-         [input.csv]\ntime = \"t_gps_s\"\ntime_base = \"gps_seconds\"\n\
-         gyro = [\"dtheta_x_rad\", \"dtheta_y_rad\", \"dtheta_z_rad\"]\n\
-         accel = [\"dvel_x_m_s\", \"dvel_y_m_s\", \"dvel_z_m_s\"]\n\
-         gyro_unit = \"rad\"\naccel_unit = \"m/s2\"\nform = \"increment\"\n\
-         [filter]\nimu_preset = \"phone\"\nlever_arm = [{}, {}, {}]\n{filter}\n",
-        d.sim.scenario.imu.rate_hz, l[0], l[1], l[2]
-    );
+    let text = std::fs::read_to_string(d.dir.join("tight.toml"))
+        .unwrap()
+        .replace("gnss = \"raw.ubx\"", &format!("gnss = \"{gnss}\""))
+        .replace("coupling = \"tight\"\n", &format!("{filter}\n"));
     toml::from_str(&text).unwrap_or_else(|e| panic!("{e}\n{text}"))
 }
 
