@@ -1,13 +1,13 @@
 //! Raw GNSS from a UBX log: UBX-RXM-RAWX epochs (GPS L1 C/A code, carrier,
 //! Doppler) and UBX-RXM-SFRBX subframes (GPS LNAV, [`crate::gps_lnav`])
 //! read into the same structures as a RINEX observation and navigation file
-//! ([`ObsFile`] with RINEX 2 codes `C1`, `L1`, `D1`; [`NavData`]), so a
+//! ([`ObsFile`] with RINEX 2 codes `C1`, `L1`, `D1`, `S1`; [`NavData`]), so a
 //! single `.ubx` log is self-contained for single-point positioning; and the
 //! inverse writer ([`write_ubx_gnss`]) for simulated logs and tests.
 //!
 //! Conventions carried over unchanged: RAWX `prMes` [m] → `C1`, `cpMes`
 //! [cycles] → `L1`, `doMes` [Hz] (positive for an approaching satellite, as
-//! RINEX) → `D1`; a pseudorange or phase whose `trkStat` valid bit is clear
+//! RINEX) → `D1`, `cno` [dB-Hz] → `S1`; a pseudorange or phase whose `trkStat` valid bit is clear
 //! is left blank. Epoch time: RAWX week and `rcvTow` (receiver time, GPS
 //! seconds), as a RINEX observation time tag. Ephemerides are collected over
 //! the whole log (as a navigation file holds the day's records); the 10-bit
@@ -58,7 +58,9 @@ pub fn read_ubx_gnss<R: Read>(
     let mut obs = ObsFile {
         version: 3.0,
         marker: name.to_string(),
-        types: vec!["C1".into(), "L1".into(), "D1".into()],
+        // S1: the measurement's C/N0 [dB-Hz] (RINEX 3.05 §5.7: signal
+        // strength as C/N0 in dB-Hz), which the tight filter's weights use.
+        types: vec!["C1".into(), "L1".into(), "D1".into(), "S1".into()],
         ..Default::default()
     };
     let mut nav = NavData::default();
@@ -96,6 +98,7 @@ pub fn read_ubx_gnss<R: Read>(
                             v(m.trk_stat & 0x01 != 0, m.pr_mes),
                             v(m.trk_stat & 0x02 != 0, m.cp_mes).map(|o| ObsValue { lli, ..o }),
                             v(true, f64::from(m.do_mes)),
+                            v(true, f64::from(m.cno_dbhz)),
                         ],
                     ));
                 }
@@ -149,7 +152,7 @@ fn subframe(
 /// Errors: a field that does not fit its LNAV bits (names it).
 pub fn write_ubx_gnss(obs: &ObsFile, nav: &NavData) -> Result<Vec<u8>, String> {
     let idx = |c: &str| obs.index(c);
-    let (ic, il, id) = (idx("C1"), idx("L1"), idx("D1"));
+    let (ic, il, id, is) = (idx("C1"), idx("L1"), idx("D1"), idx("S1"));
     let mut out = Vec::new();
     for (k, ep) in obs.epochs.iter().enumerate() {
         let week = (ep.t / SECONDS_PER_WEEK).floor();
@@ -159,7 +162,7 @@ pub fn write_ubx_gnss(obs: &ObsFile, nav: &NavData) -> Result<Vec<u8>, String> {
             .iter()
             .map(|(prn, vals)| {
                 let get = |i: Option<usize>| i.and_then(|i| vals.get(i).copied().flatten());
-                let (c, l, d) = (get(ic), get(il), get(id));
+                let (c, l, d, sn) = (get(ic), get(il), get(id), get(is));
                 RawxMeas {
                     pr_mes: c.map_or(0.0, |o| o.value),
                     cp_mes: l.map_or(0.0, |o| o.value),
@@ -167,7 +170,9 @@ pub fn write_ubx_gnss(obs: &ObsFile, nav: &NavData) -> Result<Vec<u8>, String> {
                     gnss_id: GNSS_GPS,
                     sv_id: *prn,
                     sig_id: SIG_L1CA,
-                    cno_dbhz: 45,
+                    // S1 when the observations carry it, else 45 dB-Hz
+                    // (a strong open-sky signal).
+                    cno_dbhz: sn.map_or(45, |o| o.value.round().clamp(1.0, 255.0) as u8),
                     trk_stat: u8::from(c.is_some()) | u8::from(l.is_some()) << 1 | 0x04,
                     ..Default::default()
                 }

@@ -51,6 +51,8 @@ use std::path::{Path, PathBuf};
 /// # bias_corr_time_s (crate::noise_cfg); neither: the seed 001 preset's noise
 /// lever_arm = [0.0, -0.05, 0.0]
 /// smooth = true
+/// coupling = "loose"         # | "tight": raw pseudoranges/Dopplers from gnss = "x.ubx"
+///                            #   (RXM-RAWX + RXM-SFRBX) or gnss = "x.obs" + nav = "brdc.nav"
 ///
 /// [outage]                   # optional: cut GNSS for `length` s every `period` s from `start` s
 /// start = 120.0
@@ -114,6 +116,7 @@ impl RunConfig {
                 odometer_csv: None,
                 heading: None,
                 heading_sigma_deg: None,
+                nav: None,
             },
             init: InitCfg::default(),
             filter,
@@ -222,6 +225,10 @@ pub struct InputCfg {
     /// 1-σ [deg] (required with it: the sentences carry none).
     pub heading: Option<String>,
     pub heading_sigma_deg: Option<f64>,
+    /// Broadcast navigation file (RINEX 2 or 3) for a raw GNSS input: `gnss`
+    /// a RINEX observation file read as raw pseudoranges/Dopplers
+    /// ([`crate::raw_input`]); a `.ubx` log carries its own ephemerides.
+    pub nav: Option<String>,
 }
 
 fn default_rate() -> f64 {
@@ -303,6 +310,31 @@ pub struct FilterCfg {
     pub odometer: Option<crate::aiding_cfg::OdometerCfg>,
     pub heading: Option<crate::aiding_cfg::HeadingCfg>,
     pub mag: Option<crate::aiding_cfg::MagCfg>,
+    /// GNSS coupling of the ESKF: `"loose"` (default: position/velocity
+    /// fixes) or `"tight"` (each satellite's pseudorange and Doppler from a
+    /// raw `.ubx` log or RINEX observations + `[input] nav`, [`crate::raw_input`]).
+    pub coupling: Option<String>,
+}
+
+/// `[filter] coupling`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Coupling {
+    Loose,
+    Tight,
+}
+
+impl RunConfig {
+    /// `[filter] coupling` (default loose); an unknown value is a
+    /// configuration error naming the key.
+    pub fn coupling(&self) -> Result<Coupling> {
+        match self.filter.coupling.as_deref() {
+            None | Some("loose") => Ok(Coupling::Loose),
+            Some("tight") => Ok(Coupling::Tight),
+            Some(c) => Err(self.err(format!(
+                "[filter] coupling = {c:?}: expected \"loose\" or \"tight\""
+            ))),
+        }
+    }
 }
 
 impl Default for FilterCfg {
@@ -325,6 +357,7 @@ impl Default for FilterCfg {
             odometer: None,
             heading: None,
             mag: None,
+            coupling: None,
         }
     }
 }

@@ -19,6 +19,7 @@ use navfuse_core::estimators::consistency::NisMonitor;
 use navfuse_core::estimators::eskf::{
     rts_smooth, Eskf, EskfConfig, EskfStats, InitStd, NhcConfig, UpdateLog,
 };
+use navfuse_core::gnss::raw::RawSat;
 use navfuse_core::types::{Event, GnssFix, ImuSample, NavSolution};
 use navfuse_core::Vec3;
 use navfuse_io::kfgins_yaml::KfGinsConfig;
@@ -38,6 +39,52 @@ pub(crate) struct Span<'a> {
     pub gnss_all: &'a [GnssFix],
     /// The inputs' odometer/heading events, time-ordered (`[input] ubx`).
     pub aiding: &'a [Event],
+    /// `[filter] coupling = "tight"`: the raw records and their input
+    /// account ([`cut_raw`]); `gnss` then holds their SPP fixes.
+    pub tight: Option<TightSpan<'a>>,
+}
+
+/// The raw records of a tightly coupled run.
+pub(crate) struct TightSpan<'a> {
+    pub input: &'a crate::raw_input::RawInput,
+    /// Records left after the `[outage]` cut.
+    pub records: Vec<RawSat>,
+    /// Per-satellite counts; `cut` filled by [`cut_raw`].
+    pub fed: crate::tight_run::Fed,
+}
+
+/// The records of `input` without those in the `[outage]` schedule of `cfg`
+/// (the fixes' rule, [`select_span`], from the first IMU sample `t_imu0`).
+pub(crate) fn cut_raw<'a>(
+    cfg: &RunConfig,
+    t_imu0: f64,
+    input: &'a crate::raw_input::RawInput,
+) -> TightSpan<'a> {
+    let mut fed = crate::tight_run::Fed::default();
+    let mut records = Vec::with_capacity(input.records.len());
+    for r in &input.records {
+        let cut = cfg.outage.as_ref().is_some_and(|o| {
+            let t0 = t_imu0 + o.start;
+            r.obs.t >= t0 && (r.obs.t - t0) % o.period < o.length
+        });
+        if cut {
+            crate::tight_run::Fed::count(&mut fed.cut, r);
+        } else {
+            records.push(*r);
+        }
+    }
+    // A cut may remove an epoch's last record: flag the new last ones.
+    for k in 0..records.len() {
+        let next_t = records.get(k + 1).map(|n| n.obs.t);
+        if next_t != Some(records[k].obs.t) {
+            records[k].obs.last_in_epoch = true;
+        }
+    }
+    TightSpan {
+        input,
+        records,
+        fed,
+    }
 }
 
 impl Span<'_> {
@@ -79,6 +126,7 @@ pub(crate) fn select_span<'a>(
         gnss,
         gnss_all,
         aiding: &[],
+        tight: None,
     })
 }
 
@@ -350,6 +398,9 @@ pub struct EskfRun {
     /// The account of the offset passes ([`crate::offset_passes`]), when
     /// the offset was found that way.
     pub time_offset_passes: Option<String>,
+    /// Tight coupling: every raw record by satellite and reason, the clock
+    /// (summary.json `tight_coupling`); `None` when loosely coupled.
+    pub tight: Option<crate::tight_run::TightAccount>,
 }
 
 impl EskfRun {
@@ -441,6 +492,18 @@ pub fn run_eskf(
     Ok(r)
 }
 
+/// Switch the filter to tight coupling. Not inlined: the filter is moved
+/// by value here, and that copy must not enlarge [`run_eskf_span`]'s stack
+/// frame (it runs on 2 MiB worker threads in the experiments).
+#[inline(never)]
+fn make_tight(cfg: &RunConfig, eskf: &mut Eskf) -> Result<()> {
+    *eskf = eskf
+        .clone()
+        .with_tight_coupling(crate::tight_run::tight_config())
+        .map_err(|e| cfg.err(format!("[filter] coupling = \"tight\": {e}")))?;
+    Ok(())
+}
+
 /// [`run_eskf`] on a selected span; `with_std`: keep the σ rows of every
 /// solution ([`EskfRun::std`]).
 pub(crate) fn run_eskf_span(
@@ -483,7 +546,33 @@ pub(crate) fn run_eskf_span(
         lever_arm_b: ecfg.lever_arm_b,
     };
     let mut a = align(cfg, imu, gnss, aux, &model)?;
-    let (aug, augmented_states) = crate::gnss_error::augmented_states(cfg, gnss)?;
+    let tight = span.tight.as_ref();
+    let (aug, augmented_states) = if tight.is_some() {
+        // The fix-error states model a receiver's position solution; the
+        // tight filter weights each satellite instead.
+        for (key, given) in [
+            ("[filter.gnss_error]", cfg.filter.gnss_error.is_some()),
+            (
+                "[filter] time_offset_state",
+                cfg.filter.time_offset_state.is_some(),
+            ),
+        ] {
+            if given {
+                return Err(cfg.err(format!(
+                    "{key} is for loosely coupled fixes; [filter] coupling = \"tight\" \
+                     carries no augmented states (remove the key or use coupling = \"loose\")"
+                )));
+            }
+        }
+        (
+            Default::default(),
+            "none (tight coupling: each satellite's slowly varying error is a consider \
+             state of the tight filter)"
+                .to_string(),
+        )
+    } else {
+        crate::gnss_error::augmented_states(cfg, gnss)?
+    };
     let new_eskf = |nav, std: &InitStd| {
         let e = Eskf::new(ecfg, nav, a.errors, std);
         if a.tilt_from_force {
@@ -544,9 +633,20 @@ pub(crate) fn run_eskf_span(
             0,
         )
     };
+    // Tight coupling from the end of the alignment on: the alignment (and
+    // a yaw bank) used the SPP fixes of the same epochs.
+    if tight.is_some() {
+        make_tight(cfg, &mut m.eskf)?;
+        g = gnss.len();
+    }
     // σ under a correlated fix error from here on (the bank's decisions
-    // above used the filter's own σ; the solutions are unchanged).
-    let (sens, sens_how) = crate::gnss_error::sensitivity_model(cfg, gnss);
+    // above used the filter's own σ; the solutions are unchanged). Not with
+    // tight coupling (its gain follows the 21-state update only).
+    let (sens, sens_how) = if tight.is_some() {
+        (None, String::new())
+    } else {
+        crate::gnss_error::sensitivity_model(cfg, gnss)
+    };
     if let Some(sm) = sens {
         m.eskf
             .start_sensitivity(sm)
@@ -559,8 +659,29 @@ pub(crate) fn run_eskf_span(
     };
     // Aiding events from the start of the remaining IMU span on (those
     // during a yaw bank are not used), merged with the fixes in time order.
-    let heads = &aids;
-    let mut h = heads.partition_point(|x| x.t() <= imu[k_next].t - imu[k_next].dt);
+    let t_next = imu[k_next].t - imu[k_next].dt;
+    let mut fed = tight.map(|t| t.fed.clone());
+    let merged: Vec<Event>;
+    let heads = match (tight, &mut fed) {
+        (Some(ti), Some(fed)) => {
+            let mut v = aids.clone();
+            for r in &ti.records {
+                if r.obs.t <= t_next {
+                    crate::tight_run::Fed::count(&mut fed.before, r);
+                } else {
+                    crate::tight_run::Fed::count(&mut fed.fed, r);
+                    v.push(Event::RawGnss(*r));
+                }
+            }
+            // Stable: at equal times the aiding events, then the records
+            // in their epoch order.
+            v.sort_by(|a, b| a.t().total_cmp(&b.t()));
+            merged = v;
+            &merged
+        }
+        _ => &aids,
+    };
+    let mut h = heads.partition_point(|x| x.t() <= t_next);
     for s in &imu[k_next..] {
         let mut g1 = g;
         while g < gnss.len() && gnss[g].t <= s.t + 1e-3 {
@@ -577,6 +698,12 @@ pub(crate) fn run_eskf_span(
         }
         m.step(&gnss[g1..g], s);
     }
+    let tight_account = match (tight, &fed, m.eskf.tight_stats()) {
+        (Some(ti), Some(fed), Some(st)) => {
+            Some(crate::tight_run::account(ti.input, fed, st, m.eskf.clock()))
+        }
+        _ => None,
+    };
     let (eskf, sols, records, innovations) = (m.eskf, m.sols, m.records, m.innovations);
     let (std, nis) = (m.std, m.nis);
     let seconds_filter = t_filter.elapsed().as_secs_f64();
@@ -623,6 +750,7 @@ pub(crate) fn run_eskf_span(
         seconds_filter,
         time_offset_applied: None,
         time_offset_passes: None,
+        tight: tight_account,
     })
 }
 

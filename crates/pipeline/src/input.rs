@@ -107,6 +107,10 @@ pub struct Loaded {
     pub resolved: serde_json::Value,
     /// Odometer / heading events of a UBX log (`[input] ubx`), time order.
     pub aiding: Vec<navfuse_core::types::Event>,
+    /// Raw GNSS records (`gnss_format = "raw"` or `[filter] coupling =
+    /// "tight"`, [`crate::raw_input`]) on the IMU's time base; `gnss` holds
+    /// their SPP fixes (`fixes` here is empty).
+    pub raw: Option<crate::raw_input::RawInput>,
 }
 
 /// Magnetometer (body FRD, mounting applied) and AHRS yaw rows of a CSV IMU
@@ -164,8 +168,9 @@ fn gnss_format(path: &Path, given: Option<&str>) -> Result<&'static str, String>
         Some("pos") => Ok("pos"),
         Some("nmea") => Ok("nmea"),
         Some("ubx") => Ok("ubx"),
+        Some("raw") => Ok("raw"),
         Some(f) => Err(format!(
-            "gnss_format {f:?}: expected kf-gins, pos, nmea or ubx"
+            "gnss_format {f:?}: expected kf-gins, pos, nmea, ubx or raw"
         )),
         None => Ok(if ext_is(path, &["pos"]) {
             "pos"
@@ -173,10 +178,26 @@ fn gnss_format(path: &Path, given: Option<&str>) -> Result<&'static str, String>
             "nmea"
         } else if ext_is(path, &["ubx"]) {
             "ubx"
+        } else if is_rinex_obs(path) {
+            "raw"
         } else {
             "kf-gins"
         }),
     }
+}
+
+/// A RINEX observation file by its extension: `.obs`, `.rnx`, or the
+/// RINEX 2 `.YYo` (two digits and `o`).
+fn is_rinex_obs(path: &Path) -> bool {
+    let e = path
+        .extension()
+        .and_then(|e| e.to_str())
+        .unwrap_or("")
+        .to_ascii_lowercase();
+    let b = e.as_bytes();
+    e == "obs"
+        || e == "rnx"
+        || (b.len() == 3 && b[0].is_ascii_digit() && b[1].is_ascii_digit() && b[2] == b'o')
 }
 
 fn ext_is(path: &Path, exts: &[&str]) -> bool {
@@ -417,6 +438,10 @@ pub struct InputSpec<'a> {
     /// `[input] ubx`: a UBX log in place of `imu` and `gnss` ([`crate::ubx_input`]).
     pub ubx: Option<&'a Path>,
     pub ubx_cfg: navfuse_io::ubx_events::UbxEventsConfig,
+    /// `[input] nav`: broadcast navigation file(s) for raw observations.
+    pub nav: &'a [std::path::PathBuf],
+    /// Read `gnss` as raw observations (`[filter] coupling = "tight"`).
+    pub raw: bool,
 }
 
 /// Read both inputs, put them on the IMU's time base and apply the IMU time
@@ -433,7 +458,24 @@ fn load_inner(spec: &InputSpec) -> Result<Loaded, String> {
         return Err("[input]: `imu` and `gnss` (or `ubx`) are required".into());
     }
     let imu_fmt = imu_format(spec.imu, spec.imu_format)?;
-    let gnss_fmt = gnss_format(spec.gnss, spec.gnss_format)?;
+    let gnss_fmt = match (spec.raw, spec.gnss_format) {
+        (true, None | Some("raw")) => "raw",
+        (true, Some(f)) => {
+            return Err(format!(
+                "[input] gnss_format = {f:?}: [filter] coupling = \"tight\" reads raw \
+                 observations (a .ubx log with RXM-RAWX, or RINEX observations + nav); \
+                 give gnss_format = \"raw\" or leave it out"
+            ))
+        }
+        (false, f) => gnss_format(spec.gnss, f)?,
+    };
+    if !spec.nav.is_empty() && gnss_fmt != "raw" {
+        return Err(format!(
+            "[input] nav: broadcast ephemerides go with raw observations \
+             ([filter] coupling = \"tight\" or gnss_format = \"raw\"); {} is read as {gnss_fmt}",
+            spec.gnss.display()
+        ));
+    }
     let gnss_base = gnss_base(spec.gnss, gnss_fmt, spec.gnss_time_base)?;
     let ImuRead {
         imu,
@@ -442,12 +484,36 @@ fn load_inner(spec: &InputSpec) -> Result<Loaded, String> {
         resolved: imu_resolved,
         mut warnings,
     } = read_imu(spec, imu_fmt)?;
-    let (mut gnss, gnss_report) = read_gnss(spec.gnss, gnss_fmt)?;
+    let (mut gnss, gnss_report, mut raw) = if gnss_fmt == "raw" {
+        let mut r = crate::raw_input::load_raw(spec.gnss, spec.nav).map_err(|e| e.to_string())?;
+        let fixes = std::mem::take(&mut r.fixes);
+        (fixes, r.report.clone(), Some(r))
+    } else {
+        let (g, r) = read_gnss(spec.gnss, gnss_fmt)?;
+        (g, r, None)
+    };
     gnss.sort_by(|a, b| a.t.total_cmp(&b.t));
     let time_base = align_time_bases(&imu, &mut gnss);
+    if let (Some(r), Some(i0)) = (&mut raw, imu.first()) {
+        // The fixes' rule, record by record (module documentation).
+        if i0.t < WEEK {
+            for x in r.records.iter_mut() {
+                x.obs.t = navfuse_io::time::week_tow(x.obs.t).1;
+            }
+        }
+    }
+    if gnss.is_empty() {
+        if let Some(r) = &raw {
+            return Err(format!(
+                "{}: no epoch gave a single-point solution (the alignment's position source)\n{}",
+                spec.gnss.display(),
+                r.spp.text()
+            ));
+        }
+    }
     warnings.extend(check_overlap(spec.imu, &imu, spec.gnss, &gnss)?);
     // Default `auto`: estimated with its σ, applied only when significant.
-    finish_load(
+    let mut l = finish_load(
         spec,
         imu,
         gnss,
@@ -458,7 +524,9 @@ fn load_inner(spec: &InputSpec) -> Result<Loaded, String> {
         imu_resolved,
         gnss_fmt,
         gnss_base.name(),
-    )
+    )?;
+    l.raw = raw;
+    Ok(l)
 }
 
 /// `[input] ubx`: both streams (and the aiding events) from one log.
@@ -540,6 +608,7 @@ fn finish_load(
         warnings,
         resolved,
         aiding: Vec::new(),
+        raw: None,
     })
 }
 

@@ -74,6 +74,34 @@ pub fn run(cfg: &RunConfig, base_dir: &Path, opts: &RunOptions) -> Result<RunOut
         .clone()
         .or(cfg.filter.estimator.clone())
         .unwrap_or_else(|| "eskf".into());
+    let coupling = cfg.coupling()?;
+    let tight = coupling == crate::config::Coupling::Tight;
+    if tight && estimator != "eskf" {
+        return Err(cfg.err(format!(
+            "[filter] coupling = \"tight\" is an ESKF model; estimator {estimator:?} takes fixes \
+             (use estimator = \"eskf\" or coupling = \"loose\")"
+        )));
+    }
+    if tight && cfg.filter.smooth {
+        // The smoother's records hold the 21 INS states; the tight filter's
+        // receiver clock and satellite-error consider states live beside
+        // them, so an RTS pass would ignore their correlation with the INS
+        // states (and on the simulated test drive it gained nothing:
+        // 1.945 m smoothed against 1.938 m forward).
+        return Err(cfg.err(
+            "[filter] smooth = true: the RTS smoother does not handle the tight filter's \
+             receiver clock and satellite-error states (they are outside its 21-state records); \
+             use smooth = false with coupling = \"tight\"",
+        ));
+    }
+    if tight && cfg.input.ubx.is_some() {
+        return Err(cfg.err(
+            "[filter] coupling = \"tight\" reads raw observations from [input] gnss \
+             (a .ubx log with RXM-RAWX + RXM-SFRBX, or RINEX observations + nav); \
+             [input] ubx is an ESF/NAV-PVT log",
+        ));
+    }
+    let nav: Vec<PathBuf> = cfg.input.nav.iter().map(|p| rel(p)).collect();
     if estimator == "cp-att" {
         // Carrier phase only: the IMU and GNSS files are not read.
         return crate::cp_att_run::run_cp_att(cfg, base_dir, &out_dir, &formats);
@@ -86,7 +114,8 @@ pub fn run(cfg: &RunConfig, base_dir: &Path, opts: &RunOptions) -> Result<RunOut
     let none = TimeOffsetCfg::Named("none".into());
     // Unset or `auto`: loaded without an offset, decided below on the
     // loaded inputs (filter passes when the fixes carry velocities).
-    let passes = crate::offset_passes::wants_passes(cfg);
+    // Not with tight coupling: the passes rerun the loosely coupled filter.
+    let passes = crate::offset_passes::wants_passes(cfg) && !tight;
     let offset = if passes {
         Some(&none)
     } else {
@@ -110,6 +139,8 @@ pub fn run(cfg: &RunConfig, base_dir: &Path, opts: &RunOptions) -> Result<RunOut
             cfg.input.imu_rate,
         )
         .map_err(|e| cfg.err(e))?,
+        nav: &nav,
+        raw: tight,
     })
     .map_err(|e| match e {
         // The data's fault (exit code 3), named after the configuration.
@@ -154,6 +185,13 @@ pub fn run(cfg: &RunConfig, base_dir: &Path, opts: &RunOptions) -> Result<RunOut
     let seconds_read = t_read.elapsed().as_secs_f64();
     let mut span = select_span(cfg, &loaded.imu, &loaded.gnss)?;
     span.aiding = &loaded.aiding;
+    if tight {
+        let raw = loaded
+            .raw
+            .as_ref()
+            .ok_or_else(|| PipelineError::Estimator("tight coupling without raw records".into()))?;
+        span.tight = Some(crate::eskf_run::cut_raw(cfg, span.imu[0].t, raw));
+    }
     let mut resolved = loaded.resolved.clone();
     resolved["time_keys"] = time_keys_json(cfg, &loaded.imu);
     let warnings = &loaded.warnings;
@@ -250,11 +288,23 @@ pub fn run(cfg: &RunConfig, base_dir: &Path, opts: &RunOptions) -> Result<RunOut
         serde_json::to_string_pretty(&summary).map_err(|e| PipelineError::Output(e.to_string()))?;
     navfuse_io::atomic::write_atomic(&p, json).map_err(PipelineError::io(&p, ""))?;
     let st = &r.stats;
+    let gnss_used = match &r.tight {
+        Some(t) => format!(
+            "tight: pseudoranges used {} / gated {}, Dopplers used {} / gated {} of {} observations",
+            t.total.pseudorange_used,
+            t.total.pseudorange_gated_chi2,
+            t.total.doppler_used,
+            t.total.doppler_gated_chi2,
+            t.observations
+        ),
+        None => format!(
+            "GNSS used {} / gated {}",
+            st.gnss_pos_used, st.gnss_pos_rejected_gate
+        ),
+    };
     let message = format!(
-        "navfuse run: {} solutions, GNSS used {} / gated {}; {}; summary {}",
+        "navfuse run: {} solutions, {gnss_used}; {}; summary {}",
         r.solutions.len(),
-        st.gnss_pos_used,
-        st.gnss_pos_rejected_gate,
         summary.alignment,
         p.display()
     );

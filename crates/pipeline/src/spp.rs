@@ -40,7 +40,7 @@ pub struct SppNav {
 /// Galileo E1 (own clock; 4 h, RTKLIB `MAXDTOE_GAL`), BeiDou B1I (own clock,
 /// RINEX 3.02+ `C2I`, 3.01 `C1I`; 6 h, `MAXDTOE_CMP`), QZSS L1 C/A (GPS
 /// time, the GPS clock; 2 h).
-type SystemSignal = (
+pub(crate) type SystemSignal = (
     u8,
     &'static [&'static str],
     &'static [&'static str],
@@ -48,7 +48,7 @@ type SystemSignal = (
     f64,
 );
 
-fn other_system(sys: char) -> Option<SystemSignal> {
+pub(crate) fn other_system(sys: char) -> Option<SystemSignal> {
     const C: f64 = navfuse_core::gnss::C_LIGHT;
     match sys {
         'E' => Some((
@@ -186,7 +186,7 @@ impl SppSummary {
 }
 
 /// The ephemerides of each PRN (1..=32), as indices into `nav.orbits`.
-fn by_prn(nav: &NavData) -> Vec<Vec<usize>> {
+pub(crate) fn by_prn(nav: &NavData) -> Vec<Vec<usize>> {
     let mut v = vec![Vec::new(); 33];
     for (i, o) in nav.orbits.iter().enumerate() {
         if (1..=32).contains(&o.prn) {
@@ -198,7 +198,7 @@ fn by_prn(nav: &NavData) -> Vec<Vec<usize>> {
 
 /// Order of two ephemerides' t_oe for an epoch at `t`: the nearer first; on
 /// a tie the later one (the newer upload).
-fn nearer_toe(t: f64, ta: f64, tb: f64) -> std::cmp::Ordering {
+pub(crate) fn nearer_toe(t: f64, ta: f64, tb: f64) -> std::cmp::Ordering {
     (ta - t)
         .abs()
         .total_cmp(&(tb - t).abs())

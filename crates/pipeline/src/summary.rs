@@ -37,6 +37,10 @@ pub(crate) struct Summary<'a> {
     /// NIS self-check per measurement type ([`crate::sigma::nis_json`]).
     pub nis_check: serde_json::Value,
     pub outputs: Vec<String>,
+    /// `[filter] coupling = "tight"`: every raw record by satellite and
+    /// reason, the NIS and the receiver clock ([`crate::tight_run`]).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub tight_coupling: Option<crate::tight_run::TightAccount>,
 }
 
 impl<'a> Summary<'a> {
@@ -93,6 +97,7 @@ impl<'a> Summary<'a> {
             coasting: crate::sigma::coasting_json(&run.std, run.coast_after_s),
             nis_check,
             outputs,
+            tight_coupling: run.tight.clone(),
         }
     }
 }
@@ -107,6 +112,7 @@ fn filter_json(run: &EskfRun) -> serde_json::Value {
     serde_json::json!({
         "platform": run.platform.map(|p| p.to_string()),
         "imu_noise_source": run.noise_source,
+        "coupling": if run.tight.is_some() { "tight" } else { "loose" },
         "augmented_states": run.augmented_states,
         "augmented_estimate": run.augmented.map(|a| serde_json::json!({
             "gnss_error_ned_m": v(&a.gnss_error_n), "gnss_error_std_m": v(&a.gnss_error_std),

@@ -192,6 +192,12 @@ pub fn run_template(
         "smooth = false",
         "true: RTS smoother (solution_smoothed.nav)",
     );
+    line(
+        &mut o,
+        true,
+        "coupling = \"tight\"",
+        "raw pseudoranges/Dopplers: [input] gnss = .ubx (RAWX+SFRBX) or .obs + nav",
+    );
     match DatasheetNoise::from_spec(&spec) {
         Some(d) => {
             let _ = writeln!(o, "\n# [filter.imu_noise]          # instead of imu_preset: your sensor's datasheet ({preset} shown)");

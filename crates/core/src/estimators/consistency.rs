@@ -14,7 +14,7 @@ use super::eskf::{UpdateKind, UpdateLog};
 use crate::kalman::chi2_quantile;
 
 /// Number of [`UpdateKind`]s (array size of the per-type statistics).
-pub const N_KINDS: usize = 9;
+pub const N_KINDS: usize = 11;
 
 /// Every update kind, in the index order of [`kind_index`].
 pub const KINDS: [UpdateKind; N_KINDS] = [
@@ -27,6 +27,8 @@ pub const KINDS: [UpdateKind; N_KINDS] = [
     UpdateKind::Odometer,
     UpdateKind::Heading,
     UpdateKind::Mag,
+    UpdateKind::Pseudorange,
+    UpdateKind::Doppler,
 ];
 
 /// Index of `k` in [`KINDS`].
@@ -41,6 +43,8 @@ pub fn kind_index(k: UpdateKind) -> usize {
         UpdateKind::Odometer => 6,
         UpdateKind::Heading => 7,
         UpdateKind::Mag => 8,
+        UpdateKind::Pseudorange => 9,
+        UpdateKind::Doppler => 10,
     }
 }
 
@@ -234,7 +238,10 @@ impl AidTracker {
     pub fn observe(&mut self, u: &UpdateLog) {
         if u.accepted {
             self.last = Some((u.kind, u.t));
-            if matches!(u.kind, UpdateKind::GnssPosition | UpdateKind::Height) {
+            if matches!(
+                u.kind,
+                UpdateKind::GnssPosition | UpdateKind::Height | UpdateKind::Pseudorange
+            ) {
                 self.t_last_pos = u.t;
             }
         } else {

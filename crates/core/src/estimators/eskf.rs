@@ -760,11 +760,16 @@ pub enum UpdateKind {
     Odometer,
     Heading,
     Mag,
+    /// Tight coupling: the pseudoranges of one raw epoch (one entry per
+    /// epoch: NIS summed over the satellites used, `dof` their number).
+    Pseudorange,
+    /// Tight coupling: the Doppler range rates of one raw epoch (as above).
+    Doppler,
 }
 
 impl UpdateKind {
     /// Short stable name (`gnss_pos`, `gnss_vel`, `height`, `zupt`, `zaru`,
-    /// `nhc`, `odometer`, `heading`, `mag`).
+    /// `nhc`, `odometer`, `heading`, `mag`, `pseudorange`, `doppler`).
     pub fn name(self) -> &'static str {
         match self {
             UpdateKind::GnssPosition => "gnss_pos",
@@ -776,6 +781,8 @@ impl UpdateKind {
             UpdateKind::Odometer => "odometer",
             UpdateKind::Heading => "heading",
             UpdateKind::Mag => "mag",
+            UpdateKind::Pseudorange => "pseudorange",
+            UpdateKind::Doppler => "doppler",
         }
     }
 }

@@ -282,23 +282,15 @@ pub fn load_orbits(path: Option<&PathBuf>) -> (Vec<KeplerOrbit>, String) {
     }
 }
 
-/// One seed: the platform drive, then for each sky (`None` full, `Some(n)`)
-/// the raw observables and both filters.
-fn run_seed(
-    seed: u64,
-    duration: f64,
+/// Raw observables of a simulated drive's GNSS antenna (at the scenario's
+/// lever arm, true position and velocity from the trajectory), 1 Hz from
+/// 1 s after the first truth epoch to 1 s before the last
+/// ([`simulate_raw`]); shared with `navfuse run`'s tight-coupling tests.
+pub fn simulate_drive_raw(
+    run: &navfuse_sim::SimRun,
     orbits: &[KeplerOrbit],
-    skies: &[Option<usize>],
-) -> Result<Vec<SeedSky>, String> {
-    let opts = PlatformOptions {
-        duration_s: duration,
-        static_start: true,
-        imu: ImuGrade::Consumer,
-        gnss: GnssGrade::Consumer,
-        ..Default::default()
-    };
-    let pr = platform_run(Platform::Car, seed, &opts).map_err(|e| e.to_string())?;
-    let run = &pr.run;
+    cfg: &RawConfig,
+) -> Vec<navfuse_sim::raw_gnss::RawTruthEpoch> {
     let traj = &run.traj;
     let lever = Vec3::from(run.scenario.gnss.lever_arm_m);
     let t0 = traj.truth[0].t;
@@ -320,8 +312,33 @@ fn run_seed(
         let v_n = s.v_n + c_bn * s.w_ib_b.cross(&lever);
         (p + cne * l_n, cne * v_n)
     };
+    simulate_raw(cfg, orbits, &times, antenna)
+}
+
+/// One seed: the platform drive, then for each sky (`None` full, `Some(n)`)
+/// the raw observables and both filters.
+fn run_seed(
+    seed: u64,
+    duration: f64,
+    orbits: &[KeplerOrbit],
+    skies: &[Option<usize>],
+) -> Result<Vec<SeedSky>, String> {
+    let opts = PlatformOptions {
+        duration_s: duration,
+        static_start: true,
+        imu: ImuGrade::Consumer,
+        gnss: GnssGrade::Consumer,
+        ..Default::default()
+    };
+    let pr = platform_run(Platform::Car, seed, &opts).map_err(|e| e.to_string())?;
+    let run = &pr.run;
+    let traj = &run.traj;
+    let lever = Vec3::from(run.scenario.gnss.lever_arm_m);
+    let t0 = traj.truth[0].t;
     let t_oa = orbits.first().map_or(0.0, |o| o.t_oe);
     let wins = windows(t0, duration);
+    // The white-error model (accuracy, the metric); `navfuse run`
+    // adds consider states for its σ (crate::tight_run::tight_config).
     let tc = TightConfig::consumer();
     let mut out = Vec::new();
     for sky in skies {
@@ -341,7 +358,7 @@ fn run_seed(
             seed: seed.wrapping_mul(7919).wrapping_add(17),
             ..Default::default()
         };
-        let eps = simulate_raw(&cfg, orbits, &times, antenna);
+        let eps = simulate_drive_raw(run, orbits, &cfg);
         // Tight events.
         let mut ev_t: Vec<Event> = run.imu.iter().map(|s| Event::Imu(*s)).collect();
         let mut ev_l = ev_t.clone();

@@ -891,6 +891,9 @@ impl Eskf {
             }
         }
         let doy = day_of_year(ep.t);
+        // Journal: one entry per epoch and observable (Σ NIS, used, tried).
+        let mut j_pr = (0.0f64, 0usize, 0usize);
+        let mut j_dop = (0.0f64, 0usize, 0usize);
         for s in ep.sats() {
             let key = s.obs.system.index() * 64 + s.obs.prn as usize % 64;
             let bump = |e: &mut Eskf, f: &dyn Fn(&mut SatCounts)| {
@@ -949,8 +952,12 @@ impl Eskf {
                 Ok(nis) => {
                     bump(self, &|c| c.pr_used += 1);
                     self.tight_nis(nis, true);
+                    j_pr = (j_pr.0 + nis, j_pr.1 + 1, j_pr.2 + 1);
                 }
-                Err(UpdateReject::Gate) => bump(self, &|c| c.pr_gated += 1),
+                Err(UpdateReject::Gate) => {
+                    bump(self, &|c| c.pr_gated += 1);
+                    j_pr.2 += 1;
+                }
                 Err(UpdateReject::Singular) => bump(self, &|c| c.bad += 1),
             }
             // Doppler.
@@ -974,13 +981,25 @@ impl Eskf {
                 Ok(nis) => {
                     bump(self, &|c| c.dop_used += 1);
                     self.tight_nis(nis, false);
+                    j_dop = (j_dop.0 + nis, j_dop.1 + 1, j_dop.2 + 1);
                 }
-                Err(UpdateReject::Gate) => bump(self, &|c| c.dop_gated += 1),
+                Err(UpdateReject::Gate) => {
+                    bump(self, &|c| c.dop_gated += 1);
+                    j_dop.2 += 1;
+                }
                 Err(UpdateReject::Singular) => bump(self, &|c| c.bad += 1),
             }
         }
         if let Some(t) = &mut self.tight {
             t.free_unseen_slots();
+        }
+        for (kind, j) in [
+            (super::UpdateKind::Pseudorange, j_pr),
+            (super::UpdateKind::Doppler, j_dop),
+        ] {
+            if j.2 > 0 {
+                self.log_update(kind, j.1, j.0, j.1 > 0);
+            }
         }
     }
 

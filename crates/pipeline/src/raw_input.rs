@@ -1,0 +1,426 @@
+//! Raw GNSS input of `navfuse run` (issue 14): a u-blox log (`.ubx`,
+//! RXM-RAWX epochs + RXM-SFRBX ephemerides, [`navfuse_io::ubx_gnss`]) or a
+//! RINEX observation file with `[input] nav` (RINEX 2 or 3 broadcast
+//! navigation), read by [`crate::spp::load`], turned into
+//! - one [`RawSat`] record per satellite and epoch for the tightly coupled
+//!   ESKF ([`navfuse_core::estimators::eskf::tight`]), its [`SatState`]
+//!   from the broadcast ephemeris nearest in t_oe (the SPP's choice,
+//!   [`crate::spp`]), and
+//! - the single-point solution of every epoch ([`crate::spp::solve_obs`],
+//!   core `gnss::spp`) as [`GnssFix`]es: the position/course source of the
+//!   alignment ([`crate::align`]) with tight coupling, and the fixes of a
+//!   loosely coupled run (`gnss_format = "raw"`).
+//!
+//! Every observation is accounted for: a record reaches the filter, or it
+//! is counted per satellite with its reason (no code, no ephemeris within
+//! the SPP's age limit, unhealthy, system not supported, over capacity).
+//!
+//! Per-record satellite error variance `var_m2` (what the filter adds to its
+//! white code noise): the broadcast URA² (upper bound of the index interval,
+//! [`ura_sigma_m`]; Galileo SISA as given) plus the ionosphere residual:
+//! 50 % of the broadcast Klobuchar delay (RTKLIB `ERR_BRDCI`, the model's
+//! design removes about half, Klobuchar 1987; the SPP's weight), or 5 m
+//! when the input carries no Klobuchar coefficients (RTKLIB `ERR_ION`, the
+//! uncorrected ionosphere); both scaled by the a-posteriori variance factor
+//! σ̂₀² = Σχ²/Σdof that the SPP of the same epochs estimates for this
+//! error model (Teunissen, *Adjustment theory*, §4.4; used from
+//! [`crate::spp::MIN_POOLED_DOF`] degrees of freedom, as `navfuse spp`
+//! scales its σ): the URA upper bound and the 50 % Klobuchar rule are
+//! conservative by design, and the file itself says by how much. The
+//! filter's own white code/multipath terms are not scaled. The Klobuchar delay `iono_m` is evaluated at
+//! the epoch's SPP position (the nearest solved epoch's when this one has
+//! none; the model varies over hundreds of km, Klobuchar 1987).
+
+use crate::error::{PipelineError, Result};
+use crate::input::InputReport;
+use crate::spp::{
+    by_prn, nearer_toe, other_system, solve_obs, SppNav, SppOptions, SppSummary, MAX_EPH_AGE_S,
+};
+use navfuse_core::geodesy::{c_en, ecef_to_geodetic};
+use navfuse_core::gnss::orbit_gnss::{self, OrbitKind};
+use navfuse_core::gnss::raw::{
+    GnssSystem, RawObs, RawSat, SatState, Signal, FLAG_LOSS_OF_LOCK, MAX_RAW_SATS,
+};
+use navfuse_core::gnss::spp::{ura_sigma_m, SppSolution};
+use navfuse_core::gnss::{C_LIGHT, LAMBDA_L1, SECONDS_PER_WEEK};
+use navfuse_core::types::GnssFix;
+use navfuse_core::Vec3;
+use navfuse_io::rinex::{GnssObs, ObsFile};
+use serde::Serialize;
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+
+/// Ionosphere residual as a fraction of the Klobuchar delay (RTKLIB
+/// `ERR_BRDCI`).
+pub const IONO_RESIDUAL: f64 = 0.5;
+/// Ionosphere σ without a broadcast model [m] (RTKLIB `ERR_ION`).
+pub const IONO_SIGMA_NO_MODEL_M: f64 = 5.0;
+
+/// Records of one satellite not given to the filter, by reason.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize)]
+pub struct PreCounts {
+    pub no_code: u64,
+    pub no_ephemeris: u64,
+    pub unhealthy: u64,
+    pub unsupported_system: u64,
+    pub over_capacity: u64,
+}
+
+impl PreCounts {
+    pub fn total(&self) -> u64 {
+        self.no_code
+            + self.no_ephemeris
+            + self.unhealthy
+            + self.unsupported_system
+            + self.over_capacity
+    }
+}
+
+/// What [`load_raw`] read.
+#[derive(Clone, Debug)]
+pub struct RawInput {
+    /// Records with an ephemeris, time-ordered, each epoch's last flagged
+    /// `obs.last_in_epoch` (receiver time tags, GPS seconds).
+    pub records: Vec<RawSat>,
+    /// Satellite observations read (records + the ones counted in `rejected`).
+    pub observations: u64,
+    /// Observations not made into records, per satellite (`G05`, `E11`, …).
+    pub rejected: BTreeMap<String, PreCounts>,
+    /// Epochs read.
+    pub epochs: usize,
+    /// The SPP solutions as fixes (GPS time of the measurement, antenna).
+    pub fixes: Vec<GnssFix>,
+    /// The SPP's account of the epochs.
+    pub spp: SppSummary,
+    /// The reader's report (summary.json `inputs.gnss`).
+    pub report: InputReport,
+    /// The scale applied to every record's satellite variance (the SPP's
+    /// pooled variance factor, 1 below the dof threshold).
+    pub var_scale: f64,
+}
+
+/// Satellite id as in the SPP summary (`G05`, `E11`, `C03`, `J193`).
+pub fn sat_id(system: char, prn: u8) -> String {
+    format!("{system}{prn:02}")
+}
+
+/// Read `obs` (`.ubx`, or RINEX observations with `nav`) as raw records and
+/// SPP fixes.
+pub fn load_raw(obs: &Path, nav: &[PathBuf]) -> Result<RawInput> {
+    let ubx = crate::spp::is_ubx(obs);
+    if !ubx && nav.is_empty() {
+        return Err(PipelineError::Input(format!(
+            "{}: raw GNSS observations from a RINEX file need broadcast ephemerides: \
+             give [input] nav = \"brdc.nav\" (a .ubx log carries its own)",
+            obs.display()
+        )));
+    }
+    let (o, g, n) = crate::spp::load(obs, nav)?;
+    let format = if ubx { "ubx-raw" } else { "rinex-obs" };
+    raw_from_obs(&o, &g, &n, obs, format)
+}
+
+/// [`load_raw`] on observations and ephemerides already in memory.
+pub fn raw_from_obs(
+    o: &ObsFile,
+    g: &GnssObs,
+    n: &SppNav,
+    file: &Path,
+    format: &'static str,
+) -> Result<RawInput> {
+    // The SPP of every epoch (pooled variance factor scales the fixes' σ,
+    // as `navfuse spp` writes them).
+    let mut sols: Vec<SppSolution> = Vec::with_capacity(o.epochs.len());
+    let spp = solve_obs(o, g, n, &SppOptions::default(), |s| {
+        sols.push(*s);
+        Ok(())
+    })?;
+    let scale = if spp.dof_sum >= crate::spp::MIN_POOLED_DOF {
+        spp.variance_factor
+    } else {
+        1.0
+    };
+    let fixes: Vec<GnssFix> = sols.iter().map(|s| fix_of(s, scale)).collect();
+    let pos_at = |t: f64| -> Option<Vec3> {
+        let k = sols.partition_point(|s| s.t_rx < t - 1e-6);
+        let cand = [k.checked_sub(1), (k < sols.len()).then_some(k)];
+        cand.into_iter()
+            .flatten()
+            .min_by(|&a, &b| {
+                (sols[a].t_rx - t)
+                    .abs()
+                    .total_cmp(&(sols[b].t_rx - t).abs())
+            })
+            .map(|i| sols[i].pos_e)
+    };
+    let iono = n.gps.iono.filter(|k| !k.is_zero());
+    let idx = |c: &str| o.index(c);
+    let (i_c1, i_p1, i_l1, i_d1, i_s1) = (idx("C1"), idx("P1"), idx("L1"), idx("D1"), idx("S1"));
+    let eph = by_prn(&n.gps);
+    let mut records = Vec::with_capacity(o.epochs.len() * 10);
+    let mut rejected: BTreeMap<String, PreCounts> = BTreeMap::new();
+    let mut observations = 0u64;
+    let mut bump = |id: String, f: &dyn Fn(&mut PreCounts)| f(rejected.entry(id).or_default());
+    for (k_ep, ep) in o.epochs.iter().enumerate() {
+        let rx = pos_at(ep.t);
+        let start = records.len();
+        let push = |r: RawSat, records: &mut Vec<RawSat>| -> bool {
+            if records.len() - start >= MAX_RAW_SATS {
+                return false;
+            }
+            records.push(r);
+            true
+        };
+        for (prn, vals) in &ep.sats {
+            observations += 1;
+            let id = sat_id('G', *prn);
+            let get = |i: Option<usize>| {
+                i.and_then(|i| vals.get(i).copied().flatten())
+                    .filter(|v| v.value != 0.0)
+            };
+            let Some(pr) = get(i_c1).or_else(|| get(i_p1)).map(|v| v.value) else {
+                bump(id, &|c| c.no_code += 1);
+                continue;
+            };
+            let best = eph
+                .get(*prn as usize)
+                .into_iter()
+                .flatten()
+                .copied()
+                .filter(|&i| (n.gps.orbits[i].t_oe - ep.t).abs() <= MAX_EPH_AGE_S)
+                .min_by(|&a, &b| nearer_toe(ep.t, n.gps.orbits[a].t_oe, n.gps.orbits[b].t_oe));
+            let Some(ki) = best else {
+                bump(id, &|c| c.no_ephemeris += 1);
+                continue;
+            };
+            let orbit = &n.gps.orbits[ki];
+            if orbit.health != 0 {
+                bump(id, &|c| c.unhealthy += 1);
+                continue;
+            }
+            let ura = ura_sigma_m(n.gps.ura_m.get(ki).copied().unwrap_or(f64::NAN));
+            let l1 = get(i_l1);
+            let mut r = RawSat {
+                obs: RawObs {
+                    t: ep.t,
+                    pseudorange_m: pr,
+                    carrier_m: l1.map_or(f64::NAN, |v| v.value * LAMBDA_L1),
+                    doppler_hz: get(i_d1).map_or(f64::NAN, |v| v.value),
+                    cn0_dbhz: get(i_s1).map_or(0.0, |v| v.value as f32),
+                    system: GnssSystem::Gps,
+                    prn: *prn,
+                    signal: Signal::GpsL1Ca,
+                    flags: if l1.is_some_and(|v| v.lli & 1 != 0) {
+                        FLAG_LOSS_OF_LOCK
+                    } else {
+                        0
+                    },
+                    ..RawObs::default()
+                },
+                sat: sat_state(orbit, OrbitKind::Gps, ep.t, pr),
+            };
+            atmosphere(&mut r, rx, iono.as_ref(), ura, 1.0, scale);
+            if !push(r, &mut records) {
+                bump(id, &|c| c.over_capacity += 1);
+            }
+        }
+        // Galileo, BeiDou, QZSS of a RINEX 3 file (the SPP's signals and
+        // age limits); other systems counted as not supported.
+        for (sys, prn, vals) in g.epochs.get(k_ep).into_iter().flatten() {
+            if *sys == 'G' {
+                continue;
+            }
+            observations += 1;
+            let id = sat_id(*sys, *prn);
+            let (system, signal) = match sys {
+                'E' => (GnssSystem::Galileo, Signal::GalE1),
+                'C' => (GnssSystem::BeiDou, Signal::BdsB1I),
+                // QZSS (and GLONASS, SBAS, NavIC): the tight filter's
+                // per-satellite slots are GPS/Galileo/BeiDou/GLONASS PRN
+                // 1–63, and GLONASS has no orbit model here yet.
+                _ => {
+                    bump(id, &|c| c.unsupported_system += 1);
+                    continue;
+                }
+            };
+            let Some((_, codes, dops, lambda, max_age)) = other_system(*sys) else {
+                bump(id, &|c| c.unsupported_system += 1);
+                continue;
+            };
+            let get = |c: &[&str]| {
+                c.iter()
+                    .filter_map(|c| g.index(*sys, c))
+                    .filter_map(|i| vals.get(i).copied().flatten())
+                    .map(|v| v.value)
+                    .find(|v| *v != 0.0)
+            };
+            let Some(pr) = get(codes) else {
+                bump(id, &|c| c.no_code += 1);
+                continue;
+            };
+            let best = n
+                .other
+                .iter()
+                .filter(|e| e.sys == *sys && e.orbit.prn == *prn)
+                .filter(|e| (e.orbit.t_oe - ep.t).abs() <= max_age)
+                .min_by(|a, b| nearer_toe(ep.t, a.orbit.t_oe, b.orbit.t_oe));
+            let Some(e) = best else {
+                bump(id, &|c| c.no_ephemeris += 1);
+                continue;
+            };
+            if e.orbit.health != 0 {
+                bump(id, &|c| c.unhealthy += 1);
+                continue;
+            }
+            let ura = if *sys == 'E' && e.accuracy_m > 0.0 {
+                e.accuracy_m
+            } else {
+                ura_sigma_m(e.accuracy_m)
+            };
+            let mut r = RawSat {
+                obs: RawObs {
+                    t: ep.t,
+                    pseudorange_m: pr,
+                    doppler_hz: get(dops).unwrap_or(f64::NAN),
+                    system,
+                    prn: *prn,
+                    signal,
+                    ..RawObs::default()
+                },
+                sat: sat_state(&e.orbit, e.kind, ep.t, pr),
+            };
+            let f2 = (lambda / LAMBDA_L1).powi(2);
+            atmosphere(&mut r, rx, iono.as_ref(), ura, f2, scale);
+            if !push(r, &mut records) {
+                bump(id, &|c| c.over_capacity += 1);
+            }
+        }
+        if let Some(last) = records[start..].last_mut() {
+            last.obs.last_in_epoch = true;
+        }
+    }
+    let n_rej: u64 = rejected.values().map(PreCounts::total).sum();
+    let mut report = InputReport::new(
+        file,
+        format,
+        &navfuse_io::error::RecordStats {
+            lines: observations,
+            used: observations - n_rej,
+            ..Default::default()
+        },
+        fixes.len(),
+    );
+    for (what, v) in [
+        (
+            "no L1 code",
+            rejected.values().map(|c| c.no_code).sum::<u64>(),
+        ),
+        (
+            "no ephemeris",
+            rejected.values().map(|c| c.no_ephemeris).sum(),
+        ),
+        ("unhealthy", rejected.values().map(|c| c.unhealthy).sum()),
+        (
+            "system not supported",
+            rejected.values().map(|c| c.unsupported_system).sum(),
+        ),
+        (
+            "over epoch capacity",
+            rejected.values().map(|c| c.over_capacity).sum(),
+        ),
+    ] {
+        if v > 0 {
+            report.rejected.insert(what.into(), v.into());
+        }
+    }
+    Ok(RawInput {
+        records,
+        observations,
+        rejected,
+        epochs: o.epochs.len(),
+        fixes,
+        spp,
+        report,
+        var_scale: scale,
+    })
+}
+
+/// [`SatState`] of a broadcast orbit of any Kepler system for a record
+/// received at `t_rx` with pseudorange `pr` (as
+/// [`navfuse_core::gnss::raw::sat_state_from_kepler`], with the system's
+/// constants, [`orbit_gnss`]): transmission time `t_rx − pr/c − δt_s`,
+/// velocity and clock rate by ±0.5 ms central differences, clock with
+/// relativity minus the group delay of the tracked signal.
+pub fn sat_state(
+    o: &navfuse_core::gnss::KeplerOrbit,
+    kind: OrbitKind,
+    t_rx: f64,
+    pr: f64,
+) -> SatState {
+    let t0 = t_rx - pr / C_LIGHT;
+    let t_tx = t0 - orbit_gnss::clock_offset(o, kind, t0);
+    let h = 5e-4;
+    let pos = |t: f64| orbit_gnss::position_ecef(o, kind, t);
+    let clk = |t: f64| orbit_gnss::clock_offset(o, kind, t);
+    SatState {
+        pos_e: pos(t_tx),
+        vel_e: (pos(t_tx + h) - pos(t_tx - h)) / (2.0 * h),
+        clock_m: (clk(t_tx) - o.tgd) * C_LIGHT,
+        clock_rate_mps: (clk(t_tx + h) - clk(t_tx - h)) / (2.0 * h) * C_LIGHT,
+        iono_m: 0.0,
+        var_m2: 0.0,
+        valid: o.health == 0,
+    }
+}
+
+/// Broadcast ionosphere delay and the record's error variance (module
+/// documentation); `scale` = (λ/λ_L1)² for the delay, `var_scale` the
+/// variance factor.
+fn atmosphere(
+    r: &mut RawSat,
+    rx: Option<Vec3>,
+    iono: Option<&navfuse_core::gnss::iono::Klobuchar>,
+    ura_m: f64,
+    scale: f64,
+    var_scale: f64,
+) {
+    let mut var = ura_m * ura_m;
+    match (iono, rx) {
+        (Some(k), Some(rx)) => {
+            let g = ecef_to_geodetic(&rx);
+            let d = r.sat.pos_e - rx;
+            let u_n = c_en(g.lat, g.lon) * (d / d.norm());
+            let el = (-u_n.z).clamp(-1.0, 1.0).asin();
+            let az = u_n.y.atan2(u_n.x);
+            let tow = r.obs.t - (r.obs.t / SECONDS_PER_WEEK).floor() * SECONDS_PER_WEEK;
+            let di = scale * k.delay_l1(g.lat, g.lon, az, el, tow);
+            r.sat.iono_m = di as f32;
+            var += (IONO_RESIDUAL * di).powi(2);
+        }
+        _ => var += IONO_SIGMA_NO_MODEL_M * IONO_SIGMA_NO_MODEL_M,
+    }
+    r.sat.var_m2 = (var * var_scale) as f32;
+}
+
+/// An SPP solution as a fix: antenna position at the GPS time of the
+/// measurement ([`crate::spp::pos_row`]), position σ scaled by `var_scale`,
+/// Doppler velocity when solved (its σ as the SPP gives it).
+pub fn fix_of(sol: &SppSolution, var_scale: f64) -> GnssFix {
+    let (s, _) = crate::spp::pos_row(sol, var_scale);
+    let v = sol.vel.is_some();
+    GnssFix {
+        t: s.t,
+        lat: s.lat,
+        lon: s.lon,
+        h: s.h,
+        std_ned: s.std_pos_ned,
+        v_n: v.then_some(s.v_n),
+        std_v_n: v.then_some(s.std_v_n),
+        quality: navfuse_io::pos_writer::Q_SINGLE,
+        num_sats: sol.n_used,
+    }
+}
+
+#[cfg(test)]
+#[path = "raw_input_tests.rs"]
+mod tests;

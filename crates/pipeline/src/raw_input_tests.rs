@@ -1,0 +1,149 @@
+//! Raw GNSS input: satellite states, the broadcast ionosphere and every
+//! observation accounted for.
+
+use super::*;
+use navfuse_core::geodesy::{geodetic_to_ecef, Geodetic};
+use navfuse_core::gnss::raw::sat_state_from_kepler;
+use navfuse_io::rinex::{NavData, ObsEpoch, ObsValue};
+use navfuse_sim::carrier_phase::synthetic_constellation;
+use navfuse_sim::raw_gnss::{simulate_raw, RawConfig};
+
+/// The Kepler-system state equals core's GPS one for a GPS orbit.
+#[test]
+fn gps_sat_state_is_cores() {
+    let mut o = synthetic_constellation(1.4e9)[5];
+    o.af0 = 2.1e-4;
+    o.af1 = -3e-12;
+    o.tgd = -5e-9;
+    o.e = 0.01;
+    let t = 1.4e9 + 900.0;
+    let a = sat_state(&o, OrbitKind::Gps, t, 2.2e7);
+    let b = sat_state_from_kepler(&o, t, 2.2e7);
+    assert!((a.pos_e - b.pos_e).norm() < 1e-6, "{a:?} {b:?}");
+    assert!((a.vel_e - b.vel_e).norm() < 1e-6);
+    assert!((a.clock_m - b.clock_m).abs() < 1e-6);
+    assert!((a.clock_rate_mps - b.clock_rate_mps).abs() < 1e-6);
+}
+
+/// 30 epochs of a static receiver: one satellite without an ephemeris
+/// (PRN 30), one unhealthy (PRN 2), one entry without code: each counted
+/// by satellite and reason, everything else a record with the Klobuchar
+/// delay and its variance; each epoch's last record flagged; an SPP fix per
+/// epoch near the receiver.
+#[test]
+fn every_observation_is_a_record_or_counted() {
+    let t0 = 1.4e9;
+    let mut orbits = synthetic_constellation(t0);
+    orbits[1].health = 1; // PRN 2
+    let rx = geodetic_to_ecef(&Geodetic {
+        lat: 0.6,
+        lon: 2.4,
+        h: 50.0,
+    });
+    let times: Vec<f64> = (0..30).map(|k| t0 + k as f64).collect();
+    let healthy: Vec<_> = orbits
+        .iter()
+        .map(|o| navfuse_core::gnss::KeplerOrbit { health: 0, ..*o })
+        .collect();
+    let eps = simulate_raw(&RawConfig::default(), &healthy, &times, |_| {
+        (rx, Vec3::zeros())
+    });
+    let mut obs = ObsFile {
+        types: vec!["C1".into(), "D1".into()],
+        ..Default::default()
+    };
+    for e in &eps {
+        let mut sats: Vec<(u8, Vec<Option<ObsValue>>)> = e
+            .epoch
+            .sats()
+            .iter()
+            .map(|s| {
+                let v = |value| Some(ObsValue { value, lli: 0 });
+                (s.obs.prn, vec![v(s.obs.pseudorange_m), v(s.obs.doppler_hz)])
+            })
+            .collect();
+        sats.push((30, sats[0].1.clone()));
+        sats.push((3, vec![None, None]));
+        obs.epochs.push(ObsEpoch {
+            t: e.epoch.t,
+            flag: 0,
+            sats,
+        });
+    }
+    let nav = SppNav {
+        gps: NavData {
+            ura_m: vec![2.0; orbits.len()],
+            orbits,
+            iono: Some(navfuse_core::gnss::iono::Klobuchar {
+                alpha: [1.1180e-08, 1.4900e-08, -5.9600e-08, -5.9600e-08],
+                beta: [8.8060e+04, 1.6380e+04, -1.9660e+05, -1.3110e+05],
+            }),
+        },
+        other: Vec::new(),
+    };
+    let r = raw_from_obs(
+        &obs,
+        &GnssObs::default(),
+        &nav,
+        Path::new("mem"),
+        "rinex-obs",
+    )
+    .unwrap();
+    let read: u64 = obs.epochs.iter().map(|e| e.sats.len() as u64).sum();
+    assert_eq!(r.observations, read);
+    let rej: u64 = r.rejected.values().map(PreCounts::total).sum();
+    assert_eq!(r.records.len() as u64 + rej, read);
+    assert_eq!(r.rejected["G30"].no_ephemeris, 30);
+    assert_eq!(r.rejected["G03"].no_code, 30);
+    let n2 = eps[0]
+        .epoch
+        .sats()
+        .iter()
+        .filter(|s| s.obs.prn == 2)
+        .count() as u64;
+    if n2 > 0 {
+        assert_eq!(r.rejected["G02"].unhealthy, 30 * n2);
+    }
+    assert_eq!(r.records.iter().filter(|x| x.obs.last_in_epoch).count(), 30);
+    assert!(r.records.iter().all(|x| x.sat.iono_m > 0.0 && x.sat.valid));
+    // var = scale · (URA upper bound² + (½ I)²).
+    let x = &r.records[0];
+    let want = r.var_scale * (2.4f64.powi(2) + (0.5 * x.sat.iono_m as f64).powi(2));
+    assert!((x.sat.var_m2 as f64 - want).abs() < 1e-3 * want, "{x:?}");
+    assert_eq!(r.fixes.len(), 30);
+    for f in &r.fixes {
+        let p = geodetic_to_ecef(&Geodetic {
+            lat: f.lat,
+            lon: f.lon,
+            h: f.h,
+        });
+        // The simulated errors (≈ 2 m per range) and the Klobuchar model
+        // the simulated ranges do not contain: tens of metres at most.
+        assert!((p - rx).norm() < 60.0, "{}", (p - rx).norm());
+    }
+}
+
+/// Real data (GEONET 0759, RINEX 2 obs + nav, 1 h): every observation a
+/// record or counted; the records' satellite variance scale is the SPP's
+/// pooled variance factor; the fixes are the SPP's.
+#[test]
+#[ignore = "real data: cargo test --release -p navfuse-pipeline -- --ignored"]
+fn geonet_rinex_raw_input_accounts_for_every_observation() {
+    let obs = navfuse_io::data::require("gnss/rinex/07590920.05o");
+    let nav = navfuse_io::data::require("gnss/rinex/07590920.05n");
+    let r = load_raw(&obs, &[nav]).unwrap();
+    let rej: u64 = r.rejected.values().map(PreCounts::total).sum();
+    eprintln!(
+        "{} observations: {} records, {rej} rejected ({:?}); {} fixes; variance scale {:.3}",
+        r.observations,
+        r.records.len(),
+        r.report.rejected,
+        r.fixes.len(),
+        r.var_scale
+    );
+    assert_eq!(r.records.len() as u64 + rej, r.observations);
+    assert_eq!(r.fixes.len(), r.spp.solved);
+    assert!(r.records.len() as u64 > r.observations / 2);
+    assert_eq!(r.var_scale, r.spp.variance_factor);
+    assert!(r.records.iter().all(|x| x.sat.iono_m > 0.0));
+}
