@@ -389,10 +389,11 @@ pub fn run_aiding(seed0: u64, seeds: u64) -> Result<AidingReport, ExperimentErro
         ));
     }
     let ids: Vec<u64> = (seed0..seed0 + seeds).collect();
-    let res: Vec<SeedResult> = ids
-        .par_iter()
-        .map(|&s| (s, odo_seed(s), stand_seed(s)))
-        .collect();
+    let res: Vec<SeedResult> = super::on_worker_pool(|| {
+        ids.par_iter()
+            .map(|&s| (s, odo_seed(s), stand_seed(s)))
+            .collect()
+    });
     let mut failed = Vec::new();
     let (mut odo, mut stand) = (Vec::new(), Vec::new());
     for (s, o, st) in res {

@@ -345,10 +345,11 @@ pub fn run_align_check(
     let jobs: Vec<(usize, u64)> = (0..scenarios.len())
         .flat_map(|c| (0..seeds).map(move |s| (c, s)))
         .collect();
-    let rows: Vec<AlignRow> = jobs
-        .par_iter()
-        .map(|&(c, s)| check_seed(&scenarios[c], s))
-        .collect();
+    let rows: Vec<AlignRow> = super::on_worker_pool(|| {
+        jobs.par_iter()
+            .map(|&(c, s)| check_seed(&scenarios[c], s))
+            .collect()
+    });
     let per = seeds as usize;
     let reports = scenarios
         .iter()
@@ -492,10 +493,12 @@ mod tests {
             gnss: GnssGrade::Rtk,
             gnss_lead_s: 0.0,
         };
-        let rows: Vec<AlignRow> = (100..110)
-            .into_par_iter()
-            .map(|s| check_seed(&sc, s))
-            .collect();
+        let rows: Vec<AlignRow> = super::super::on_worker_pool(|| {
+            (100..110)
+                .into_par_iter()
+                .map(|s| check_seed(&sc, s))
+                .collect()
+        });
         for r in &rows {
             assert!(r.failure.is_none(), "{r:?}");
             assert!(
@@ -528,10 +531,12 @@ mod tests {
             gnss: GnssGrade::Rtk,
             gnss_lead_s: 0.0,
         };
-        let rows: Vec<AlignRow> = (130..150)
-            .into_par_iter()
-            .map(|s| check_seed(&sc, s))
-            .collect();
+        let rows: Vec<AlignRow> = super::super::on_worker_pool(|| {
+            (130..150)
+                .into_par_iter()
+                .map(|s| check_seed(&sc, s))
+                .collect()
+        });
         let y0: Vec<f64> = rows.iter().map(|r| r.yaw_err_start_deg).collect();
         let errs: Vec<f64> = rows.iter().map(|r| r.heading_max_err_deg).collect();
         let pass = rows.iter().filter(|r| r.heading_pass).count();

@@ -376,10 +376,11 @@ pub fn run_generalise(
     let jobs: Vec<(usize, u64)> = (0..cells.len())
         .flat_map(|c| (opt.seed0..opt.seed0 + opt.seeds).map(move |s| (c, s)))
         .collect();
-    let results: Vec<SeedScores> = jobs
-        .par_iter()
-        .map(|&(c, s)| run_seed(&cells[c], s, opt.duration_s, opt.known_offset))
-        .collect();
+    let results: Vec<SeedScores> = super::on_worker_pool(|| {
+        jobs.par_iter()
+            .map(|&(c, s)| run_seed(&cells[c], s, opt.duration_s, opt.known_offset))
+            .collect()
+    });
     let per = opt.seeds as usize;
     let reports = cells
         .iter()

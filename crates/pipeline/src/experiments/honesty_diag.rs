@@ -140,48 +140,50 @@ fn honesty_diag() {
     let jobs: Vec<(usize, u64, usize)> = (0..cells.len())
         .flat_map(|c| (0..seeds).flat_map(move |s| (0..nv).map(move |v| (c, s, v))))
         .collect();
-    let res: Vec<(Acc, Acc, String)> = jobs
-        .par_iter()
-        .map(|&(c, s, v)| {
-            let cell = &cells[c];
-            let mut pr = platform_run(cell.platform, s, &cell_options(cell, s, dur)).unwrap();
-            if variants[v].contains("s01") {
-                for g in &mut pr.run.gnss {
-                    g.std_ned *= 0.1;
-                    g.std_v_n = g.std_v_n.map(|x| x * 0.1);
+    let res: Vec<(Acc, Acc, String)> = super::on_worker_pool(|| {
+        jobs.par_iter()
+            .map(|&(c, s, v)| {
+                let cell = &cells[c];
+                let mut pr = platform_run(cell.platform, s, &cell_options(cell, s, dur)).unwrap();
+                if variants[v].contains("s01") {
+                    for g in &mut pr.run.gnss {
+                        g.std_ned *= 0.1;
+                        g.std_v_n = g.std_v_n.map(|x| x * 0.1);
+                    }
                 }
-            }
-            let base = if variants[v].starts_with("oracle") {
-                Variant::Oracle
-            } else {
-                Variant::Default
-            };
-            let mut cfg = variant_config(base, &pr);
-            tweak(
-                variants[v]
-                    .trim_start_matches("oracle+")
-                    .trim_start_matches("oracle"),
-                &mut cfg,
-            );
-            let (mut inn, mut out) = (Acc::default(), Acc::default());
-            let r = match run_variant(&cfg, &pr) {
-                Ok(r) => r,
-                Err(e) => return (inn, out, e.to_string()),
-            };
-            let t0 = motion_start(&pr.run.traj).unwrap() + super::generalise::SCORE_AFTER_MOTION_S;
-            for sol in r.solutions.iter().filter(|x| x.t >= t0) {
-                let (en, ee) = h_error_ne(sol.lat, sol.lon, &pr.run.traj.at(sol.t));
-                let (sn, se) = (sol.std_pos_ned.x, sol.std_pos_ned.y);
-                let nees = en * en / (sn * sn) + ee * ee / (se * se);
-                if !nees.is_finite() {
-                    continue;
+                let base = if variants[v].starts_with("oracle") {
+                    Variant::Oracle
+                } else {
+                    Variant::Default
+                };
+                let mut cfg = variant_config(base, &pr);
+                tweak(
+                    variants[v]
+                        .trim_start_matches("oracle+")
+                        .trim_start_matches("oracle"),
+                    &mut cfg,
+                );
+                let (mut inn, mut out) = (Acc::default(), Acc::default());
+                let r = match run_variant(&cfg, &pr) {
+                    Ok(r) => r,
+                    Err(e) => return (inn, out, e.to_string()),
+                };
+                let t0 =
+                    motion_start(&pr.run.traj).unwrap() + super::generalise::SCORE_AFTER_MOTION_S;
+                for sol in r.solutions.iter().filter(|x| x.t >= t0) {
+                    let (en, ee) = h_error_ne(sol.lat, sol.lon, &pr.run.traj.at(sol.t));
+                    let (sn, se) = (sol.std_pos_ned.x, sol.std_pos_ned.y);
+                    let nees = en * en / (sn * sn) + ee * ee / (se * se);
+                    if !nees.is_finite() {
+                        continue;
+                    }
+                    let o = pr.outages.iter().any(|o| sol.t >= o[0] && sol.t < o[1]);
+                    if o { &mut inn } else { &mut out }.add(en * en + ee * ee, nees);
                 }
-                let o = pr.outages.iter().any(|o| sol.t >= o[0] && sol.t < o[1]);
-                if o { &mut inn } else { &mut out }.add(en * en + ee * ee, nees);
-            }
-            (inn, out, r.augmented_states.clone())
-        })
-        .collect();
+                (inn, out, r.augmented_states.clone())
+            })
+            .collect()
+    });
     println!(
         "{:<28} {:<22} {:>4}  {:>20}  {:>20}  {:>20}",
         "cell", "variant", "seed", "all nees/cov/rms", "outage", "gnss"

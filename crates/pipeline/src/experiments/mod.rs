@@ -36,6 +36,32 @@ use crate::time_offset::TimeOffsetCfg;
 use navfuse_sim::platform::PlatformRun;
 use serde::Serialize;
 
+/// Stack of the experiments' worker threads [bytes]. A run
+/// ([`crate::run_eskf`]) needs 1.2–2.5 MB of stack (measured with
+/// `RUST_MIN_STACK` on the matrix's cells: the ESKF is ≈ 100 kB and the
+/// yaw bank builds several), more than the 2 MiB rayon's global pool gives
+/// its threads; 16 MiB leaves room for growth (virtual memory: only the
+/// pages touched are committed).
+pub const WORKER_STACK_BYTES: usize = 16 << 20;
+
+/// Run `f` (whose `par_iter`s then use it) on the experiments' thread pool:
+/// rayon's default thread count, [`WORKER_STACK_BYTES`] of stack each.
+pub fn on_worker_pool<R: Send>(f: impl FnOnce() -> R + Send) -> R {
+    static POOL: std::sync::OnceLock<Option<rayon::ThreadPool>> = std::sync::OnceLock::new();
+    let pool = POOL.get_or_init(|| {
+        rayon::ThreadPoolBuilder::new()
+            .stack_size(WORKER_STACK_BYTES)
+            .thread_name(|i| format!("navfuse-exp-{i}"))
+            .build()
+            .ok()
+    });
+    match pool {
+        Some(p) => p.install(f),
+        // No pool (threads could not be spawned): the caller's thread pool.
+        None => f(),
+    }
+}
+
 /// Errors of an experiment as a whole (a single run's failure is a result,
 /// counted in the scores, not an error).
 #[derive(Debug, thiserror::Error)]

@@ -446,10 +446,11 @@ pub fn run_tight(o: &Options) -> Result<TightReport, ExperimentError> {
     let (orbits, orbit_name) = load_orbits(o.almanac.as_ref());
     let skies = [Some(2), Some(3), None];
     let ids: Vec<u64> = (o.seed0..o.seed0 + o.seeds).collect();
-    let res: Vec<(u64, Result<Vec<SeedSky>, String>)> = ids
-        .par_iter()
-        .map(|&s| (s, run_seed(s, o.duration, &orbits, &skies)))
-        .collect();
+    let res: Vec<(u64, Result<Vec<SeedSky>, String>)> = super::on_worker_pool(|| {
+        ids.par_iter()
+            .map(|&s| (s, run_seed(s, o.duration, &orbits, &skies)))
+            .collect()
+    });
     let mut failed = Vec::new();
     let mut acc: Vec<Vec<SeedSky>> = vec![Vec::new(); skies.len()];
     for (s, r) in res {
