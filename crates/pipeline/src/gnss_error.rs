@@ -282,6 +282,7 @@ pub fn augmented_states(cfg: &RunConfig, gnss: &[GnssFix]) -> Result<(AugmentedS
         initial_s: 0.0,
         std_s: TIME_OFFSET_STD_S,
         rw_psd: 0.0,
+        consider: false,
     });
     if time_offset.is_some() {
         notes.push(format!(

@@ -1700,12 +1700,17 @@ impl Eskf {
                 // estimate τ (`H_τ = 0` instead of −a_n): on simulated drives
                 // with turn onsets its first-order sensitivity biased τ̂ by up
                 // to 14 ms, the position channel alone by < 3 ms (aug_tests).
-                let h_a = SMatrix::<f64, 3, NA>::zeros();
+                // A consider τ is never estimated, so there the sensitivity
+                // is kept: its σ then reaches the velocity too (−a_n σ_τ).
+                let mut h_a = SMatrix::<f64, 3, NA>::zeros();
                 if let Some(a) = &self.aug {
                     let e = EarthAt::new(self.nav.lat, self.nav.h);
                     let a_n = c * self.f_b + Vec3::new(0.0, 0.0, e.g);
                     let tau = a.x[IA_TAU];
                     dz -= if tau > 0.0 { a.shift(tau).1 } else { a_n * tau };
+                    if a.time_offset_considered() {
+                        h_a.set_column(IA_TAU, &(-a_n));
+                    }
                 }
                 let mut h = SMatrix::<f64, 3, NX>::zeros();
                 h.fixed_view_mut::<3, 3>(0, I_VEL)

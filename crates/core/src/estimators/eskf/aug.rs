@@ -79,6 +79,13 @@ pub struct TimeOffsetState {
     pub std_s: f64,
     /// Random-walk PSD [s²/s] (0: a constant offset).
     pub rw_psd: f64,
+    /// Schmidt–Kalman "consider" state (as [`GnssErrorStates::consider`]):
+    /// τ is not estimated (τ̂ stays `initial_s`), but its σ enters the
+    /// innovation covariance (`H_τ = −v_ant`: a position error `v τ` that
+    /// stays as long as the speed does) and the gain of the other states.
+    /// For an offset already applied to the stamps with an uncertainty:
+    /// the σ then covers what the remaining error does to the solution.
+    pub consider: bool,
 }
 
 /// Which augmented states to estimate ([`super::Eskf::with_augmented_states`]).
@@ -241,6 +248,9 @@ impl Aug {
             var[IA_TAU] = t.rw_psd;
             p_aa[(IA_TAU, IA_TAU)] = t.std_s * t.std_s;
             active[IA_TAU] = true;
+            if t.consider {
+                gain_mask.get_or_insert_with(|| SVector::<f64, NF>::repeat(1.0))[NX + IA_TAU] = 0.0;
+            }
         }
         if let Some(o) = odo {
             if !o.is_valid() {
@@ -273,6 +283,11 @@ impl Aug {
     /// Whether the time offset is estimated.
     pub(super) fn has_time_offset(&self) -> bool {
         self.cfg.time_offset.is_some()
+    }
+
+    /// Whether the time offset is a consider state (never estimated).
+    pub(super) fn time_offset_considered(&self) -> bool {
+        self.cfg.time_offset.is_some_and(|t| t.consider)
     }
 
     /// Record the antenna velocity `v_n` at time `t` (after each propagation).
