@@ -112,6 +112,10 @@ fn shifted(imu: &[ImuSample], tau: f64) -> Vec<ImuSample> {
         .collect()
 }
 
+/// One filter run of the passes: the IMU samples (shifted or not) and the
+/// σ [s] of an offset already applied to them (`None`: treat as exact).
+pub type PassRun<'a> = dyn FnMut(&[ImuSample], Option<f64>) -> Result<EskfRun> + 'a;
+
 /// The result of [`run_with_offset_passes`].
 pub struct Passes {
     /// The run to keep (on the IMU shifted by `applied`, or unshifted).
@@ -131,7 +135,7 @@ pub struct Passes {
 pub fn run_with_offset_passes(
     imu: &[ImuSample],
     gnss: &[GnssFix],
-    run: &mut dyn FnMut(&[ImuSample], Option<f64>) -> Result<EskfRun>,
+    run: &mut PassRun<'_>,
 ) -> Result<Passes> {
     let r0 = run(imu, None)?;
     let e0 = residual(&r0, imu, gnss);
