@@ -558,6 +558,18 @@ impl GnssObs {
             .find(|(s, _)| *s == sys)
             .and_then(|(_, c)| c.iter().position(|x| x == code))
     }
+
+    /// The first non-zero value among `codes` (in preference order) of one
+    /// satellite's values `vals` of system `sys` (a zero is RINEX's "not
+    /// tracked"); `None` when no code has one.
+    pub fn first_value(&self, sys: char, codes: &[&str], vals: &[Option<ObsValue>]) -> Option<f64> {
+        codes
+            .iter()
+            .filter_map(|c| self.index(sys, c))
+            .filter_map(|i| vals.get(i).copied().flatten())
+            .map(|v| v.value)
+            .find(|v| *v != 0.0)
+    }
 }
 
 /// Read an observation file keeping every system (RINEX 3; for RINEX 2 the

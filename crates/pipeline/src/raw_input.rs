@@ -247,13 +247,7 @@ pub fn raw_from_obs(
                 bump(id, &|c| c.unsupported_system += 1);
                 continue;
             };
-            let get = |c: &[&str]| {
-                c.iter()
-                    .filter_map(|c| g.index(*sys, c))
-                    .filter_map(|i| vals.get(i).copied().flatten())
-                    .map(|v| v.value)
-                    .find(|v| *v != 0.0)
-            };
+            let get = |c: &[&str]| g.first_value(*sys, c, vals);
             let Some(pr) = get(codes) else {
                 bump(id, &|c| c.no_code += 1);
                 continue;

@@ -278,13 +278,7 @@ pub fn solve_obs(
             let Some((group, codes, dops, lambda, max_age)) = other_system(*sys) else {
                 continue;
             };
-            let get = |c: &[&str]| {
-                c.iter()
-                    .filter_map(|c| gnss.index(*sys, c))
-                    .filter_map(|i| vals.get(i).copied().flatten())
-                    .map(|v| v.value)
-                    .find(|v| *v != 0.0)
-            };
+            let get = |c: &[&str]| gnss.first_value(*sys, c, vals);
             let Some(pr) = get(codes) else {
                 sum.sat_no_code += 1;
                 continue;
