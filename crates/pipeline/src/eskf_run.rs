@@ -42,11 +42,6 @@ pub(crate) struct Span<'a> {
     /// `[filter] coupling = "tight"`: the raw records and their input
     /// account ([`cut_raw`]); `gnss` then holds their SPP fixes.
     pub tight: Option<TightSpan<'a>>,
-    /// σ [s] of an IMU time offset already applied to the stamps
-    /// (`crate::offset_passes`): carried as a consider state
-    /// ([`navfuse_core::estimators::eskf::TimeOffsetState::consider`]) so
-    /// the reported σ covers what the offset's error does to the solution.
-    pub applied_offset_std_s: Option<f64>,
 }
 
 /// The raw records of a tightly coupled run.
@@ -132,7 +127,6 @@ pub(crate) fn select_span<'a>(
         gnss_all,
         aiding: &[],
         tight: None,
-        applied_offset_std_s: None,
     })
 }
 
@@ -451,9 +445,8 @@ pub fn run_eskf(
     if passes {
         let (retimed, latency) = crate::time_offset::latency_corrected(gnss);
         let gnss = retimed.as_deref().unwrap_or(gnss);
-        let mut run = |imu: &[ImuSample], applied_std: Option<f64>| {
-            let mut span = select_span(cfg, imu, gnss)?;
-            span.applied_offset_std_s = applied_std;
+        let mut run = |imu: &[ImuSample]| {
+            let span = select_span(cfg, imu, gnss)?;
             run_eskf_span(cfg, base_dir, &span, aux, true)
         };
         let p = crate::offset_passes::run_with_offset_passes(imu, gnss, &mut run)?;
@@ -467,7 +460,7 @@ pub fn run_eskf(
                     .iter()
                     .map(|s| ImuSample { t: s.t + tau, ..*s })
                     .collect();
-                let mut r = run(&shifted, None)?;
+                let mut r = run(&shifted)?;
                 r.time_offset_applied = Some((tau, how));
                 r
             }
@@ -499,38 +492,6 @@ pub fn run_eskf(
     Ok(r)
 }
 
-/// The augmented states of a loosely coupled run
-/// ([`crate::gnss_error::augmented_states`]) plus, when the stamps carry an
-/// applied offset of σ `applied_offset_std_s`, τ as a consider state (unless
-/// `[filter] time_offset_state` estimates it). Not inlined: keeps
-/// [`run_eskf_span`]'s frame small (it runs on rayon's 2 MiB stacks).
-#[inline(never)]
-fn loose_augmented_states(
-    cfg: &RunConfig,
-    gnss: &[GnssFix],
-    applied_offset_std_s: Option<f64>,
-) -> Result<(navfuse_core::estimators::eskf::AugmentedStates, String)> {
-    let (mut aug, mut note) = crate::gnss_error::augmented_states(cfg, gnss)?;
-    if let (Some(std_s), None) = (applied_offset_std_s, aug.time_offset) {
-        aug.time_offset = Some(navfuse_core::estimators::eskf::TimeOffsetState {
-            initial_s: 0.0,
-            std_s,
-            rw_psd: 0.0,
-            consider: true,
-        });
-        let what = format!(
-            "applied time offset's σ {:.1} ms as a consider state",
-            std_s * 1e3
-        );
-        note = if note.is_empty() || note == "none" {
-            what
-        } else {
-            format!("{note}; {what}")
-        };
-    }
-    Ok((aug, note))
-}
-
 /// Switch the filter to tight coupling. Not inlined: the filter is moved
 /// by value here, and that copy must not enlarge [`run_eskf_span`]'s stack
 /// frame (it runs on 2 MiB worker threads in the experiments).
@@ -547,7 +508,7 @@ fn make_tight(cfg: &RunConfig, eskf: &mut Eskf) -> Result<()> {
 /// solution ([`EskfRun::std`]).
 ///
 /// Not inlined: its frame holds several ESKFs (≈ 100 kB each) while they are
-/// built, and inlined into the offset passes' callers once per call site it
+/// built; inlined into the offset passes' callers once per call site it
 /// took 2.1 MB of stack (measured with `RUST_MIN_STACK`), past the 2 MiB
 /// of rayon's and the test harness's threads; out of line, 1.2–1.5 MB.
 #[inline(never)]
@@ -616,7 +577,7 @@ pub(crate) fn run_eskf_span(
                 .to_string(),
         )
     } else {
-        loose_augmented_states(cfg, gnss, span.applied_offset_std_s)?
+        crate::gnss_error::augmented_states(cfg, gnss)?
     };
     let new_eskf = |nav, std: &InitStd| {
         let e = Eskf::new(ecfg, nav, a.errors, std);

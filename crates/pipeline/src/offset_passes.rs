@@ -112,10 +112,6 @@ fn shifted(imu: &[ImuSample], tau: f64) -> Vec<ImuSample> {
         .collect()
 }
 
-/// One filter run of the passes: the IMU samples (shifted or not) and the
-/// σ [s] of an offset already applied to them (`None`: treat as exact).
-pub type PassRun<'a> = dyn FnMut(&[ImuSample], Option<f64>) -> Result<EskfRun> + 'a;
-
 /// The result of [`run_with_offset_passes`].
 pub struct Passes {
     /// The run to keep (on the IMU shifted by `applied`, or unshifted).
@@ -126,18 +122,14 @@ pub struct Passes {
     pub note: String,
 }
 
-/// Runs `run` (the filter on the given IMU samples, GNSS fixed; the second
-/// argument the σ [s] of an offset already applied to them, carried as a
-/// consider state) in passes and decides the offset (see the module doc).
-/// `imu` unshifted. An applied offset costs one more run: the kept one,
-/// with the offset's honest σ considered (the passes run without it, so
-/// their residuals stay comparable).
+/// Runs `run` (the filter on the given IMU samples, GNSS fixed) in passes
+/// and decides the offset (see the module doc). `imu` unshifted.
 pub fn run_with_offset_passes(
     imu: &[ImuSample],
     gnss: &[GnssFix],
-    run: &mut PassRun<'_>,
+    run: &mut dyn FnMut(&[ImuSample]) -> Result<EskfRun>,
 ) -> Result<Passes> {
-    let r0 = run(imu, None)?;
+    let r0 = run(imu)?;
     let e0 = residual(&r0, imu, gnss);
     let mut log = vec![format!("pass 1 (0 s): {}", fmt(&e0))];
     let done = |run, applied, log: Vec<String>, why: &str| Passes {
@@ -160,7 +152,7 @@ pub fn run_with_offset_passes(
     let mut prev: Option<(f64, f64)> = None;
     for pass in 2..=MAX_PASSES + 1 {
         let imu_s = shifted(imu, tau);
-        let r = run(&imu_s, None)?;
+        let r = run(&imu_s)?;
         let e = residual(&r, &imu_s, gnss);
         log.push(format!("pass {pass} ({tau:+.4} s): {}", fmt(&e)));
         let Some(d) = e.tau_s.filter(|_| e.std_fit_s.is_finite()) else {
@@ -178,19 +170,13 @@ pub fn run_with_offset_passes(
     }
     let cfg = VelOffsetConfig::default();
     match last {
-        Some((_, tau, std))
+        Some((r, tau, std))
             if std <= cfg.max_std_s
                 && tau.abs() > cfg.k_sigma * std
                 && tau.abs() < MAX_SHIFT_S - cfg.grid_step_s =>
         {
-            let r = run(&shifted(imu, tau), Some(std))?;
             let how = format!("auto (velocity passes): {tau:+.4} ± {std:.4} s");
-            Ok(done(
-                r,
-                Some((tau, how)),
-                log,
-                "significant; applied, its σ considered",
-            ))
+            Ok(done(r, Some((tau, how)), log, "significant; applied"))
         }
         Some((_, tau, std)) => Ok(done(
             r0,
@@ -277,14 +263,13 @@ pub fn decide_on_loaded(
             });
         }
         let (imu0, gnss, aux0) = (&loaded.imu, &loaded.gnss, &loaded.aux);
-        let mut run = |imu: &[ImuSample], applied_std: Option<f64>| {
+        let mut run = |imu: &[ImuSample]| {
             let tau = imu
                 .first()
                 .zip(imu0.first())
                 .map_or(0.0, |(a, b)| a.t - b.t);
             let aux = aux0.as_ref().map(|a| shift_aux(a, tau));
-            let mut span = crate::eskf_run::select_span(cfg, imu, gnss)?;
-            span.applied_offset_std_s = applied_std;
+            let span = crate::eskf_run::select_span(cfg, imu, gnss)?;
             crate::eskf_run::run_eskf_span(cfg, base_dir, &span, aux.as_ref(), with_std)
         };
         let p = run_with_offset_passes(imu0, gnss, &mut run)?;
