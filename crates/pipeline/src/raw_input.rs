@@ -34,7 +34,8 @@
 use crate::error::{PipelineError, Result};
 use crate::input::InputReport;
 use crate::spp::{
-    by_prn, nearer_toe, other_system, solve_obs, SppNav, SppOptions, SppSummary, MAX_EPH_AGE_S,
+    broadcast_sigma_m, by_prn, nearer_toe, other_system, solve_obs, SppNav, SppOptions, SppSummary,
+    MAX_EPH_AGE_S,
 };
 use navfuse_core::geodesy::{c_en, ecef_to_geodetic};
 use navfuse_core::gnss::orbit_gnss::{self, OrbitKind};
@@ -252,13 +253,7 @@ pub fn raw_from_obs(
                 bump(id, &|c| c.no_code += 1);
                 continue;
             };
-            let best = n
-                .other
-                .iter()
-                .filter(|e| e.sys == *sys && e.orbit.prn == *prn)
-                .filter(|e| (e.orbit.t_oe - ep.t).abs() <= max_age)
-                .min_by(|a, b| nearer_toe(ep.t, a.orbit.t_oe, b.orbit.t_oe));
-            let Some(e) = best else {
+            let Some(e) = n.other_ephemeris(*sys, *prn, ep.t, max_age) else {
                 bump(id, &|c| c.no_ephemeris += 1);
                 continue;
             };
@@ -266,11 +261,7 @@ pub fn raw_from_obs(
                 bump(id, &|c| c.unhealthy += 1);
                 continue;
             }
-            let ura = if *sys == 'E' && e.accuracy_m > 0.0 {
-                e.accuracy_m
-            } else {
-                ura_sigma_m(e.accuracy_m)
-            };
+            let ura = broadcast_sigma_m(*sys, e.accuracy_m);
             let mut r = RawSat {
                 obs: RawObs {
                     t: ep.t,

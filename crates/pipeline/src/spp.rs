@@ -35,6 +35,34 @@ pub struct SppNav {
     pub other: Vec<GnssEph>,
 }
 
+impl SppNav {
+    /// The record of non-GPS satellite `prn` of system `sys` whose t_oe is
+    /// nearest `t` [s], within `max_age_s` (healthy or not: the caller counts).
+    pub(crate) fn other_ephemeris(
+        &self,
+        sys: char,
+        prn: u8,
+        t: f64,
+        max_age_s: f64,
+    ) -> Option<&GnssEph> {
+        self.other
+            .iter()
+            .filter(|e| e.sys == sys && e.orbit.prn == prn)
+            .filter(|e| (e.orbit.t_oe - t).abs() <= max_age_s)
+            .min_by(|a, b| nearer_toe(t, a.orbit.t_oe, b.orbit.t_oe))
+    }
+}
+
+/// The broadcast σ [m] of a record's accuracy field: Galileo SISA is a σ
+/// in metres already; the others carry a URA ([`ura_sigma_m`]).
+pub(crate) fn broadcast_sigma_m(sys: char, accuracy_m: f64) -> f64 {
+    if sys == 'E' && accuracy_m > 0.0 {
+        accuracy_m
+    } else {
+        ura_sigma_m(accuracy_m)
+    }
+}
+
 /// Clock group, code and Doppler codes (in order of preference), carrier
 /// wavelength and largest ephemeris age of the non-GPS systems used:
 /// Galileo E1 (own clock; 4 h, RTKLIB `MAXDTOE_GAL`), BeiDou B1I (own clock,
@@ -283,13 +311,7 @@ pub fn solve_obs(
                 sum.sat_no_code += 1;
                 continue;
             };
-            let best = navs
-                .other
-                .iter()
-                .filter(|e| e.sys == *sys && e.orbit.prn == *prn)
-                .filter(|e| (e.orbit.t_oe - ep.t).abs() <= max_age)
-                .min_by(|a, b| nearer_toe(ep.t, a.orbit.t_oe, b.orbit.t_oe));
-            let Some(e) = best else {
+            let Some(e) = navs.other_ephemeris(*sys, *prn, ep.t, max_age) else {
                 sum.sat_no_ephemeris += 1;
                 continue;
             };
@@ -305,12 +327,7 @@ pub fn solve_obs(
                 lambda_m: lambda,
                 orbit: e.orbit,
                 kind: e.kind,
-                // Galileo SISA is a σ in metres already; the others are URA.
-                ura_m: if *sys == 'E' && e.accuracy_m > 0.0 {
-                    e.accuracy_m
-                } else {
-                    ura_sigma_m(e.accuracy_m)
-                },
+                ura_m: broadcast_sigma_m(*sys, e.accuracy_m),
             };
             n += 1;
             sum.other_systems_used += 1;

@@ -1037,9 +1037,8 @@ impl Eskf {
     /// down where the tilt σ given is below the bias share σ_ba/g (the
     /// joint covariance stays positive semidefinite).
     pub fn with_tilt_from_force(mut self) -> Self {
-        let g = 9.806_65;
-        let f_x = Mat3::new(0.0, g, 0.0, -g, 0.0, 0.0, 0.0, 0.0, 0.0);
-        let a = f_x * self.nav.c_bn() / (g * g);
+        let g = crate::earth::STANDARD_GRAVITY;
+        let a = skew(&Vec3::new(0.0, 0.0, -g)) * self.nav.c_bn() / (g * g);
         let p_ba: Mat3 = self.p.fixed_view::<3, 3>(I_BA, I_BA).into_owned();
         let cross = a * p_ba;
         let mut rho: f64 = 1.0;
