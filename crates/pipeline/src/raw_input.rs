@@ -34,8 +34,8 @@
 use crate::error::{PipelineError, Result};
 use crate::input::InputReport;
 use crate::spp::{
-    broadcast_sigma_m, by_prn, nearer_toe, other_system, solve_obs, SppNav, SppOptions, SppSummary,
-    MAX_EPH_AGE_S,
+    broadcast_sigma_m, by_prn, gps_ephemeris, other_system, solve_obs, SppNav, SppOptions,
+    SppSummary,
 };
 use navfuse_core::geodesy::{c_en, ecef_to_geodetic};
 use navfuse_core::gnss::orbit_gnss::{self, OrbitKind};
@@ -183,14 +183,7 @@ pub fn raw_from_obs(
                 bump(id, &|c| c.no_code += 1);
                 continue;
             };
-            let best = eph
-                .get(*prn as usize)
-                .into_iter()
-                .flatten()
-                .copied()
-                .filter(|&i| (n.gps.orbits[i].t_oe - ep.t).abs() <= MAX_EPH_AGE_S)
-                .min_by(|&a, &b| nearer_toe(ep.t, n.gps.orbits[a].t_oe, n.gps.orbits[b].t_oe));
-            let Some(ki) = best else {
+            let Some(ki) = gps_ephemeris(&n.gps, &eph, *prn, ep.t) else {
                 bump(id, &|c| c.no_ephemeris += 1);
                 continue;
             };

@@ -224,6 +224,18 @@ pub(crate) fn by_prn(nav: &NavData) -> Vec<Vec<usize>> {
     v
 }
 
+/// Index in `nav.orbits` of GPS satellite `prn`'s record whose t_oe is
+/// nearest `t` [s] within [`MAX_EPH_AGE_S`] (`eph` = [`by_prn`] of `nav`;
+/// healthy or not: the caller counts).
+pub(crate) fn gps_ephemeris(nav: &NavData, eph: &[Vec<usize>], prn: u8, t: f64) -> Option<usize> {
+    eph.get(prn as usize)
+        .into_iter()
+        .flatten()
+        .copied()
+        .filter(|&i| (nav.orbits[i].t_oe - t).abs() <= MAX_EPH_AGE_S)
+        .min_by(|&a, &b| nearer_toe(t, nav.orbits[a].t_oe, nav.orbits[b].t_oe))
+}
+
 /// Order of two ephemerides' t_oe for an epoch at `t`: the nearer first; on
 /// a tie the later one (the newer upload).
 pub(crate) fn nearer_toe(t: f64, ta: f64, tb: f64) -> std::cmp::Ordering {
@@ -274,14 +286,7 @@ pub fn solve_obs(
                 sum.sat_no_code += 1;
                 continue;
             };
-            let best = eph
-                .get(*prn as usize)
-                .into_iter()
-                .flatten()
-                .copied()
-                .filter(|&i| (nav.orbits[i].t_oe - ep.t).abs() <= MAX_EPH_AGE_S)
-                .min_by(|&a, &b| nearer_toe(ep.t, nav.orbits[a].t_oe, nav.orbits[b].t_oe));
-            let Some(k) = best else {
+            let Some(k) = gps_ephemeris(nav, &eph, *prn, ep.t) else {
                 sum.sat_no_ephemeris += 1;
                 continue;
             };
