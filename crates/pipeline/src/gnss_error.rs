@@ -192,31 +192,15 @@ pub fn augmented_states(cfg: &RunConfig, gnss: &[GnssFix]) -> Result<(AugmentedS
             PRIOR_TAU_S
         };
         let (mh, mv) = (med_h.unwrap_or(1.0), med_v.unwrap_or(1.5));
-        let mut prior = (PRIOR_SLOW_SHARE.sqrt() * mh, PRIOR_SLOW_SHARE.sqrt() * mv);
-        let mut prior_how =
-            "literature prior (no GNSS velocity or record too short to fit)".to_string();
-        let mut white_after_all = false;
-        if consider {
-            if let Some(sp) = fit_fast_part(gnss, prior_tau) {
-                // σ_b² = σ_fix² − σ_w²: the reported σ covers both parts.
-                prior = (
-                    (mh * mh - sp.white_h_m.powi(2)).max(0.0).sqrt(),
-                    (mv * mv - sp.white_v_m.powi(2)).max(0.0).sqrt(),
-                );
-                white_after_all = !sp.correlated;
-                prior_how = format!(
-                    "fast part from the fix-to-fix differences: white {:.2} ± {:.2} m (h), {:.2} m (v) of the reported {mh:.2} m; {}",
-                    sp.white_h_m,
-                    sp.white_h_unc_m,
-                    sp.white_v_m,
-                    if sp.correlated {
-                        "correlated part significant"
-                    } else {
-                        "no significant correlated part: white"
-                    }
-                );
-            }
-        }
+        let (prior, prior_how, white_after_all) = if consider {
+            code_grade_split(gnss, mh, mv, prior_tau)
+        } else {
+            (
+                (PRIOR_SLOW_SHARE.sqrt() * mh, PRIOR_SLOW_SHARE.sqrt() * mv),
+                PRIOR_HOW.to_string(),
+                false,
+            )
+        };
         if white_after_all {
             notes.push(format!("GNSS error white ({prior_how})"));
         }
@@ -299,6 +283,52 @@ pub fn augmented_states(cfg: &RunConfig, gnss: &[GnssFix]) -> Result<(AugmentedS
     ))
 }
 
+/// How the split of a code-grade fix error is found without GNSS velocity.
+const PRIOR_HOW: &str = "literature prior (no GNSS velocity or record too short to fit)";
+
+/// Split the reported σ of code-grade fixes (median `mh` per horizontal
+/// axis, `mv` vertical) into its Gauss–Markov part (correlation time
+/// `tau_s`): σ_b² = σ_fix² − σ_w² with σ_w from the fix-to-fix differences
+/// ([`fit_fast_part`]), else the literature prior σ_b = √[`PRIOR_SLOW_SHARE`]
+/// σ_fix (module documentation). Returns (σ_b h, σ_b v), how, and whether
+/// the differences show no significant correlated part (then the fixes are
+/// treated as white).
+fn code_grade_split(gnss: &[GnssFix], mh: f64, mv: f64, tau_s: f64) -> ((f64, f64), String, bool) {
+    let Some(sp) = fit_fast_part(gnss, tau_s) else {
+        return (
+            (PRIOR_SLOW_SHARE.sqrt() * mh, PRIOR_SLOW_SHARE.sqrt() * mv),
+            PRIOR_HOW.to_string(),
+            false,
+        );
+    };
+    let how = format!(
+        "fast part from the fix-to-fix differences: white {:.2} ± {:.2} m (h), {:.2} m (v) of the reported {mh:.2} m; {}",
+        sp.white_h_m,
+        sp.white_h_unc_m,
+        sp.white_v_m,
+        if sp.correlated {
+            "correlated part significant"
+        } else {
+            "no significant correlated part: white"
+        }
+    );
+    (
+        (
+            (mh * mh - sp.white_h_m.powi(2)).max(0.0).sqrt(),
+            (mv * mv - sp.white_v_m.powi(2)).max(0.0).sqrt(),
+        ),
+        how,
+        !sp.correlated,
+    )
+}
+
+/// Median horizontal per-axis and vertical reported σ of `gnss` [m].
+fn median_sigma(gnss: &[GnssFix]) -> Option<(f64, f64)> {
+    let mh = median(gnss.iter().map(|f| 0.5 * (f.std_ned.x + f.std_ned.y)))?;
+    let mv = median(gnss.iter().map(|f| f.std_ned.z))?;
+    Some((mh, mv))
+}
+
 /// The correlated GNSS error model under which a white-gain filter reports
 /// σ ([`navfuse_core::estimators::eskf::Eskf::start_sensitivity`]; Gelb,
 /// *Applied Optimal Estimation* §7.2): for carrier-phase (RTK) fixes the
@@ -309,6 +339,9 @@ pub fn augmented_states(cfg: &RunConfig, gnss: &[GnssFix]) -> Result<(AugmentedS
 /// [`RTK_TAU_S`] (or `[filter.gnss_error] tau_s`). `None` (σ from the white
 /// model, as before) unless the model is `auto` on fixes that are not
 /// code-grade, carry velocities, and show a significant correlated part.
+/// (Code-grade fixes get considered states in `navfuse run`,
+/// [`augmented_states`]; a filter that must keep the white gain uses
+/// [`white_gain_sigma_model`].)
 pub fn sensitivity_model(cfg: &RunConfig, gnss: &[GnssFix]) -> (Option<SensitivityModel>, String) {
     let g = cfg.filter.gnss_error.clone().unwrap_or_default();
     let model = g
@@ -319,15 +352,55 @@ pub fn sensitivity_model(cfg: &RunConfig, gnss: &[GnssFix]) -> (Option<Sensitivi
         } else {
             "auto"
         });
-    let med_h = median(gnss.iter().map(|f| 0.5 * (f.std_ned.x + f.std_ned.y)));
-    let med_v = median(gnss.iter().map(|f| f.std_ned.z));
-    let (Some(mh), Some(mv)) = (med_h, med_v) else {
+    match median_sigma(gnss) {
+        Some((mh, mv)) if model == "auto" && mh <= CODE_GRADE_SIGMA_M => {
+            carrier_phase_sensitivity(gnss, g.tau_s.unwrap_or(RTK_TAU_S), mh, mv)
+        }
+        _ => (None, String::new()),
+    }
+}
+
+/// The σ model of a filter that keeps the white-noise GNSS gain whatever
+/// the fixes (`navfuse kf-gins` with a platform profile, `navfuse live`):
+/// the correlated fix error `navfuse run` models by default (`auto`) on the
+/// same fixes, carried as a sensitivity covariance (Gelb §7.2), so only the
+/// reported σ changes, never a solution.
+/// - carrier-phase fixes: as [`sensitivity_model`] (τ [`RTK_TAU_S`]);
+/// - code-grade fixes: the Gauss–Markov error `run` considers
+///   ([`augmented_states`]): τ [`CONSIDER_TAU_S`], σ_b from the
+///   fix-to-fix differences or the literature prior, none (white) when the
+///   differences show no significant correlated part. `run`'s consider
+///   states also change its gain; here the white gain is kept (KF-GINS's),
+///   and the σ is that gain's error covariance under the same model.
+pub fn white_gain_sigma_model(gnss: &[GnssFix]) -> (Option<SensitivityModel>, String) {
+    let Some((mh, mv)) = median_sigma(gnss) else {
         return (None, String::new());
     };
-    if model != "auto" || mh > CODE_GRADE_SIGMA_M {
-        return (None, String::new());
+    if mh <= CODE_GRADE_SIGMA_M {
+        return carrier_phase_sensitivity(gnss, RTK_TAU_S, mh, mv);
     }
-    let tau = g.tau_s.unwrap_or(RTK_TAU_S);
+    let ((sh, sv), how, white) = code_grade_split(gnss, mh, mv, CONSIDER_TAU_S);
+    if white {
+        return (None, format!("σ from the white model ({how})"));
+    }
+    (
+        Some(SensitivityModel {
+            tau_s: CONSIDER_TAU_S,
+            sigma_m: Vec3::new(sh, sh, sv),
+        }),
+        format!(
+            "σ reported under a correlated fix error (white gain kept; Gauss–Markov tau {CONSIDER_TAU_S:.0} s, sigma {sh:.2} m h / {sv:.2} m v; {how})"
+        ),
+    )
+}
+
+/// [`sensitivity_model`] for carrier-phase fixes (median σ `mh`, `mv`).
+fn carrier_phase_sensitivity(
+    gnss: &[GnssFix],
+    tau: f64,
+    mh: f64,
+    mv: f64,
+) -> (Option<SensitivityModel>, String) {
     let Some(sp) = fit_fast_part(gnss, tau) else {
         return (
             None,

@@ -14,7 +14,9 @@ use crate::kf_gins_out::{write_err_line, write_nav_line, write_std_line, OutFile
 use crate::kfgins_input::{read_kfgins, RunInput};
 use crate::profile::Platform;
 use crate::time_offset::{auto_estimate, describe, TimeOffset};
-use navfuse_core::estimators::eskf::{rts_smooth, Eskf, EskfConfig, EskfStats, SmoothedEpoch};
+use navfuse_core::estimators::eskf::{
+    rts_smooth, Eskf, EskfConfig, EskfStats, SensitivityModel, SmoothedEpoch,
+};
 use navfuse_core::types::{Estimator, Event, GnssFix, NavSolution};
 use navfuse_io::kfgins_yaml::KfGinsConfig;
 use std::path::{Path, PathBuf};
@@ -68,6 +70,10 @@ pub struct KfGinsRun {
     pub align: AlignDecision,
     /// IMU–GNSS time offset applied [s] and how it was found.
     pub time_offset: Option<(f64, String)>,
+    /// The correlated GNSS error model the σ is reported under (a platform
+    /// profile only; `None`: the filter's own white-model σ, as KF-GINS)
+    /// and how it was chosen ([`crate::gnss_error::white_gain_sigma_model`]).
+    pub sigma_model: (Option<SensitivityModel>, String),
 }
 
 /// navfuse's land-vehicle configuration on top of a KF-GINS model: the `car`
@@ -179,6 +185,24 @@ pub fn run_kf_gins(yaml: &Path, args: &KfGinsOptions) -> Result<KfGinsRun> {
     if args.verbose && !(source == AlignSource::Auto && decision.alignment.is_some()) {
         eprintln!("{}", decision.note);
     }
+    // With a platform profile the σ is reported under the correlated fix
+    // error `navfuse run` models on the same fixes (sensitivity covariance:
+    // the gain, hence every solution, is unchanged). The plain KF-GINS model
+    // keeps KF-GINS's own white-model σ.
+    let sigma_model = if platform.is_some() {
+        let lo = input.gnss.partition_point(|f| f.t <= start);
+        let hi = input.gnss.partition_point(|f| f.t <= end);
+        crate::gnss_error::white_gain_sigma_model(&input.gnss[lo..hi.max(lo)])
+    } else {
+        (None, String::new())
+    };
+    if let Some(m) = sigma_model.0 {
+        eskf.start_sensitivity(m)
+            .map_err(|e| PipelineError::Estimator(format!("sensitivity covariance: {e}")))?;
+    }
+    if args.verbose && !sigma_model.1.is_empty() {
+        eprintln!("{}", sigma_model.1);
+    }
 
     let t_filter = Instant::now();
     let r = filter(&mut eskf, &input, start, end, &out_dir, args.smooth)?;
@@ -196,6 +220,7 @@ pub fn run_kf_gins(yaml: &Path, args: &KfGinsOptions) -> Result<KfGinsRun> {
         config: ecfg,
         time_offset: applied,
         align: decision,
+        sigma_model,
     })
 }
 
@@ -282,7 +307,8 @@ fn filter(
                     )));
                     break;
                 }
-                let p = eskf.covariance();
+                // The σ reported: the sensitivity covariance when started.
+                let p = eskf.reported_covariance();
                 batch.push(OutRow {
                     sol,
                     err: *eskf.imu_errors(),

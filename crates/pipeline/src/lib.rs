@@ -57,6 +57,7 @@ pub mod sensors;
 pub mod sigma;
 pub mod smooth_gps;
 pub mod spp;
+pub mod stream_sigma;
 mod summary;
 pub mod template;
 pub mod tight_run;

@@ -214,6 +214,26 @@ pub fn aligning_eskf(
     Ok(LiveEst::Aligning(Box::new(e)))
 }
 
+/// An ESKF whose σ is reported under the correlated fix error chosen from
+/// the fixes it was handed ([`crate::stream_sigma`]); solutions unchanged.
+pub struct SigmaEskf {
+    pub eskf: navfuse_core::estimators::eskf::Eskf,
+    pub sigma: crate::stream_sigma::StreamSigma,
+}
+
+impl Estimator for SigmaEskf {
+    fn name(&self) -> &'static str {
+        self.eskf.name()
+    }
+    fn push(&mut self, ev: &Event) -> Option<NavSolution> {
+        let sol = self.eskf.push(ev);
+        if let Event::Gnss(f) = ev {
+            self.sigma.observe(&mut self.eskf, f);
+        }
+        sol
+    }
+}
+
 /// How `navfuse kf-gins` presents events to its ESKF: times as time of week,
 /// IMU from `start` (inclusive), fixes after `start`, up to `end`; the first
 /// solution only initialises.
@@ -237,13 +257,24 @@ pub fn kfgins_eskf(
         ecfg = crate::kf_gins::enhanced(ecfg);
     }
     let eskf = Eskf::new(ecfg, cfg.init_nav(), cfg.init_errors(), &cfg.init_std());
+    // `--enhanced`: σ under the correlated fix error, as `navfuse kf-gins
+    // --enhanced` (chosen from the fixes streamed so far); the plain
+    // KF-GINS model keeps its white σ.
+    let eskf: Box<dyn Estimator> = if enhanced {
+        Box::new(SigmaEskf {
+            eskf,
+            sigma: crate::stream_sigma::StreamSigma::new(),
+        })
+    } else {
+        Box::new(eskf)
+    };
     let end = if cfg.endtime < 0.0 {
         f64::INFINITY
     } else {
         cfg.endtime
     };
     Ok((
-        Box::new(eskf),
+        eskf,
         KfGinsFrame {
             week_s: f64::from(week) * navfuse_io::time::SECONDS_PER_WEEK,
             start: cfg.starttime,

@@ -31,6 +31,7 @@ use crate::align::{align, AlignModel, Alignment};
 use crate::config::RunConfig;
 use crate::error::Result;
 use crate::eskf_run::{filter_setup, FilterSetup};
+use crate::stream_sigma::StreamSigma;
 use navfuse_core::estimators::eskf::{AidingStats, Eskf};
 use navfuse_core::types::{Estimator, Event, GnssFix, ImuSample, NavSolution};
 use std::path::Path;
@@ -62,6 +63,9 @@ pub struct AligningEskf {
     /// Aiding events while aligning, time order.
     aids: Vec<Event>,
     eskf: Option<Eskf>,
+    /// The σ model, chosen from the fixes handed to the filter
+    /// ([`crate::stream_sigma`]).
+    pub sigma: StreamSigma,
     /// Aiding counters of the filters dropped by a realignment.
     aid_stats_before: AidingStats,
     last_try_t: f64,
@@ -87,6 +91,7 @@ impl AligningEskf {
             gnss: Vec::new(),
             aids: Vec::new(),
             eskf: None,
+            sigma: StreamSigma::new(),
             aid_stats_before: AidingStats::default(),
             last_try_t: f64::NEG_INFINITY,
             alignment: None,
@@ -162,6 +167,7 @@ impl AligningEskf {
         for s in &self.imu[a.k_start..] {
             while g < self.gnss.len() && self.gnss[g].t <= s.t + 1e-3 {
                 eskf.push(&Event::Gnss(self.gnss[g]));
+                self.sigma.observe(&mut eskf, &self.gnss[g]);
                 g += 1;
             }
             while h < self.aids.len() && self.aids[h].t() <= s.t {
@@ -175,6 +181,7 @@ impl AligningEskf {
         // before their IMU sample) are checked against the filter time.
         for f in &self.gnss[g..] {
             eskf.push(&Event::Gnss(*f));
+            self.sigma.observe(&mut eskf, f);
         }
         for e in &self.aids[h..] {
             eskf.push(e);
@@ -201,6 +208,7 @@ impl AligningEskf {
             }
         }
         self.alignment = None;
+        self.sigma = StreamSigma::new();
         self.imu.clear();
         self.gnss.clear();
         self.aids.clear();
@@ -249,7 +257,11 @@ impl Estimator for AligningEskf {
             self.last_imu = Some((s.t, s.dt));
         }
         if let Some(e) = &mut self.eskf {
-            return e.push(&ev);
+            let sol = e.push(&ev);
+            if let Event::Gnss(f) = &ev {
+                self.sigma.observe(e, f);
+            }
+            return sol;
         }
         let ev = &ev;
         match ev {
