@@ -147,6 +147,7 @@ pub fn run_config(args: &Args) -> Result<KfGinsRun, PipelineError> {
         verbose: args.verbose,
         align: args.align,
         parquet: args.parquet,
+        white_sigma: false,
     };
     run_kf_gins(&args.config, &opts)
 }

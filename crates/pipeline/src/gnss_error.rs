@@ -848,4 +848,42 @@ mod tests {
         let kf = run_cfg("[filter]\npreset = \"kf-gins\"\n");
         assert!(sensitivity_model(&kf, &f).0.is_none());
     }
+
+    /// `kf-gins` with a platform and `live` report σ under the model `run`
+    /// uses on the same fixes: the sensitivity model on RTK fixes, the
+    /// considered Gauss–Markov τ and σ on code-grade fixes (with and without
+    /// velocity); none on fixes whose differences show no correlated part,
+    /// as `run` treats them as white.
+    #[test]
+    fn white_gain_sigma_model_is_the_model_run_uses() {
+        let auto = run_cfg("");
+        let s = 0.02 / 2f64.sqrt();
+        let rtk = fixes_vel(1, s, s, 0.02);
+        let m = white_gain_sigma_model(&rtk).0.expect("RTK: sensitivity");
+        assert_eq!(Some(m), sensitivity_model(&auto, &rtk).0);
+        let mut no_vel = fixes(2);
+        for x in &mut no_vel {
+            x.v_n = None;
+        }
+        for code in [fixes(1), no_vel] {
+            let m = white_gain_sigma_model(&code)
+                .0
+                .expect("code-grade: correlated");
+            let g = augmented_states(&auto, &code)
+                .unwrap()
+                .0
+                .gnss_error
+                .unwrap();
+            assert!(g.consider);
+            assert_eq!((m.tau_s, m.sigma_m), (g.tau_s, g.sigma_m));
+            assert!(sensitivity_model(&auto, &code).0.is_none());
+        }
+        let white = fixes_with(3, 2.24, 0.0);
+        assert!(augmented_states(&auto, &white)
+            .unwrap()
+            .0
+            .gnss_error
+            .is_none());
+        assert!(white_gain_sigma_model(&white).0.is_none());
+    }
 }

@@ -52,6 +52,10 @@ pub struct KfGinsOptions {
     /// [`navfuse_io::parquet_out::solutions_table`], with the real GPS week
     /// and yaw in (−180°, 180°] where the `.nav` has week 0 and yaw in [0°, 360°).
     pub parquet: bool,
+    /// Report the filter's own white-model σ even with a platform profile
+    /// (KF-GINS's σ; the solutions are the same either way, only
+    /// `KF_GINS_STD*.txt` and the solutions' σ differ).
+    pub white_sigma: bool,
 }
 
 /// Everything a run produced (for the tests and the summary).
@@ -189,7 +193,7 @@ pub fn run_kf_gins(yaml: &Path, args: &KfGinsOptions) -> Result<KfGinsRun> {
     // error `navfuse run` models on the same fixes (sensitivity covariance:
     // the gain, hence every solution, is unchanged). The plain KF-GINS model
     // keeps KF-GINS's own white-model σ.
-    let sigma_model = if platform.is_some() {
+    let sigma_model = if platform.is_some() && !args.white_sigma {
         let lo = input.gnss.partition_point(|f| f.t <= start);
         let hi = input.gnss.partition_point(|f| f.t <= end);
         crate::gnss_error::white_gain_sigma_model(&input.gnss[lo..hi.max(lo)])

@@ -71,6 +71,8 @@ mod aiding_run_tests;
 #[cfg(test)]
 mod input_tests;
 #[cfg(test)]
+mod kf_gins_sigma_tests;
+#[cfg(test)]
 mod kf_gins_tests;
 #[cfg(test)]
 mod run_tests;

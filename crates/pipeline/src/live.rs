@@ -175,6 +175,14 @@ impl LiveEst {
             }),
         }
     }
+    /// The correlated GNSS error model the σ is reported under, and how it
+    /// was chosen ([`crate::stream_sigma`]; self-aligning ESKF only).
+    pub fn sigma_model(&self) -> &str {
+        match self {
+            LiveEst::Boxed(_) => "",
+            LiveEst::Aligning(e) => &e.sigma.note,
+        }
+    }
     /// The estimator's warnings (alignment).
     pub fn warnings(&self) -> &[String] {
         match self {

@@ -236,6 +236,7 @@ impl Inputs {
             "aid_in": q.aid_in, "aid_out": q.aid_out, "aid_late": q.aid_late,
             "aid_dropped_bound": q.aid_dropped_bound,
             "aiding": drv.est.aiding_json(),
+            "sigma_model": drv.est.sigma_model(),
         })
     }
 
