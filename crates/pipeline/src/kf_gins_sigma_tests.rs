@@ -3,6 +3,7 @@
 //! ([`crate::gnss_error::white_gain_sigma_model`]), solutions unchanged.
 
 use crate::kf_gins::{run_kf_gins, KfGinsOptions, KfGinsRun};
+use crate::stream_sigma::honesty::{self, Coverage};
 use navfuse_sim::{imu_model::imu_preset, SimRun};
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
@@ -72,8 +73,7 @@ fn kf_gins(yaml: &Path, out: &Path, enhanced: bool, white_sigma: bool) -> KfGins
     run_kf_gins(yaml, &opts).unwrap()
 }
 
-/// Horizontal NEES of each solution against the truth (the IMU point; the
-/// NE cross term of the covariance is not in a solution, so the diagonal).
+/// Horizontal NEES of each solution against the truth (the IMU point).
 /// KF-GINS times are times of week.
 fn nees_h(run: &SimRun, k: &KfGinsRun) -> Vec<f64> {
     let t0 = run.traj.truth[0].t;
@@ -82,10 +82,7 @@ fn nees_h(run: &SimRun, k: &KfGinsRun) -> Vec<f64> {
         .iter()
         .map(|s| {
             let tr = run.traj.at(s.t + week_s);
-            let (rm, rn) = navfuse_core::earth::radii(tr.lat);
-            let en = (s.lat - tr.lat) * (rm + tr.h);
-            let ee = (s.lon - tr.lon) * (rn + tr.h) * tr.lat.cos();
-            (en / s.std_pos_ned.x).powi(2) + (ee / s.std_pos_ned.y).powi(2)
+            honesty::nees_h(s, tr.lat, tr.lon, tr.h)
         })
         .collect()
 }
@@ -100,7 +97,7 @@ fn nees_h(run: &SimRun, k: &KfGinsRun) -> Vec<f64> {
 /// its white σ.
 #[test]
 fn enhanced_sigma_covers_a_simulated_consumer_drive_and_keeps_the_solution() {
-    let (mut inside, mut inside_w, mut n, mut sum) = (0usize, 0usize, 0usize, 0.0);
+    let mut pooled = Coverage::default();
     for seed in 21..24 {
         let dir = crate::test_dir(&format!("kfgins-sigma-{seed}"));
         let (run, yaml) = demo_drive(seed, &dir);
@@ -123,30 +120,17 @@ fn enhanced_sigma_covers_a_simulated_consumer_drive_and_keeps_the_solution() {
             assert!(r("sens") == r("white"), "{name} differs");
         }
         let (es, ew) = (nees_h(&run, &s), nees_h(&run, &w));
-        let c = |e: &[f64]| e.iter().filter(|x| **x <= 5.991).count();
-        let seed_cov = c(&es) as f64 / es.len() as f64;
-        eprintln!(
-            "seed {seed}: model {m:?}; coverage95 H white {:.3} → {seed_cov:.3}, mean NEES H {:.2} → {:.2}",
-            c(&ew) as f64 / ew.len() as f64,
-            ew.iter().sum::<f64>() / ew.len() as f64,
-            es.iter().sum::<f64>() / es.len() as f64
-        );
-        inside += c(&es);
-        inside_w += c(&ew);
-        n += es.len();
-        sum += es.iter().sum::<f64>();
+        let mut c = Coverage::default();
+        for (a, b) in es.iter().zip(&ew) {
+            c.add(*a, *b);
+            pooled.add(*a, *b);
+        }
+        let (cov, cov_w, nees) = c.get();
+        eprintln!("seed {seed}: model {m:?}; coverage95 H white {cov_w:.3} → {cov:.3}, mean NEES H {nees:.2}");
         // The plain KF-GINS model: no σ model, KF-GINS's own σ.
         let p = kf_gins(&yaml, &dir.join("plain"), false, false);
         assert!(p.sigma_model.0.is_none() && p.sigma_model.1.is_empty());
         let _ = std::fs::remove_dir_all(&dir);
     }
-    let (cov, cov_w, nees) = (
-        inside as f64 / n as f64,
-        inside_w as f64 / n as f64,
-        sum / n as f64,
-    );
-    eprintln!("pooled: coverage95 H white {cov_w:.3} → {cov:.3}, mean NEES H {nees:.2}");
-    assert!((0.85..=0.995).contains(&cov), "coverage {cov}");
-    assert!((0.5..=4.0).contains(&nees), "NEES {nees}");
-    assert!(cov > cov_w, "white {cov_w}, correlated {cov}");
+    pooled.check("kf-gins --enhanced, pooled");
 }

@@ -307,6 +307,7 @@ impl Estimator for AligningEskf {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::stream_sigma::honesty::{self, Coverage};
     use navfuse_sim::platform::{
         platform_run, GnssGrade, ImuGrade, Outages, Platform, PlatformOptions, PlatformRun,
     };
@@ -385,7 +386,7 @@ mod tests {
     /// [`crate::stream_sigma`].)
     #[test]
     fn streamed_sigma_under_the_correlated_fix_error() {
-        let (mut inside, mut inside_w, mut n, mut sum) = (0usize, 0usize, 0usize, 0.0);
+        let mut pooled = Coverage::default();
         for seed in 21..24 {
             let opt = PlatformOptions {
                 duration_s: 400.0,
@@ -420,30 +421,15 @@ mod tests {
                     continue;
                 }
                 let tr = pr.run.traj.at(a.t);
-                let (rm, rn) = navfuse_core::earth::radii(tr.lat);
-                let en = (a.lat - tr.lat) * (rm + tr.h);
-                let ee = (a.lon - tr.lon) * (rn + tr.h) * tr.lat.cos();
-                let nees = |x: &NavSolution| {
-                    (en / x.std_pos_ned.x).powi(2) + (ee / x.std_pos_ned.y).powi(2)
-                };
-                let (ns, nw) = (nees(&a), nees(&b));
-                inside += usize::from(ns <= 5.991);
-                inside_w += usize::from(nw <= 5.991);
-                n += 1;
-                sum += ns;
+                pooled.add(
+                    honesty::nees_h(&a, tr.lat, tr.lon, tr.h),
+                    honesty::nees_h(&b, tr.lat, tr.lon, tr.h),
+                );
             }
             eprintln!("seed {seed}: {} ({:?})", e.sigma.note, e.sigma.model);
             assert!(e.sigma.model.is_some(), "seed {seed}: {}", e.sigma.note);
         }
-        let (cov, cov_w, nees) = (
-            inside as f64 / n as f64,
-            inside_w as f64 / n as f64,
-            sum / n as f64,
-        );
-        eprintln!("streamed: coverage95 H white {cov_w:.3} → {cov:.3}, mean NEES H {nees:.2} ({n} epochs)");
-        assert!((0.85..=0.995).contains(&cov), "coverage {cov}");
-        assert!((0.5..=4.0).contains(&nees), "NEES {nees}");
-        assert!(cov > cov_w, "white {cov_w}, correlated {cov}");
+        pooled.check("streamed");
     }
 
     /// Written before the result was seen: a car stream with 20 s of data

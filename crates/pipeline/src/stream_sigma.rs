@@ -87,3 +87,66 @@ impl StreamSigma {
         }
     }
 }
+
+/// The σ-honesty bookkeeping of the tests of a correlated-error σ against
+/// the white σ on the same solutions (kf-gins and live tests).
+#[cfg(test)]
+pub(crate) mod honesty {
+    use navfuse_core::types::NavSolution;
+
+    /// χ²(2) 95 % quantile: the horizontal 95 % ellipse.
+    const CHI2_2_95: f64 = 5.991;
+
+    /// Horizontal NEES of `s` against the truth position (`lat`, `lon` [rad],
+    /// `h` [m]); the NE cross term is not in a solution, so the diagonal.
+    pub(crate) fn nees_h(s: &NavSolution, lat: f64, lon: f64, h: f64) -> f64 {
+        let (rm, rn) = navfuse_core::earth::radii(lat);
+        let en = (s.lat - lat) * (rm + h);
+        let ee = (s.lon - lon) * (rn + h) * lat.cos();
+        (en / s.std_pos_ned.x).powi(2) + (ee / s.std_pos_ned.y).powi(2)
+    }
+
+    /// Pooled counts: inside the 95 % ellipse (correlated / white σ), epochs,
+    /// sum of the correlated-σ NEES.
+    #[derive(Default)]
+    pub(crate) struct Coverage {
+        inside: usize,
+        inside_w: usize,
+        n: usize,
+        sum: f64,
+    }
+
+    impl Coverage {
+        /// One epoch's NEES under the correlated (`nees`) and white σ.
+        pub(crate) fn add(&mut self, nees: f64, nees_white: f64) {
+            self.inside += usize::from(nees <= CHI2_2_95);
+            self.inside_w += usize::from(nees_white <= CHI2_2_95);
+            self.n += 1;
+            self.sum += nees;
+        }
+
+        /// Coverage (correlated, white) and mean NEES so far.
+        pub(crate) fn get(&self) -> (f64, f64, f64) {
+            let n = self.n as f64;
+            (
+                self.inside as f64 / n,
+                self.inside_w as f64 / n,
+                self.sum / n,
+            )
+        }
+
+        /// The bars of the tests (written before their runs): coverage in
+        /// [0.85, 0.995] (issue 20's 0.90–0.99 with a margin for three
+        /// short drives), mean NEES in [0.5, 4], above the white σ's coverage.
+        pub(crate) fn check(&self, label: &str) {
+            let (cov, cov_w, nees) = self.get();
+            eprintln!(
+                "{label}: coverage95 H white {cov_w:.3} → {cov:.3}, mean NEES H {nees:.2} ({} epochs)",
+                self.n
+            );
+            assert!((0.85..=0.995).contains(&cov), "{label}: coverage {cov}");
+            assert!((0.5..=4.0).contains(&nees), "{label}: NEES {nees}");
+            assert!(cov > cov_w, "{label}: white {cov_w}, correlated {cov}");
+        }
+    }
+}
