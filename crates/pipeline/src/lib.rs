@@ -44,6 +44,7 @@ pub mod motion_tilt;
 pub mod noise_cfg;
 pub mod odo_input;
 pub mod offset_passes;
+pub mod offset_sens;
 mod other;
 pub mod outputs;
 pub mod pos_out;

@@ -14,7 +14,9 @@
 //! honest σ (|τ| > 3.29 σ, a 0.1 % two-sided false alarm, and σ ≤ 20 ms):
 //! the last pass's σ (itself at least the split-half σ of the core fit),
 //! its residual and the spread of the last two passes ([`honest_std`]);
-//! otherwise the first pass (no offset) is the result. No assumption about
+//! otherwise the first pass (no offset) is the result. An applied offset's
+//! σ enters the reported σ (two more runs at τ ± σ_τ,
+//! [`crate::offset_sens`]); the solutions stay those at τ. No assumption about
 //! course and heading is made, so every platform is served by the same
 //! rule. The receiver's velocity latency is removed first
 //! ([`crate::time_offset::latency_corrected`]).
@@ -170,11 +172,18 @@ pub fn run_with_offset_passes(
     }
     let cfg = VelOffsetConfig::default();
     match last {
-        Some((r, tau, std))
+        Some((mut r, tau, std))
             if std <= cfg.max_std_s
                 && tau.abs() > cfg.k_sigma * std
                 && tau.abs() < MAX_SHIFT_S - cfg.grid_step_s =>
         {
+            // Its σ into the reported covariance (`crate::offset_sens`).
+            let plus = run(&shifted(imu, tau + std))?;
+            let minus = run(&shifted(imu, tau - std))?;
+            let most = crate::offset_sens::add_offset_covariance(&mut r, &plus, &minus);
+            log.push(format!(
+                "σ_τ in the reported σ: runs at τ ± σ_τ, largest horizontal {most:.3} m"
+            ));
             let how = format!("auto (velocity passes): {tau:+.4} ± {std:.4} s");
             Ok(done(r, Some((tau, how)), log, "significant; applied"))
         }
