@@ -651,7 +651,7 @@ pub(crate) fn run_eskf_span(
     let (sens, sens_how) = if tight.is_some() {
         (None, String::new())
     } else {
-        crate::gnss_error::sensitivity_model(cfg, gnss)
+        crate::gnss_error::sensitivity_model(cfg, gnss, Some(imu))
     };
     if let Some(sm) = sens {
         m.eskf

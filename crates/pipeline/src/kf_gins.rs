@@ -196,7 +196,7 @@ pub fn run_kf_gins(yaml: &Path, args: &KfGinsOptions) -> Result<KfGinsRun> {
     let sigma_model = if platform.is_some() && !args.white_sigma {
         let lo = input.gnss.partition_point(|f| f.t <= start);
         let hi = input.gnss.partition_point(|f| f.t <= end);
-        crate::gnss_error::white_gain_sigma_model(&input.gnss[lo..hi.max(lo)])
+        crate::gnss_error::white_gain_sigma_model(&input.gnss[lo..hi.max(lo)], Some(&input.imu[..]))
     } else {
         (None, String::new())
     };

@@ -27,6 +27,7 @@ pub mod demo;
 pub mod error;
 pub mod eskf_run;
 pub mod experiments;
+pub mod fix_dynamics;
 pub mod gnss_error;
 pub mod heading_input;
 pub mod imu_clock;
