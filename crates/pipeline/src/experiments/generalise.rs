@@ -35,6 +35,16 @@ use std::time::Instant;
 /// Scores start this long after the motion start [s] (the issue's: the
 /// alignment transient is judged separately by [`super::align_check`]).
 pub const SCORE_AFTER_MOTION_S: f64 = 60.0;
+/// Seeds per cell by default. The issue asks for ≥ 10; 10 cannot resolve
+/// the σ band [0.90, 0.99] of `coverage95_h`: a consumer receiver's error
+/// correlates over ~1 min, so a 600 s run holds ≈ 10 independent stretches
+/// of it, 10 seeds ≈ 100, and a true coverage of 0.95 is read with a
+/// standard error of √(0.95·0.05/100) ≈ 0.02 — the band's edges are 2 SE
+/// away. The simulator's GNSS error depends on the seed only, so every IMU
+/// grade and offset of a platform shares those draws and the cells move
+/// together (10 consumer-GNSS cells read 0.990–0.996 on seeds 0–9, 0.95–0.98
+/// on seeds 0–29). 30 seeds bring the SE to ≈ 0.013.
+pub const DEFAULT_SEEDS: u64 = 30;
 /// Target: default ≤ this × oracle (h_rms and outage drift).
 pub const ORACLE_RATIO_TARGET: f64 = 1.2;
 /// The true IMU time offsets of the matrix [s].
@@ -146,7 +156,7 @@ pub struct GeneraliseOptions {
 impl Default for GeneraliseOptions {
     fn default() -> Self {
         GeneraliseOptions {
-            seeds: 10,
+            seeds: DEFAULT_SEEDS,
             seed0: 0,
             duration_s: 600.0,
             known_offset: false,
