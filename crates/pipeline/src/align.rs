@@ -160,6 +160,87 @@ fn gnss_velocity(gnss: &[GnssFix], j: usize) -> Option<(Vec3, Vec3)> {
     Some((v, s))
 }
 
+/// Largest change of the 0.5 s mean specific force (body frame) from the
+/// first 0.5 s that still counts as rest [m/s²]: an acceleration `a` kept in
+/// a levelling window tilts it by `a/g`; 0.05 m/s² is 0.3°, the size of a
+/// consumer accelerometer's turn-on bias (2–5 mg), so it adds no more than
+/// the bias already does. At rest the window mean moves by its noise only
+/// (≈ VRW/√0.5 s, < 0.005 m/s² for consumer MEMS).
+pub const STEADY_FORCE_TOL: f64 = 0.05;
+
+/// The prefix of the first `n` IMU samples over which the body-frame
+/// specific force stays within [`STEADY_FORCE_TOL`] of its first-0.5 s mean
+/// (0.5 s windows, whole windows only). A body at rest does not rotate, so
+/// no gyro propagation (and no gyro bias) enters.
+fn steady_force_len(imu: &[ImuSample], n: usize) -> usize {
+    let dt = imu[n / 2].dt.max(1e-4);
+    let w = ((0.5 / dt).round() as usize).max(2);
+    let mean = |a: usize| {
+        let (dv, t) = imu[a..a + w]
+            .iter()
+            .fold((Vec3::zeros(), 0.0), |(v, t), s| (v + s.dvel_b, t + s.dt));
+        dv / t.max(1e-9)
+    };
+    if n < w {
+        return n;
+    }
+    let f0 = mean(0);
+    let mut end = w;
+    while end + w <= n && (mean(end) - f0).norm() <= STEADY_FORCE_TOL {
+        end += w;
+    }
+    end
+}
+
+/// Whether the GNSS says the antenna moves while the IMU is quiet (fixes up
+/// to `t_end`). With Doppler velocities: any epoch above
+/// [`STATIC_MAX_GNSS_SPEED`] and 3σ. With positions only, one speed over the
+/// whole window: the chord between the medians of its first and last three
+/// fixes — epoch-to-epoch differences of code fixes carry 1–2 m/s of noise
+/// and their multipath jumps (not in the reported σ) put some epoch of a
+/// 30 s hold above 3σ, which rejected real static starts (a phone IMU with
+/// a consumer receiver, `kf-gins --enhanced`: levelled in motion instead,
+/// pitch 25° off). A platform moving at ≥ 0.3 m/s covers ≥ 9 m in 30 s,
+/// far outside the chord's noise (√2·σ_fix over the window).
+fn gnss_moves(gnss: &[GnssFix], t_end: f64) -> bool {
+    let n = gnss.partition_point(|g| g.t <= t_end);
+    let win = &gnss[..n];
+    let doppler = win.iter().any(|g| g.v_n.is_some() && g.std_v_n.is_some());
+    if doppler || n < 6 {
+        return (0..n)
+            .filter_map(|j| gnss_velocity(gnss, j))
+            .any(|(v, s)| v.xy().norm() > STATIC_MAX_GNSS_SPEED.max(3.0 * s.xy().norm()));
+    }
+    let med3 = |f: &[GnssFix]| {
+        let mut m = [0.0; 3];
+        for (i, val) in m.iter_mut().enumerate() {
+            let mut x = [0usize, 1, 2].map(|k| match i {
+                0 => f[k].lat,
+                1 => f[k].lon,
+                _ => f[k].h,
+            });
+            x.sort_by(f64::total_cmp);
+            *val = x[1];
+        }
+        m
+    };
+    let (a, b) = (med3(&win[..3]), med3(&win[n - 3..]));
+    let dt = win[n - 2].t - win[1].t;
+    if dt <= 0.0 {
+        return false;
+    }
+    let (rm, rn) = earth::radii(a[0]);
+    let d_h = ((b[0] - a[0]) * (rm + a[2])).hypot((b[1] - a[1]) * (rn + a[2]) * a[0].cos());
+    // Median of three fixes: σ ≈ σ_fix (a median's efficiency on 3 is
+    // close to 1 for this purpose; jumps are what it removes).
+    let sig = win
+        .iter()
+        .map(|g| g.std_ned.xy().norm())
+        .fold(0.0, f64::max);
+    let speed_std = std::f64::consts::SQRT_2 * sig / dt;
+    d_h / dt > STATIC_MAX_GNSS_SPEED.max(3.0 * speed_std)
+}
+
 /// The course at fix `j` as a heading [rad] with its σ, when σ ≤
 /// [`COURSE_MAX_STD`]: from the fix's velocity (`v`, σ `sv`), else from the
 /// chord to an earlier fix up to 10 s back over which the gyro says the
@@ -222,11 +303,15 @@ pub fn align(
     let dt_imu = imu[imu.len() / 2].dt.max(1e-4);
     // 1. Static window: quiet IMU and a GNSS at rest.
     let n_quiet = align::initial_static_len(imu, 50, 0.15, 3.0f64.to_radians());
-    let t_quiet_end = imu[n_quiet.max(1) - 1].t;
-    let gnss_moving = (0..gnss.len())
-        .take_while(|&j| gnss[j].t <= t_quiet_end)
-        .filter_map(|j| gnss_velocity(gnss, j))
-        .any(|(v, s)| v.xy().norm() > STATIC_MAX_GNSS_SPEED.max(3.0 * s.xy().norm()));
+    let mut n_quiet = n_quiet;
+    let mut gnss_moving = gnss_moves(gnss, imu[n_quiet.max(1) - 1].t);
+    if gnss_moving && n_quiet > 0 {
+        // A smooth start (no vibration: a robot, a boat, a simulated car)
+        // keeps the IMU quiet into the motion: keep the part before the
+        // specific force changed, if the GNSS agrees it is at rest.
+        n_quiet = steady_force_len(imu, n_quiet);
+        gnss_moving = gnss_moves(gnss, imu[n_quiet.max(1) - 1].t);
+    }
     let static_s = n_quiet as f64 * dt_imu;
     let is_static = static_s >= MIN_STATIC_S && !gnss_moving;
     if n_quiet > 0 && !is_static {
@@ -819,5 +904,58 @@ fn init_std(
         ba: Vec3::repeat(s.map_or(0.2, |s| s.init_ba_std)),
         sg: Vec3::repeat(s.map_or(1e-3, |s| s.init_sg_std.max(1e-4))),
         sa: Vec3::repeat(s.map_or(1e-3, |s| s.init_sa_std.max(1e-4))),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Position-only code fixes (σ 2 m, 1 Hz) of a 30 s hold, deterministic
+    /// noise plus one 15 m multipath jump, then the same moving north at
+    /// `speed`.
+    fn fixes(speed: f64) -> Vec<GnssFix> {
+        let (rm, _) = earth::radii(0.6);
+        (0..30)
+            .map(|k| {
+                let noise = 1.5 * ((k as f64) * 2.3).sin();
+                let jump = if k == 15 { 15.0 } else { 0.0 };
+                GnssFix {
+                    t: k as f64,
+                    lat: 0.6 + (speed * k as f64 + noise + jump) / rm,
+                    lon: 0.2,
+                    h: 10.0,
+                    std_ned: Vec3::new(2.0, 2.0, 3.0),
+                    ..Default::default()
+                }
+            })
+            .collect()
+    }
+
+    #[test]
+    fn position_only_fixes_judge_motion_over_the_window_not_one_jump() {
+        // The epoch-to-epoch test saw the jump as 7.5 m/s, above its 3σ of
+        // 3·√(2²+2²)/2·√2 = 6 m/s: "moving".
+        assert!(!gnss_moves(&fixes(0.0), 29.0));
+        assert!(gnss_moves(&fixes(0.5), 29.0));
+    }
+
+    #[test]
+    fn the_static_part_ends_where_the_specific_force_changes() {
+        // 100 Hz, at rest 3 s, then accelerating at 0.5 m/s² along x.
+        let imu: Vec<ImuSample> = (1..=600)
+            .map(|i| {
+                let t = i as f64 * 0.01;
+                let a = if t > 3.0 { 0.5 } else { 0.0 };
+                ImuSample {
+                    t,
+                    dt: 0.01,
+                    dtheta_b: Vec3::zeros(),
+                    dvel_b: Vec3::new(a, 0.0, -9.8) * 0.01,
+                }
+            })
+            .collect();
+        assert_eq!(steady_force_len(&imu, 600), 300);
+        assert_eq!(steady_force_len(&imu, 250), 250);
     }
 }
