@@ -38,7 +38,11 @@ fn uav_diag() {
             pr.init.rpy.map(|x| x.to_degrees()),
             pr.init.v_n
         );
-        for tt in 0..25 {
+        for tt in 0..if std::env::var("DIAG_TRUTH").is_ok() {
+            25
+        } else {
+            0
+        } {
             let tr = pr.run.traj.at(pr.run.traj.truth[0].t + tt as f64);
             println!(
                 "  truth t+{tt}: yaw {:.1} v {:.1?}",
