@@ -19,14 +19,12 @@
 //!
 //! The bank starts at the first epoch the tilt is known. Two members whose
 //! yaws are within the smaller of their yaw σ hold the same hypothesis
-//! twice: they merge (weights add) into the one with the larger posterior at
-//! its own estimate, its likelihood since the observability reset times its
-//! prior at where it now believes it started and at its gyro-bias estimate
-//! ([`Member::prior_misfit`]). The likelihood alone is no guide: a member
-//! that got there from further than its prior σ had its bias state absorb
-//! part of the way (walker, seed 11 of the align check: a member started
-//! 27° off at σ 5° won on score, with its z-gyro bias 600°/h off, 2.5σ of
-//! the turn-on spec, and drifted 3° on the next straight). A member is also dropped —
+//! twice: they merge (weights add) into the one whose own hypothesis needed
+//! the smaller yaw correction ([`Member::yaw_moved`]) — the other got there
+//! from further than its prior σ and its bias state absorbed part of the
+//! way (walker, seed 11 of the align check: a member started 27° off at σ
+//! 5° won on score, with its z-gyro bias 600°/h off, 2.5σ of the turn-on
+//! spec, and drifted 3° on the next straight). A member is also dropped —
 //! only once the yaw is
 //! observable ([`BankGate::t_observable`]: the GSF's test for a significant
 //! horizontal acceleration has passed) — when its likelihood, counted from
@@ -51,7 +49,6 @@ use navfuse_core::attitude::wrap_pi;
 use navfuse_core::estimators::consistency::{AidTracker, NisMonitor};
 use navfuse_core::estimators::eskf::{Eskf, SmootherRecord, UpdateKind, UpdateLog};
 use navfuse_core::types::{Estimator, Event, GnssFix, ImuSample, NavSolution};
-use navfuse_core::Vec3;
 use navfuse_io::stdfile::StdRow;
 
 /// Likelihood ratio at which a member is dropped: posterior odds of 1000:1
@@ -94,38 +91,15 @@ pub(crate) struct Member {
     prior: f64,
     /// Sum of the yaw corrections the filter's updates applied since the
     /// member's start [rad]: its yaw minus its hypothesis carried by the
-    /// gyro (Euler-rate kinematics with the member's own tilt and the bias
-    /// estimate it had at each step). See [`Member::start_correction`].
+    /// gyro (Euler-rate kinematics with the member's own tilt and bias
+    /// estimate). See [`prune`] for why it matters.
     pub yaw_moved: f64,
-    /// `J = Σ ∂ψ̇/∂b_g · dt` over the member's steps (Euler-rate kinematics,
-    /// Groves 2nd ed. eq. 2.58: ψ̇ = (sin φ ω_y + cos φ ω_z)/cos θ, so
-    /// ∂ψ̇/∂b_g = −(0, sin φ, cos φ)/cos θ; the sign is in
-    /// [`Member::start_correction`]) [s], and `Σ (∂ψ̇/∂b_g · dt)·b̂_g,k`
-    /// with the bias estimate of each step [rad].
-    bias_to_yaw: Vec3,
-    bias_to_yaw_used: f64,
-    /// The member's prior: yaw σ, gyro bias and its σ at the start.
-    prior_yaw_std: f64,
-    prior_bg: Vec3,
-    prior_bg_std: Vec3,
 }
 
 impl Member {
     /// A member around `eskf`, with `cap` solutions reserved.
     pub fn new(eskf: Eskf, cap: usize) -> Self {
-        use navfuse_core::estimators::eskf::{I_ATT, I_BG};
-        let p = eskf.covariance();
-        let prior_yaw_std = p[(I_ATT + 2, I_ATT + 2)].max(0.0).sqrt();
-        let prior_bg_std = Vec3::new(
-            p[(I_BG, I_BG)].max(0.0).sqrt(),
-            p[(I_BG + 1, I_BG + 1)].max(0.0).sqrt(),
-            p[(I_BG + 2, I_BG + 2)].max(0.0).sqrt(),
-        );
-        let prior_bg = eskf.imu_errors().bg;
         Member {
-            prior_yaw_std,
-            prior_bg,
-            prior_bg_std,
             eskf,
             sols: Vec::with_capacity(cap),
             records: Vec::new(),
@@ -137,8 +111,6 @@ impl Member {
             with_std: false,
             prior: 0.0,
             yaw_moved: 0.0,
-            bias_to_yaw: Vec3::zeros(),
-            bias_to_yaw_used: 0.0,
         }
     }
 
@@ -181,13 +153,9 @@ impl Member {
         // (sin φ ω_y + cos φ ω_z)/cos θ (Groves 2nd ed. eq. 2.58), with the
         // bias estimate removed; earth and transport rate (≤ 15°/h) ignored.
         let rpy0 = self.eskf.nav().rpy();
-        let bg = self.eskf.imu_errors().bg;
-        let w = s.dtheta_b - bg * s.dt;
+        let w = s.dtheta_b - self.eskf.imu_errors().bg * s.dt;
         let (sr, cr) = rpy0.x.sin_cos();
         let predicted = rpy0.z + (sr * w.y + cr * w.z) / rpy0.y.cos().max(1e-3);
-        let j = Vec3::new(0.0, sr, cr) * (s.dt / rpy0.y.cos().max(1e-3));
-        self.bias_to_yaw += j;
-        self.bias_to_yaw_used += j.dot(&bg);
         for f in fixes {
             self.eskf.push(&Event::Gnss(*f));
             self.take_updates();
@@ -213,46 +181,6 @@ impl Member {
         if let Some(r) = self.eskf.take_record() {
             self.records.push(r);
         }
-    }
-
-    /// How far from its hypothesis the member now believes it started
-    /// [rad]: its yaw carried back to the start by the gyro with its
-    /// *current* bias estimate b̂, minus the hypothesis:
-    /// `yaw_moved + J·b̂ − Σ (j_k·b̂_k)` (see [`Member::yaw_moved`]; from
-    /// ψ_now = ψ_hyp + Σ (r_k − j_k·b̂_k) + yaw_moved with r_k the raw-gyro
-    /// Euler-rate increment, and ψ_start = ψ_now − Σ (r_k − j_k·b̂)).
-    ///
-    /// `yaw_moved` alone counts every correction that made up for the gyro
-    /// bias before the member had estimated it as hypothesis error. A
-    /// member started on the true yaw must be corrected by the whole drift
-    /// b·t until its bias state converges, so it scores as "moved" as far as
-    /// a wrong neighbour whose drift happened to carry it towards the truth.
-    /// With a consumer MEMS (turn-on σ 0.5°/s, [`crate::sensors`]) that is
-    /// 5° in 10 s of unobservable cruise, the bank's grid spacing: seen on
-    /// uav:consumer:consumer:0 seed 3 (z bias −0.65°/s), where the member
-    /// 7.5° off with the better score and its bias estimate at −0.44°/s
-    /// was merged away for one 12.5° off whose bias state had moved the
-    /// other way (+0.17°/s) and which then drifted 24° on the next straight.
-    pub fn start_correction(&self) -> f64 {
-        wrap_pi(
-            self.yaw_moved + self.bias_to_yaw.dot(&self.eskf.imu_errors().bg)
-                - self.bias_to_yaw_used,
-        )
-    }
-
-    /// −ln of the member's prior (up to a constant shared by the members)
-    /// at its current estimate of where it started: ½(c/σ_ψ0)² +
-    /// ½ Σ ((b̂_g − b̂_g0)/σ_bg0)², with c = [`Member::start_correction`] and
-    /// σ_ψ0, b̂_g0, σ_bg0 the member's initial yaw σ, gyro bias and its σ
-    /// (the sensor's turn-on σ, [`crate::sensors`]). The MAP cost of a
-    /// linear-Gaussian filter is prior misfit + data misfit; a member's
-    /// score counts the data since the observability reset only, and its
-    /// linearisation loses the prior term when it moves beyond its σ.
-    pub fn prior_misfit(&self) -> f64 {
-        let c = self.start_correction() / self.prior_yaw_std.max(1e-9);
-        let d = (self.eskf.imu_errors().bg - self.prior_bg)
-            .component_div(&self.prior_bg_std.map(|x| x.max(1e-12)));
-        0.5 * (c * c + d.norm_squared())
     }
 
     fn yaw(&self) -> (f64, f64) {
@@ -382,6 +310,11 @@ fn closest(members: &[Member], yaw: f64) -> usize {
         .map_or(0, |(i, _)| i)
 }
 
+/// The smaller of two members' yaw σ [rad].
+fn std_min(a: &Member, b: &Member) -> f64 {
+    a.yaw().1.min(b.yaw().1)
+}
+
 /// Drop members whose likelihood is below 1/[`PRUNE_RATIO`] of the best,
 /// and members that repeat a better member's yaw (within the smaller σ).
 /// `ln_prune = ∞` drops repeats only (the yaw not yet observable).
@@ -401,24 +334,19 @@ fn prune(members: &mut Vec<Member>, ln_prune: f64) {
         });
         if let Some(b) = dup {
             // One posterior mode held twice: the components merge (their
-            // weights add, Groves 2nd ed. §3.4.5). The filter kept is the one
-            // with the larger posterior at its own estimate: its likelihood
-            // since the observability reset (the score) times its prior at
-            // where it now believes it started ([`Member::prior_misfit`]).
-            // The score alone is not enough: a member started further from
-            // this yaw than its prior σ allowed (e.g. 27° at σ 5°) put part
-            // of the yaw error into the correlated states (the z-gyro bias)
-            // on the way, explains the data since the reset as well, and its
-            // covariance no longer describes its error; the prior term
-            // charges it for the start yaw and the bias it had to assume.
-            // The yaw correction alone (the rule before) is not enough
-            // either: it counted the correction that undid an unestimated
-            // gyro-bias drift, which every member needs, as hypothesis error.
+            // weights add, Groves 2nd ed. §3.4.5), and the filter kept is the
+            // one whose hypothesis needed the smaller yaw correction to get
+            // there. The other started further from this yaw than its prior
+            // σ allowed (e.g. 27° at σ 5°): on the way its linearised
+            // filter put part of the yaw error into the correlated states
+            // (the z-gyro bias) and its covariance no longer describes its
+            // error. Its likelihood since the observability reset is no
+            // guide: both explain the same data from then on.
             let (score_b, score_i) = (members[b].score, members[i].score);
             let merged = score_b.min(score_i) - (-(score_b - score_i).abs()).exp().ln_1p();
-            let cost = |m: &Member| m.score + m.prior_misfit();
-            let swap = cost(&members[i]) < cost(&members[b]);
-            if swap {
+            // (A difference within the yaw σ is no difference.)
+            let tol = std_min(&members[b], &members[i]);
+            if members[i].yaw_moved.abs() + tol < members[b].yaw_moved.abs() {
                 members.swap(b, i);
             }
             members[b].score = merged;
@@ -439,11 +367,6 @@ mod tests {
     /// A member at yaw `yaw_deg` with yaw σ `std_deg`, score `score`, after
     /// two level IMU samples at rest (so it has a solution).
     fn member(yaw_deg: f64, std_deg: f64, score: f64) -> Member {
-        member_with_bias(yaw_deg, std_deg, score, 0.0)
-    }
-
-    /// [`member`] with a z-gyro bias estimate `bgz` [rad/s].
-    fn member_with_bias(yaw_deg: f64, std_deg: f64, score: f64, bgz: f64) -> Member {
         let nav = NavState {
             q_bn: q_bn_from_rpy(&Vec3::new(0.0, 0.0, yaw_deg.to_radians())),
             lat: 0.7,
@@ -453,17 +376,12 @@ mod tests {
             pos: Vec3::repeat(0.1),
             vel: Vec3::repeat(0.1),
             att: Vec3::new(0.01, 0.01, std_deg.to_radians()),
-            // A consumer MEMS turn-on σ, 0.5°/s (`crate::sensors`).
-            bg: Vec3::repeat(0.5f64.to_radians()),
+            bg: Vec3::repeat(1e-4),
             ba: Vec3::repeat(0.01),
             sg: Vec3::zeros(),
             sa: Vec3::zeros(),
         };
-        let errors = ImuErrors {
-            bg: Vec3::new(0.0, 0.0, bgz),
-            ..Default::default()
-        };
-        let eskf = Eskf::new(EskfConfig::seed001(), nav, errors, &std);
+        let eskf = Eskf::new(EskfConfig::seed001(), nav, ImuErrors::default(), &std);
         let mut m = Member::new(eskf, 4);
         for k in 1..=3 {
             let s = ImuSample {
@@ -526,51 +444,6 @@ mod tests {
         let merged = -((-5.0f64).exp() + (-6.0f64).exp()).ln();
         assert!((ms[0].score - merged).abs() < 1e-12, "{}", ms[0].score);
         assert_eq!(ms[1].yaw().0.to_degrees().round(), 60.0);
-    }
-
-    /// Level steps without updates and a constant bias estimate: the
-    /// Euler-rate bias lever J_z is the elapsed time, and the bias terms
-    /// cancel (the start correction is what the steps moved, ≈ 0 here:
-    /// earth rate and the mechanisation's second-order terms are outside
-    /// the prediction, < 0.01°).
-    #[test]
-    fn start_correction_equals_yaw_moved_for_a_constant_bias() {
-        let m = member_with_bias(30.0, 5.0, 0.0, 0.01);
-        assert!((m.bias_to_yaw.z - 0.03).abs() < 1e-9, "{}", m.bias_to_yaw);
-        assert!((m.bias_to_yaw_used - 0.03 * 0.01).abs() < 1e-12);
-        assert!((m.start_correction() - m.yaw_moved).abs() < 1e-12);
-        assert!(m.yaw_moved.abs() < 1e-3, "{}", m.yaw_moved);
-    }
-
-    /// The merge judges each member by its posterior at where it now
-    /// believes it started. `onyaw` started on the true yaw with an unknown
-    /// z-gyro bias of −0.6°/s: over 10 s its updates corrected +6° of drift
-    /// (yaw_moved 6°) and its bias state now holds −0.6°/s, which explains
-    /// all of it (start correction 0; prior misfit ½(0.6/0.5)² = 0.72).
-    /// `off`, with the better likelihood (score 5 against 6), started 4°
-    /// away at σ 1.5° and was moved −4° with its bias state at 0 (misfit
-    /// ½(4/1.5)² = 3.6). By likelihood alone, or by the yaw correction alone
-    /// (4° < 6°), `off` would be kept; by the posterior `onyaw` is, and it
-    /// carries the summed weight.
-    #[test]
-    fn merge_does_not_count_bias_drift_compensation_as_hypothesis_error() {
-        let bgz = (-0.6f64).to_radians();
-        let mut onyaw = member_with_bias(20.0, 1.5, 6.0, bgz);
-        onyaw.yaw_moved = 6f64.to_radians();
-        onyaw.bias_to_yaw = Vec3::new(0.0, 0.0, 10.0);
-        onyaw.bias_to_yaw_used = 0.0;
-        assert!(onyaw.start_correction().abs() < 1e-9);
-        let mut off = member(20.5, 1.5, 5.0); // better score, same yaw within σ
-        off.yaw_moved = (-4f64).to_radians();
-        let mut ms = vec![off, onyaw];
-        prune(&mut ms, PRUNE_RATIO.ln());
-        assert_eq!(ms.len(), 1);
-        assert!(
-            (ms[0].eskf.imu_errors().bg.z - bgz).abs() < 1e-12,
-            "kept the member whose bias state absorbed its hypothesis error"
-        );
-        let merged = -((-5.0f64).exp() + (-6.0f64).exp()).ln();
-        assert!((ms[0].score - merged).abs() < 1e-12, "{}", ms[0].score);
     }
 
     /// The fallback member is the one nearest the GSF's yaw across ±180°,
