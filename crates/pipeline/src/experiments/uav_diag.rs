@@ -155,3 +155,28 @@ fn uav_diag() {
         }
     }
 }
+
+/// A run whose data end while the yaw bank still holds several members
+/// (a 10 s moving-start walk with consumer GNSS: the yaw is not resolved
+/// yet) ends with the bank's best member instead of indexing past the
+/// last IMU sample.
+#[test]
+fn run_ending_inside_the_yaw_bank_does_not_panic() {
+    use navfuse_sim::platform::{GnssGrade, ImuGrade, Platform, PlatformOptions};
+    let opt = PlatformOptions {
+        duration_s: 10.0,
+        static_start: false,
+        imu: ImuGrade::Consumer,
+        gnss: GnssGrade::Consumer,
+        ..Default::default()
+    };
+    let pr = platform_run(Platform::Pedestrian, 1, &opt).unwrap();
+    let r = run_variant(&variant_config(Variant::Default, &pr), &pr)
+        .expect("a run ending inside the bank yields its best member");
+    assert!(
+        r.alignment.contains("not resolved (the data ended"),
+        "the scenario must end inside the bank: {}",
+        r.alignment
+    );
+    assert!(!r.solutions.is_empty() && r.solutions.iter().all(|s| s.lat.is_finite()));
+}
