@@ -31,6 +31,11 @@ pub struct GeneraliseArgs {
     /// check's reference: what estimating the offset costs).
     #[arg(long)]
     pub known_offset: bool,
+    /// Also print one line per cell and seed (h_rms and outage drift of the
+    /// three configurations, the default's alignment, yaw error, warnings);
+    /// the JSON always has them (`per_seed`).
+    #[arg(long)]
+    pub per_seed: bool,
     /// Write the results as JSON here.
     #[arg(long)]
     pub json: Option<PathBuf>,
@@ -76,6 +81,9 @@ pub fn generalise(a: GeneraliseArgs) -> Result<(), String> {
     );
     let r = generalise::run_generalise(&cells, &opt).map_err(|e| e.to_string())?;
     print!("{}", generalise::format_table(&r));
+    if a.per_seed {
+        print!("{}", generalise::format_per_seed(&r));
+    }
     if a.known_offset {
         print!("{}", generalise::format_known_offset(&r));
     }

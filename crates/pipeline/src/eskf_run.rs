@@ -665,7 +665,9 @@ pub(crate) fn run_eskf_span(
     };
     // Aiding events from the start of the remaining IMU span on (those
     // during a yaw bank are not used), merged with the fixes in time order.
-    let t_next = imu[k_next].t - imu[k_next].dt;
+    // A bank that ran to the end of the data leaves no IMU sample: every
+    // event is then before the (empty) rest.
+    let t_next = imu.get(k_next).map_or(f64::INFINITY, |s| s.t - s.dt);
     let mut fed = tight.map(|t| t.fed.clone());
     let merged: Vec<Event>;
     let heads = match (tight, &mut fed) {

@@ -23,7 +23,7 @@
 //! larger than the seed scatter.
 
 use super::paired::{paired_ratio, PairedRatio};
-use super::score::{motion_start, score_run, RunScore};
+use super::score::{motion_start, score_run, RunDiag, RunScore};
 use super::{run_variant, variant_config, ExperimentError, Variant};
 use navfuse_sim::platform::{
     platform_run, GnssGrade, ImuGrade, Outages, Platform, PlatformOptions, PlatformRun,
@@ -226,6 +226,20 @@ pub struct CellReport {
     pub default_known_offset: Option<VariantScores>,
     pub paired: PairedReport,
     pub targets: Targets,
+    /// One row per seed: what the pooled scores hide (a single seed that
+    /// goes wrong) and why (the default's alignment, yaw error, warnings).
+    pub per_seed: Vec<SeedRow>,
+}
+
+/// One seed of a cell: h_rms and outage drift of default / oracle /
+/// kfgins_model (NaN → `null`: failed or no outage), and the default run's
+/// diagnostics (`None`: it failed).
+#[derive(Clone, Debug, Serialize)]
+pub struct SeedRow {
+    pub seed: u64,
+    pub h_rms_m: [f64; 3],
+    pub outage_rms_of_max_m: [f64; 3],
+    pub default: Option<RunDiag>,
 }
 
 /// The experiment's settings, written beside the cells.
@@ -294,6 +308,10 @@ fn score_variant(v: Variant, pr: &PlatformRun) -> Result<RunScore, String> {
         &pr.outages,
     );
     s.tau_applied = r.time_offset_applied.as_ref().map_or(0.0, |a| a.0);
+    s.diag.align_method = r.align_method.to_string();
+    s.diag.align_wait_s = r.align_wait_s;
+    s.diag.align_yaw_std_deg = r.align_yaw_std_deg;
+    s.diag.warnings = r.warnings.clone();
     if s.n == 0 {
         return Err("no solution after motion start + 60 s".into());
     }
@@ -401,6 +419,17 @@ pub fn run_generalise(
                 .collect();
             let [d, o, k] = [0, 1, 2].map(|k| pool(&rows, k));
             let paired = paired_report(&rows, opt.known_offset);
+            let ps: [_; 3] = [0, 1, 2].map(|k| per_seed(&rows, k));
+            let per_seed_rows = rows
+                .iter()
+                .enumerate()
+                .map(|(i, (seed, s))| SeedRow {
+                    seed: *seed,
+                    h_rms_m: ps.each_ref().map(|p| p.0[i]),
+                    outage_rms_of_max_m: ps.each_ref().map(|p| p.1[i]),
+                    default: s[0].as_ref().ok().map(|r| r.diag.clone()),
+                })
+                .collect();
             let targets = Targets {
                 default_vs_oracle: within(&d, &o, ORACLE_RATIO_TARGET),
                 default_vs_kfgins: within(&d, &k, 1.0),
@@ -427,6 +456,7 @@ pub fn run_generalise(
                 default_known_offset: opt.known_offset.then(|| pool(&rows, 3)),
                 paired,
                 targets,
+                per_seed: per_seed_rows,
             }
         })
         .collect();
@@ -490,6 +520,49 @@ pub fn format_known_offset(r: &GeneraliseReport) -> String {
             pr(&c.paired.h_rms_vs_known_offset),
             pr(&c.paired.outage_vs_known_offset),
         );
+    }
+    s
+}
+
+/// One line per cell and seed: h_rms d/o/k, outage d/o/k, the default's
+/// alignment method, wait, yaw σ, yaw error RMS/max and warning count.
+pub fn format_per_seed(r: &GeneraliseReport) -> String {
+    let mut s = String::new();
+    let f = |x: f64| {
+        if x.is_finite() {
+            format!("{x:.2}")
+        } else {
+            "-".into()
+        }
+    };
+    for c in &r.cells {
+        for row in &c.per_seed {
+            let d = row.default.as_ref().map_or("failed".into(), |d| {
+                format!(
+                    "{} wait {:.1} s yawσ {:.1}° yaw err rms/max {:.2}/{:.2}° warnings {}",
+                    d.align_method,
+                    d.align_wait_s,
+                    d.align_yaw_std_deg,
+                    d.yaw_err_rms_deg,
+                    d.yaw_err_max_deg,
+                    d.warnings.len()
+                )
+            });
+            s += &format!(
+                "{}:{}:{}:{} seed {:>3}  h {}/{}/{}  out {}/{}/{}  {d}\n",
+                c.platform,
+                c.imu,
+                c.gnss,
+                c.offset_s,
+                row.seed,
+                f(row.h_rms_m[0]),
+                f(row.h_rms_m[1]),
+                f(row.h_rms_m[2]),
+                f(row.outage_rms_of_max_m[0]),
+                f(row.outage_rms_of_max_m[1]),
+                f(row.outage_rms_of_max_m[2]),
+            );
+        }
     }
     s
 }
@@ -615,6 +688,9 @@ mod tests {
         let j = serde_json::to_value(&r).unwrap();
         assert!(j["cells"][0]["default"]["h_rms_m"].is_number());
         assert!(j["cells"][0]["kfgins_model"]["failures"].is_array());
+        assert_eq!(j["cells"][0]["per_seed"][0]["seed"], 1);
+        assert!(j["cells"][0]["per_seed"][0]["h_rms_m"][1].is_number());
+        assert_eq!(format_per_seed(&r).lines().count(), 4);
         assert_eq!(j["cells"][0]["paired"]["h_rms_vs_kfgins"]["n"], 1);
         // The known-offset reference is absent unless asked for.
         assert!(j["cells"][0].get("default_known_offset").is_none());

@@ -51,7 +51,7 @@ use crate::config::RunConfig;
 use navfuse_sim::platform::platform_run;
 use rayon::prelude::*;
 
-fn tweak(name: &str, cfg: &mut RunConfig) {
+pub(super) fn tweak(name: &str, cfg: &mut RunConfig) {
     for part in name.split('+') {
         match part {
             "default" | "" => {}

@@ -28,8 +28,10 @@ pub mod seed002;
 pub mod seed003;
 pub mod seed004;
 pub mod tight;
+#[cfg(test)]
+mod uav_diag;
 
-pub use score::{h_error_ne, motion_start};
+pub use score::{h_error_ne, motion_start, RunDiag};
 
 use crate::config::RunConfig;
 use crate::time_offset::TimeOffsetCfg;
@@ -143,7 +145,7 @@ pub fn variant_config(variant: Variant, pr: &PlatformRun) -> RunConfig {
 
 /// `[init]` = the true state at the first IMU sample (degrees in the
 /// config), `[input] start` = that sample's stamp.
-fn set_true_init(cfg: &mut RunConfig, pr: &PlatformRun) {
+pub(crate) fn set_true_init(cfg: &mut RunConfig, pr: &PlatformRun) {
     let s = &pr.init;
     // No `[input] start`: the state holds at the first IMU sample anyway.
     cfg.init.position = Some([s.lat.to_degrees(), s.lon.to_degrees(), s.h]);

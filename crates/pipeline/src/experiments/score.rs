@@ -46,6 +46,24 @@ pub(crate) struct RunScore {
     pub nees_in95: usize,
     /// IMU time offset the run applied [s] (0: none).
     pub tau_applied: f64,
+    /// Diagnostics of the run (the per-seed rows of `generalise`).
+    pub diag: RunDiag,
+}
+
+/// Per-run diagnostics: how the run aligned, its warnings and its yaw
+/// error against the truth from `t_from` on.
+#[derive(Clone, Debug, Default, serde::Serialize)]
+pub struct RunDiag {
+    /// [`crate::EskfRun::align_method`], wait from the first IMU sample to
+    /// the filter start [s] and the initial yaw σ [deg].
+    pub align_method: String,
+    pub align_wait_s: f64,
+    pub align_yaw_std_deg: f64,
+    /// RMS and max |yaw error| over the scored epochs [deg].
+    pub yaw_err_rms_deg: f64,
+    pub yaw_err_max_deg: f64,
+    /// The run's warnings (summary.json `warnings`).
+    pub warnings: Vec<String>,
 }
 
 /// Score `sols` against `traj` from `t_from` [s] on; `outages` are
@@ -59,8 +77,13 @@ pub(crate) fn score_run(
 ) -> RunScore {
     let mut s = RunScore::default();
     let mut omax = vec![f64::NAN; outages.len()];
+    let (mut yaw2, mut yaw_max) = (0.0, 0.0f64);
     for sol in sols.iter().filter(|x| x.t >= t_from) {
-        let (en, ee) = h_error_ne(sol.lat, sol.lon, &traj.at(sol.t));
+        let tr = traj.at(sol.t);
+        let dyaw = super::wrap_pi(sol.rpy.z - tr.rpy.z).abs().to_degrees();
+        yaw2 += dyaw * dyaw;
+        yaw_max = yaw_max.max(dyaw);
+        let (en, ee) = h_error_ne(sol.lat, sol.lon, &tr);
         let e2 = en * en + ee * ee;
         s.sum_e2 += e2;
         s.n += 1;
@@ -81,6 +104,8 @@ pub(crate) fn score_run(
         }
     }
     s.outage_max = omax.into_iter().filter(|x| !x.is_nan()).collect();
+    s.diag.yaw_err_rms_deg = (yaw2 / s.n.max(1) as f64).sqrt();
+    s.diag.yaw_err_max_deg = yaw_max;
     s
 }
 

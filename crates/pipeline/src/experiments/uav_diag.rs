@@ -1,0 +1,182 @@
+//! Per-seed time series of one cell (an ignored test, printed): yaw error
+//! and σ, horizontal error of the default and its variants (`honesty_diag`
+//! tweaks, plus `truthinit` = the oracle's initial state with the default's
+//! everything else), to find what makes a seed of a cell go wrong.
+//!
+//! `DIAG_CELL=uav:consumer:consumer:0 DIAG_SEEDS=1,3 DIAG_VARIANTS=default,truthinit
+//! cargo test --release -p navfuse-pipeline uav_diag -- --ignored --nocapture`
+//! (`DIAG_EVERY` s between rows, `DIAG_UNTIL` s after motion start,
+//! `DIAG_TRUTH` prints the first 25 s of true yaw and velocity).
+//!
+//! Findings on uav:consumer:consumer:0 (main's 10-seed cell: default 8.78 m
+//! h RMS against the oracle's 3.79 m):
+//! - One seed carries it: seed 3, default 25.3 m, oracle 6.58 m, and the
+//!   default given the oracle's initial state (`truthinit`) 6.67 m, so the
+//!   alignment is the cause, not the GNSS error model or the time offset.
+//!   The other moving-start (odd) seeds are 1.1–1.4× the oracle.
+//! - Mechanism (bank debug prints, seed 3, true z-gyro bias −0.65°/s
+//!   against the consumer turn-on σ 0.5°/s): the yaw is unobservable in the
+//!   first 9 s of cruise, every member drifts by the unestimated bias; at
+//!   the first acceleration the members started 7.5° and 12.5° off the
+//!   truth (hypotheses −110° and −90°, truth −102.5°) reach one yaw with z-bias
+//!   estimates −0.44 and +0.17°/s: each split its yaw error between ψ₀ and
+//!   b·t (not separable from one manoeuvre). They merge on yaw alone
+//!   (`yaw_bank::prune`), and the merge keeps the member whose updates
+//!   moved its yaw least; that count includes the correction undoing the
+//!   unestimated drift, which the right member needs, so the −90° member is
+//!   kept (score 2.7 worse). Its bias error (0.8°/s) drifts the yaw 24° in
+//!   the next 30 s of straight cruise (σ 5.4°: 4.5σ) and wrecks the
+//!   following outage (135 m against 30 m).
+//! - Tried, and measured on fresh seeds 10–39 (not landed, each makes some
+//!   cell worse): the yaw correction measured with the member's current bias
+//!   estimate (seed 3: 18.5 m; uav:consumer:rtk:0 1.509 → 1.554 m,
+//!   pedestrian:consumer:consumer:0 2.944 → 3.013 m); keeping the member
+//!   of larger posterior (score + prior misfit at its implied start yaw and
+//!   bias; seed 3: 9.7 m; uav:consumer:consumer:0.1 3.93 → 4.72 m); merging
+//!   only members whose z-gyro bias also agrees within σ (seed 3: 9.7 m;
+//!   uav:consumer:consumer:0 4.215 → 4.196, :0.1 3.926 → 3.862,
+//!   pedestrian:consumer:consumer:0 2.944 → 2.899, but uav:consumer:rtk:0
+//!   1.509 → 1.561 m from one seed, 19: 1.22 → 2.46 m). The bank's member
+//!   choice is a hard decision on ambiguous evidence; any rule moves single
+//!   seeds both ways. A fix has to remove the ambiguity (e.g. re-run the
+//!   winner from the bank start with the yaw and bias it resolved, or hold
+//!   the bank until a second manoeuvre separates ψ₀ from b), not reorder it.
+
+use super::generalise::{cell_options, select_cells};
+use super::score::{h_error_ne, motion_start};
+use super::{run_variant, set_true_init, variant_config, wrap_pi, Variant};
+use navfuse_sim::platform::platform_run;
+
+#[test]
+#[ignore]
+fn uav_diag() {
+    let cell =
+        select_cells(&std::env::var("DIAG_CELL").unwrap_or("uav:consumer:consumer:0".into()))
+            .unwrap()[0];
+    let seeds: Vec<u64> = std::env::var("DIAG_SEEDS")
+        .unwrap_or("3".into())
+        .split(',')
+        .map(|s| s.parse().unwrap())
+        .collect();
+    let variants: Vec<String> = std::env::var("DIAG_VARIANTS")
+        .unwrap_or("default,truthinit,oracle".into())
+        .split(',')
+        .map(String::from)
+        .collect();
+    let every: f64 = std::env::var("DIAG_EVERY").map_or(20.0, |s| s.parse().unwrap());
+    for &seed in &seeds {
+        let pr = platform_run(cell.platform, seed, &cell_options(&cell, seed, 600.0)).unwrap();
+        let t_move = motion_start(&pr.run.traj).unwrap();
+        println!(
+            "seed {seed}: gyro turn-on bias {:.3?} °/h, accel {:.3?} mg, init rpy {:.2?}°, v {:.2?}",
+            pr.gyro_turn_on_bias.map(|x| x.to_degrees() * 3600.0),
+            pr.accel_turn_on_bias.map(|x| x / 9.80665e-3),
+            pr.init.rpy.map(|x| x.to_degrees()),
+            pr.init.v_n
+        );
+        for tt in 0..if std::env::var("DIAG_TRUTH").is_ok() {
+            25
+        } else {
+            0
+        } {
+            let tr = pr.run.traj.at(pr.run.traj.truth[0].t + tt as f64);
+            println!(
+                "  truth t+{tt}: yaw {:.1} v {:.1?}",
+                tr.rpy.z.to_degrees(),
+                tr.v_n
+            );
+        }
+        let mut runs = Vec::new();
+        for v in &variants {
+            let base = if v.starts_with("oracle") {
+                Variant::Oracle
+            } else {
+                Variant::Default
+            };
+            let mut cfg = variant_config(base, &pr);
+            let mut tw = v
+                .trim_start_matches("oracle")
+                .trim_start_matches('+')
+                .to_string();
+            if tw.contains("truthinit") {
+                set_true_init(&mut cfg, &pr);
+                tw = tw.replace("truthinit", "").trim_matches('+').to_string();
+            }
+            super::honesty_diag::tweak(&tw, &mut cfg);
+            let r = run_variant(&cfg, &pr).unwrap();
+            let t0 = t_move + super::generalise::SCORE_AFTER_MOTION_S;
+            let (mut e2, mut n) = (0.0, 0);
+            for s in r.solutions.iter().filter(|x| x.t >= t0) {
+                let (en, ee) = h_error_ne(s.lat, s.lon, &pr.run.traj.at(s.t));
+                e2 += en * en + ee * ee;
+                n += 1;
+            }
+            println!(
+                "  {v:<20} h_rms {:.2} m, align {} wait {:.1} s, tau {:?}, {} | {}",
+                (e2 / n as f64).sqrt(),
+                r.align_method,
+                r.align_wait_s,
+                r.time_offset_applied,
+                r.augmented_states,
+                r.alignment
+            );
+            runs.push(r);
+        }
+        println!("  t-t_move  [yaw err° / yawσ° / h err m] per variant   (o = outage)");
+        let until: f64 = std::env::var("DIAG_UNTIL").map_or(f64::INFINITY, |s| s.parse().unwrap());
+        let t_end = runs[0].solutions.last().unwrap().t.min(t_move + until);
+        let mut t = pr.run.traj.truth[0].t.max(runs[0].solutions[0].t);
+        while t <= t_end {
+            let tr = pr.run.traj.at(t);
+            let out = pr.outages.iter().any(|o| t >= o[0] && t < o[1]);
+            let mut line = format!(
+                "  {:7.1}{} v {:5.1}",
+                t - t_move,
+                if out { "o" } else { " " },
+                tr.v_n.norm()
+            );
+            for r in &runs {
+                let k = r
+                    .solutions
+                    .partition_point(|s| s.t < t)
+                    .min(r.solutions.len() - 1);
+                let s = &r.solutions[k];
+                let (en, ee) = h_error_ne(s.lat, s.lon, &tr);
+                let ysd = r.std.get(k).map_or(f64::NAN, |x| x.att_rpy.z.to_degrees());
+                line += &format!(
+                    " | {:6.2} {:5.2} {:6.2}",
+                    wrap_pi(s.rpy.z - tr.rpy.z).to_degrees(),
+                    ysd,
+                    (en * en + ee * ee).sqrt()
+                );
+            }
+            println!("{line}");
+            t += every;
+        }
+    }
+}
+
+/// A run whose data end while the yaw bank still holds several members
+/// (a 10 s moving-start walk with consumer GNSS: the yaw is not resolved
+/// yet) ends with the bank's best member instead of indexing past the
+/// last IMU sample.
+#[test]
+fn run_ending_inside_the_yaw_bank_does_not_panic() {
+    use navfuse_sim::platform::{GnssGrade, ImuGrade, Platform, PlatformOptions};
+    let opt = PlatformOptions {
+        duration_s: 10.0,
+        static_start: false,
+        imu: ImuGrade::Consumer,
+        gnss: GnssGrade::Consumer,
+        ..Default::default()
+    };
+    let pr = platform_run(Platform::Pedestrian, 1, &opt).unwrap();
+    let r = run_variant(&variant_config(Variant::Default, &pr), &pr)
+        .expect("a run ending inside the bank yields its best member");
+    assert!(
+        r.alignment.contains("not resolved (the data ended"),
+        "the scenario must end inside the bank: {}",
+        r.alignment
+    );
+    assert!(!r.solutions.is_empty() && r.solutions.iter().all(|s| s.lat.is_finite()));
+}
