@@ -53,6 +53,21 @@ pub struct GnssFix {
     pub num_sats: u8,
 }
 
+impl GnssFix {
+    /// NED offset [m] of `other` from this fix, linearised with the WGS-84
+    /// radii at this fix's latitude (`δN = δφ (R_M + h)`,
+    /// `δE = δλ (R_N + h) cos φ`, `δD = −δh`; Groves 2nd ed. §2.4):
+    /// for fixes metres to kilometres apart.
+    pub fn ned_to(&self, other: &GnssFix) -> Vec3 {
+        let (rm, rn) = crate::earth::radii(self.lat);
+        Vec3::new(
+            (other.lat - self.lat) * (rm + self.h),
+            (other.lon - self.lon) * (rn + self.h) * self.lat.cos(),
+            -(other.h - self.h),
+        )
+    }
+}
+
 /// Wheel speed / odometer measurement (issue 17).
 ///
 /// The mean forward speed over `(t − dt, t]` along the body x axis (FRD) of

@@ -459,6 +459,17 @@ enum Excluded {
     Gap,
 }
 
+/// The time-ordered series `r` at time `t` ([`interpolate`] without a gap
+/// limit), held at its first or last epoch outside its span; `None` when
+/// `r` is empty.
+pub fn interpolate_held(r: &[NavSolution], t: f64) -> Option<NavSolution> {
+    match interpolate(r, t, f64::INFINITY) {
+        Ok(s) => Some(s),
+        Err(Excluded::Before) => r.first().copied(),
+        Err(_) => r.last().copied(),
+    }
+}
+
 /// The series `r` at time `t`: linear in time between the bracketing epochs
 /// (latitude, longitude, height, velocity; attitude angles along the shorter
 /// arc). An exact epoch match is used as is, even beside a long gap.

@@ -149,12 +149,7 @@ fn gnss_velocity(gnss: &[GnssFix], j: usize) -> Option<(Vec3, Vec3)> {
     if dt <= 1e-3 {
         return None;
     }
-    let (rm, rn) = earth::radii(a.lat);
-    let v = Vec3::new(
-        (b.lat - a.lat) * (rm + a.h) / dt,
-        (b.lon - a.lon) * (rn + a.h) * a.lat.cos() / dt,
-        -(b.h - a.h) / dt,
-    );
+    let v = a.ned_to(b) / dt;
     let s = (a.std_ned.component_mul(&a.std_ned) + b.std_ned.component_mul(&b.std_ned))
         .map(|x| x.sqrt().max(0.005) / dt);
     Some((v, s))
@@ -211,26 +206,28 @@ fn gnss_moves(gnss: &[GnssFix], t_end: f64) -> bool {
             .filter_map(|j| gnss_velocity(gnss, j))
             .any(|(v, s)| v.xy().norm() > STATIC_MAX_GNSS_SPEED.max(3.0 * s.xy().norm()));
     }
-    let med3 = |f: &[GnssFix]| {
-        let mut m = [0.0; 3];
-        for (i, val) in m.iter_mut().enumerate() {
-            let mut x = [0usize, 1, 2].map(|k| match i {
-                0 => f[k].lat,
-                1 => f[k].lon,
-                _ => f[k].h,
-            });
-            x.sort_by(f64::total_cmp);
-            *val = x[1];
+    // A fix at the window's end: its first (last) three fixes' median
+    // latitude, longitude and height.
+    let median_fix = |w: &[GnssFix]| {
+        let med = |x: fn(&GnssFix) -> f64| {
+            let mut v = [x(&w[0]), x(&w[1]), x(&w[2])];
+            v.sort_by(f64::total_cmp);
+            v[1]
+        };
+        GnssFix {
+            lat: med(|g| g.lat),
+            lon: med(|g| g.lon),
+            h: med(|g| g.h),
+            ..w[1]
         }
-        m
     };
-    let (a, b) = (med3(&win[..3]), med3(&win[n - 3..]));
+    let (a, b) = (median_fix(&win[..3]), median_fix(&win[n - 3..]));
     let dt = win[n - 2].t - win[1].t;
     if dt <= 0.0 {
         return false;
     }
-    let (rm, rn) = earth::radii(a[0]);
-    let d_h = ((b[0] - a[0]) * (rm + a[2])).hypot((b[1] - a[1]) * (rn + a[2]) * a[0].cos());
+    let d = a.ned_to(&b);
+    let d_h = d.x.hypot(d.y);
     // Median of three fixes: σ ≈ σ_fix (a median's efficiency on 3 is
     // close to 1 for this purpose; jumps are what it removes).
     let sig = win

@@ -53,7 +53,6 @@
 
 use crate::config::RunConfig;
 use crate::error::Result;
-use navfuse_core::earth;
 use navfuse_core::estimators::eskf::{
     AugmentedStates, GnssErrorStates, SensitivityModel, TimeOffsetState,
 };
@@ -518,7 +517,7 @@ pub fn fit_fast_part(gnss: &[GnssFix], tau_s: f64, quiet: Option<&[bool]>) -> Op
         if !(h > 0.0 && h < 1.5 * dt) {
             continue;
         }
-        let d = ned_from(a, b) - (va + vb) * (0.5 * h);
+        let d = a.ned_to(b) - (va + vb) * (0.5 * h);
         if !d.iter().all(|x| x.is_finite()) {
             continue;
         }
@@ -610,17 +609,6 @@ pub fn fit_gauss_markov(gnss: &[GnssFix]) -> Option<GmFit> {
     })
 }
 
-/// Position of fix `f` relative to `o` [m], NED, small-angle (radii at `o`;
-/// exact to ~1e-6 over the kilometres between two fixes' positions).
-fn ned_from(o: &GnssFix, f: &GnssFix) -> Vec3 {
-    let (rm, rn) = earth::radii(o.lat);
-    Vec3::new(
-        (f.lat - o.lat) * (rm + o.h),
-        (f.lon - o.lon) * (rn + o.h) * o.lat.cos(),
-        -(f.h - o.h),
-    )
-}
-
 /// Median interval of the stamps `t` [s]; `None` when it is not positive.
 fn median_interval(t: impl Iterator<Item = f64>) -> Option<f64> {
     let t: Vec<f64> = t.collect();
@@ -632,7 +620,7 @@ fn fit_span(fixes: &[&GnssFix]) -> Option<GmFit> {
     let n = fixes.len();
     let dt = median_interval(fixes.iter().map(|f| f.t))?;
     let f0 = fixes[0];
-    let pos: Vec<Vec3> = fixes.iter().map(|f| ned_from(f0, f)).collect();
+    let pos: Vec<Vec3> = fixes.iter().map(|f| f0.ned_to(f)).collect();
     let v: Vec<Vec3> = fixes.iter().map(|f| f.v_n.unwrap_or_default()).collect();
     let sv = median(
         fixes
@@ -775,7 +763,7 @@ mod tests {
         let tau = 60.0;
         let phi = (-1.0f64 / tau).exp();
         let mut b = Vec3::new(normal(), normal(), normal()) * sg;
-        let (rm, rn) = earth::radii(0.7);
+        let (rm, rn) = navfuse_core::earth::radii(0.7);
         (0..1800)
             .map(|k| {
                 let t = k as f64;

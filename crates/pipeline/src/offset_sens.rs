@@ -31,6 +31,7 @@ use navfuse_core::earth::radii;
 use navfuse_core::geodesy::wrap_pi;
 use navfuse_core::types::NavSolution;
 use navfuse_core::Vec3;
+use navfuse_eval::interpolate_held;
 use navfuse_io::stdfile::StdRow;
 
 /// `σ_τ ∂x/∂τ` of one epoch: position NED [m], velocity NED [m/s],
@@ -40,35 +41,6 @@ pub struct Sensitivity {
     pub pos_ned: Vec3,
     pub vel_ned: Vec3,
     pub att_rpy: Vec3,
-}
-
-/// `sols` (time-ordered) interpolated linearly at `t`; held at the ends.
-/// `j` is a cursor that only moves forward (the query times are ordered).
-fn at(sols: &[NavSolution], t: f64, j: &mut usize) -> Option<NavSolution> {
-    let (first, last) = (sols.first()?, sols.last()?);
-    if t <= first.t {
-        return Some(*first);
-    }
-    if t >= last.t {
-        return Some(*last);
-    }
-    while *j + 1 < sols.len() && sols[*j + 1].t <= t {
-        *j += 1;
-    }
-    let (a, b) = (&sols[*j], sols.get(*j + 1)?);
-    let dt = b.t - a.t;
-    let w = if dt > 0.0 { (t - a.t) / dt } else { 0.0 };
-    let lerp = |x: f64, y: f64| x + w * (y - x);
-    let mut s = *a;
-    s.t = t;
-    s.lat = lerp(a.lat, b.lat);
-    s.lon = a.lon + w * wrap_pi(b.lon - a.lon);
-    s.h = lerp(a.h, b.h);
-    s.v_n = a.v_n + (b.v_n - a.v_n) * w;
-    for i in 0..3 {
-        s.rpy[i] = a.rpy[i] + w * wrap_pi(b.rpy[i] - a.rpy[i]);
-    }
-    Some(s)
 }
 
 /// Half the difference `plus − minus` as seen from `base` (its latitude
@@ -101,10 +73,9 @@ pub fn sensitivities(
     plus: &[NavSolution],
     minus: &[NavSolution],
 ) -> Vec<Sensitivity> {
-    let (mut jp, mut jm) = (0usize, 0usize);
     let mut out = Vec::with_capacity(base.len());
     for b in base {
-        let (Some(p), Some(m)) = (at(plus, b.t, &mut jp), at(minus, b.t, &mut jm)) else {
+        let (Some(p), Some(m)) = (interpolate_held(plus, b.t), interpolate_held(minus, b.t)) else {
             return Vec::new();
         };
         out.push(half_difference(b, &p, &m));
