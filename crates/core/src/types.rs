@@ -6,6 +6,8 @@
 //! a parameter; with week 0 (unknown) `t` is simply the time of week, which is
 //! consistent as long as every input of a run uses the same convention.
 
+#[allow(unused_imports)]
+use crate::prelude::*;
 use nalgebra::{Matrix3, Vector3};
 
 /// 3-vector of `f64`. Name variables with their frame: `v_n`, `f_b`, `omega_ib_b`.
