@@ -304,11 +304,25 @@ pub struct SmootherRecord {
     /// not come from this one: `B_{k−1} = P⁺_{k−1} − A_k P⁻_k A_kᵀ` in
     /// Joseph form ([`rts_smooth`]); zero for the first record.
     pub p_base_prev: Cov,
-    /// With a sensitivity covariance ([`Eskf::start_sensitivity`]): the
-    /// variance it adds to the filter's at this checkpoint (diagonal,
-    /// floored at 0) and its position cross terms (NE, ED, DN) [m²]; added
-    /// to the smoothed covariance by [`rts_smooth`].
-    pub p_extra: Option<(StateVec, Vec3)>,
+    /// With a sensitivity covariance ([`Eskf::start_sensitivity`]): what it
+    /// adds to the filter's covariance at this checkpoint ([`SensExtra`]),
+    /// used by [`rts_smooth`].
+    pub p_extra: Option<SensExtra>,
+}
+
+/// What the sensitivity covariance (module `sens`) adds at one smoother
+/// checkpoint: diagonals and position cross terms (NE, ED, DN) [state
+/// units², m²].
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SensExtra {
+    /// Sensitivity minus the filter's own covariance (either can be the
+    /// larger): the forward σ reported is the filter's plus this.
+    pub forward: (StateVec, Vec3),
+    /// The part of the sensitivity covariance driven by the correlated GNSS
+    /// error alone (sensitivity minus its white twin, position variances
+    /// capped at var(b); module `sens`, "Smoothed σ"): what the smoother
+    /// cannot average away.
+    pub correlated: (StateVec, Vec3),
 }
 
 /// Output of the RTS backward pass at one checkpoint.
@@ -357,15 +371,28 @@ pub fn rts_smooth(records: &[SmootherRecord], p_last: &Cov, mut out: impl FnMut(
     let mut ds_a = SVector::<f64, NA>::zeros();
     let mut ps = *p_last;
     let last = &records[n - 1];
-    // The correlated GNSS error the sensitivity covariance adds is common
-    // to the forward and backward passes (both see the same b), so the
-    // smoother does not average it away: its forward variance is added to
-    // the smoothed one. Smoothed ≤ forward still holds, P^s + D ≤ P⁺ + D.
-    let extra = |r: &SmootherRecord, d: StateVec, c: Vec3| match r.p_extra {
-        Some((ed, ec)) => (d + ed, c + ec),
+    // The correlated GNSS error b is common to the forward and backward
+    // passes, so the smoother does not average it away: the part of the
+    // forward covariance b drives is added to the smoothed white-model one
+    // (module `sens`, "Smoothed σ"), capped at the forward σ reported so that
+    // smoothed ≤ forward holds at every epoch. At the last checkpoint the
+    // smoothed covariance is the filtered one.
+    let extra = |r: &SmootherRecord, d: StateVec, c: Vec3, last: bool| match r.p_extra {
         None => (d, c),
+        Some(x) if last => (d + x.forward.0, c + x.forward.1),
+        Some(x) => {
+            let cap = r.p_post_diag + x.forward.0;
+            let d = (d + x.correlated.0).zip_map(&cap, f64::min);
+            let mut c = c + x.correlated.1;
+            // Keep the position block positive semi-definite after the cap.
+            for (k, (i, j)) in [(0, 1), (1, 2), (2, 0)].into_iter().enumerate() {
+                let m = (d[I_POS + i] * d[I_POS + j]).max(0.0).sqrt();
+                c[k] = c[k].clamp(-m, m);
+            }
+            (d, c)
+        }
     };
-    let (p_diag, p_pos_cross) = extra(last, last.p_post_diag, pos_cross_ned(p_last));
+    let (p_diag, p_pos_cross) = extra(last, last.p_post_diag, pos_cross_ned(p_last), true);
     out(&SmoothedEpoch {
         t: last.t,
         nav: last.nav,
@@ -391,7 +418,7 @@ pub fn rts_smooth(records: &[SmootherRecord], p_last: &Cov, mut out: impl FnMut(
         let p_diag = records[k]
             .p_post_diag
             .zip_map(&ps.diagonal(), |p, q| q.clamp(0.0, p.max(0.0)));
-        let (p_diag, p_pos_cross) = extra(&records[k], p_diag, pos_cross_ned(&ps));
+        let (p_diag, p_pos_cross) = extra(&records[k], p_diag, pos_cross_ned(&ps), false);
         out(&SmoothedEpoch {
             t: records[k].t,
             nav,
@@ -862,6 +889,9 @@ pub struct Eskf {
     /// Covariance of the error under a correlated GNSS error model, with
     /// this filter's gains (`None`: σ from `p`; [`Eskf::start_sensitivity`]).
     sens: Option<Sens>,
+    /// The white twin of `sens` (module `sens`, "Smoothed σ"), run only
+    /// with the smoother.
+    sens_w: Option<Sens>,
     /// Tight coupling to raw GNSS (`None`: off, the plain filter).
     tight: Option<tight::Tight>,
 }
@@ -1001,6 +1031,7 @@ impl Eskf {
             aug: None,
             aiding: aiding::AidingState::default(),
             sens: None,
+            sens_w: None,
             tight: None,
             cfg,
         }
@@ -1114,12 +1145,11 @@ impl Eskf {
         if self.tight.is_some() {
             return Err(AugConfigError::TightCoupling);
         }
-        self.sens = Some(Sens::new(
-            m,
-            &self.p,
-            self.aug.as_ref(),
-            self.cfg.aiding.odometer.as_ref(),
-        )?);
+        let odo = self.cfg.aiding.odometer.as_ref();
+        self.sens = Some(Sens::new(m, &self.p, self.aug.as_ref(), odo, true)?);
+        if self.cfg.smoother_every > 0 {
+            self.sens_w = Some(Sens::new(m, &self.p, self.aug.as_ref(), odo, false)?);
+        }
         Ok(())
     }
 
@@ -1314,7 +1344,7 @@ impl Eskf {
         self.f_b = dv / dt;
         let fb = self.error_model(&pre, &c_bn, &e0, &self.w_ib_b, &self.f_b);
         self.propagate_cov(&fb, &c_bn, dt);
-        if let Some(sn) = &mut self.sens {
+        for sn in [&mut self.sens, &mut self.sens_w].into_iter().flatten() {
             sn.propagate_aug(&self.f_sparse, dt);
         }
         if let Some(a) = &mut self.aug {
@@ -1468,8 +1498,8 @@ impl Eskf {
         let q = (&qv, &qa, &self.q_bias);
         let (fs, t, m) = (&self.f_sparse, &mut self.scratch_t, &mut self.scratch_m);
         propagate_p(&mut self.p, fs, t, m, q, dt);
-        if let Some(sn) = &mut self.sens {
-            // The sensitivity covariance: same Φ and Q (sens module).
+        for sn in [&mut self.sens, &mut self.sens_w].into_iter().flatten() {
+            // The sensitivity covariances: same Φ and Q (sens module).
             propagate_p(&mut sn.p, fs, t, m, q, dt);
         }
         if self.cfg.smoother_every > 0 {
@@ -1591,7 +1621,7 @@ impl Eskf {
         if self.cfg.smoother_every > 0 && self.rec_p_prior.is_none() {
             self.rec_p_prior = Some(p_prior);
         }
-        if let Some(sn) = &mut self.sens {
+        for sn in [&mut self.sens, &mut self.sens_w].into_iter().flatten() {
             if self.aug.is_some() {
                 let kx = k_f.fixed_rows::<NX>(0).into_owned();
                 let ka = k_f.fixed_rows::<NA>(NX).into_owned();
@@ -1896,10 +1926,25 @@ impl Eskf {
             aug,
             p_base_prev: base,
             p_extra: self.sens.as_ref().map(|sn| {
-                (
-                    (sn.p.diagonal() - self.p.diagonal()).map(|x| x.max(0.0)),
-                    pos_cross_ned(&sn.p) - pos_cross_ned(&self.p),
-                )
+                let minus = |o: &Cov| {
+                    (
+                        sn.p.diagonal() - o.diagonal(),
+                        pos_cross_ned(&sn.p) - pos_cross_ned(o),
+                    )
+                };
+                let forward = minus(&self.p);
+                SensExtra {
+                    forward,
+                    correlated: self.sens_w.as_ref().map_or(forward, |w| {
+                        // Capped at var(b) per position axis (module `sens`).
+                        let (d, c) = minus(&w.p);
+                        let mut d = d.map(|x| x.max(0.0));
+                        for (i, v) in sn.var_b().iter().enumerate() {
+                            d[I_POS + i] = d[I_POS + i].min(*v);
+                        }
+                        (d, c)
+                    }),
+                }
             }),
         });
         self.rec_have_prev = true;

@@ -201,16 +201,13 @@ fn coverage_rms(gm: Option<GnssErrorStates>, seed: u64) -> (f64, f64, usize) {
     (c, e, n)
 }
 
-/// [`coverage_rms`] with an optional sensitivity model, also returning the
-/// solutions.
-fn coverage_sens(
-    gm: Option<GnssErrorStates>,
-    sens: Option<SensitivityModel>,
-    seed: u64,
-) -> (f64, f64, usize, Vec<NavSolution>) {
+/// A 600 s drive with an outage at 300–360 s whose fixes carry a white
+/// error of σ `sw` plus a first-order Gauss–Markov error of σ `sg` and
+/// correlation time `tau` [s] per horizontal axis (× 1.5 vertically), and
+/// report σ = their root sum of squares.
+fn gm_drive(seed: u64, sw: f64, sg: f64, tau: f64) -> Drive {
     let mut d = drive(seed, 600.0, (300.0, 360.0));
     let mut rng = Normal::new(seed ^ 0xfeed);
-    let (sw, sg, tau) = (1.0, 2.0, 60.0);
     let mut b = Vec3::new(rng.next(), rng.next(), 1.5 * rng.next()) * sg;
     let phi = (-1.0f64 / tau).exp();
     let q = sg * (1.0 - phi * phi).sqrt();
@@ -225,6 +222,17 @@ fn coverage_sens(
         k += 1;
         offs[k - 1]
     });
+    d
+}
+
+/// [`coverage_rms`] with an optional sensitivity model, also returning the
+/// solutions.
+fn coverage_sens(
+    gm: Option<GnssErrorStates>,
+    sens: Option<SensitivityModel>,
+    seed: u64,
+) -> (f64, f64, usize, Vec<NavSolution>) {
+    let d = gm_drive(seed, 1.0, 2.0, 60.0);
     let aug = AugmentedStates {
         gnss_error: gm,
         time_offset: None,
@@ -284,6 +292,73 @@ fn sensitivity_sigma_is_honest_and_the_solution_bit_identical() {
     assert!(
         (0.85..=1.0).contains(&cov) && cov > cov_w + 0.1,
         "coverage95: white σ {cov_w:.3}, sensitivity σ {cov:.3}"
+    );
+}
+
+/// Smoothed σ under a correlated fix error (module `sens`, "Smoothed σ"):
+/// the fixes of [`sensitivity_sigma_is_honest_and_the_solution_bit_identical`]
+/// (σ 1 m white + 2 m Gauss–Markov with τ 60 s per axis), whose forward
+/// sensitivity σ that test checks, 8 drives with a 60 s outage: the
+/// smoothed solutions' horizontal 95 % coverage after the first 60 s is in
+/// issue 20's band [0.90, 0.99] with mean NEES in [0.7, 4]. Measured: 0.988
+/// (the first version, the forward `P − P_filter` added, `correlated =
+/// forward`: 0.986 — with 80 % of the fix variance correlated the two
+/// differ little; the matrix's RTK cells, half white, are where they do:
+/// `experiments::honesty_diag`, variant `smooth`). A first run with
+/// RTK-sized errors (1.4 + 1.4 cm, τ 115 s) gave 0.78 against 0.64, but in
+/// this harness the forward σ itself covers only 0.57 at that size (its
+/// error after the 60 s MEMS outage, 9 m, takes minutes to leave), so the
+/// harness cannot test the smoother there.
+#[test]
+fn smoothed_sigma_keeps_the_correlated_fix_error() {
+    let m = SensitivityModel {
+        tau_s: 60.0,
+        sigma_m: Vec3::new(2.0, 2.0, 3.0),
+    };
+    let c = EskfConfig {
+        smoother_every: 10,
+        ..cfg()
+    };
+    let (mut n, mut inside, mut inside_old, mut nees_sum) = (0usize, 0usize, 0usize, 0.0);
+    for seed in 0..8 {
+        let d = gm_drive(200 + seed, 1.0, 2.0, 60.0);
+        let mut f = Eskf::new(c, start_state(&d), ImuErrors::default(), &init_std());
+        f.start_sensitivity(m).unwrap();
+        let (sols, mut recs) = run_records(&mut f, &d);
+        let p_last = *f.last_record_covariance();
+        let smooth = |recs: &[SmootherRecord]| {
+            let mut sm = Vec::new();
+            rts_smooth(recs, &p_last, |e| sm.push(*e));
+            sm.reverse();
+            sm
+        };
+        let new = smooth(&recs);
+        for r in &mut recs {
+            let x = r.p_extra.as_mut().unwrap();
+            x.correlated = x.forward;
+        }
+        let old = smooth(&recs);
+        let mut k = 0;
+        for (e, o) in new.iter().zip(&old).filter(|(e, _)| e.t > 60.0) {
+            while sols[k].0.t < e.t - 1e-9 {
+                k += 1;
+            }
+            let truth = &sols[k].1;
+            let mut s = NavSolution::unknown_at(e.t);
+            (s.lat, s.lon) = (e.nav.lat, e.nav.lon);
+            let err = horizontal_error(&s, truth);
+            let nees = |p: &StateVec| err.x * err.x / p[I_POS] + err.y * err.y / p[I_POS + 1];
+            n += 1;
+            inside += usize::from(nees(&e.p_diag) <= 5.991);
+            inside_old += usize::from(nees(&o.p_diag) <= 5.991);
+            nees_sum += nees(&e.p_diag);
+        }
+    }
+    let (cov, cov_old) = (inside as f64 / n as f64, inside_old as f64 / n as f64);
+    let nees = nees_sum / n as f64;
+    assert!(
+        (0.90..=0.99).contains(&cov) && (0.7..=4.0).contains(&nees),
+        "smoothed coverage95_h {cov:.3} (forward extra: {cov_old:.3}), nees_h {nees:.2}, {n} epochs"
     );
 }
 
