@@ -16,8 +16,9 @@
 //! the SPP's age limit, unhealthy, system not supported, over capacity).
 //!
 //! Per-record satellite error variance `var_m2` (what the filter adds to its
-//! white code noise): the broadcast URA² (upper bound of the index interval,
-//! [`ura_sigma_m`]; Galileo SISA as given) plus the ionosphere residual:
+//! white code noise): the broadcast URA² (the nominal value of its index,
+//! [`ura_nominal_m`], IS-GPS-200's value for accuracy use; Galileo SISA as
+//! given) plus the ionosphere residual:
 //! 50 % of the broadcast Klobuchar delay (RTKLIB `ERR_BRDCI`, the model's
 //! design removes about half, Klobuchar 1987; the SPP's weight), or 5 m
 //! when the input carries no Klobuchar coefficients (RTKLIB `ERR_ION`, the
@@ -27,8 +28,8 @@
 //! factor has [`crate::spp::MIN_POOLED_DOF`] *effective* degrees of freedom
 //! for these slowly varying errors ([`slow_error_dof`]: a satellite's error
 //! over a file shorter than its correlation time is one sample, however many
-//! epochs see it); else the a-priori budget stands (scale 1; the URA upper
-//! bound and the 50 % Klobuchar rule are conservative by design). The
+//! epochs see it); else the a-priori budget stands (scale 1; the URA
+//! and the 50 % Klobuchar rule are conservative by design). The
 //! fixes' σ keep the factor at its plain dof count, as `navfuse spp` writes
 //! them. The
 //! filter's own white code/multipath terms are not scaled. The Klobuchar delay `iono_m` is evaluated at
@@ -37,16 +38,13 @@
 
 use crate::error::{PipelineError, Result};
 use crate::input::InputReport;
-use crate::spp::{
-    broadcast_sigma_m, by_prn, gps_ephemeris, other_system, solve_obs, SppNav, SppOptions,
-    SppSummary,
-};
+use crate::spp::{by_prn, gps_ephemeris, other_system, solve_obs, SppNav, SppOptions, SppSummary};
 use navfuse_core::geodesy::{c_en, ecef_to_geodetic};
 use navfuse_core::gnss::orbit_gnss::{self, OrbitKind};
 use navfuse_core::gnss::raw::{
     GnssSystem, RawObs, RawSat, SatState, Signal, FLAG_LOSS_OF_LOCK, MAX_RAW_SATS,
 };
-use navfuse_core::gnss::spp::{ura_sigma_m, SppSolution};
+use navfuse_core::gnss::spp::{ura_nominal_m, SppSolution};
 use navfuse_core::gnss::{C_LIGHT, LAMBDA_L1, SECONDS_PER_WEEK};
 use navfuse_core::types::GnssFix;
 use navfuse_core::Vec3;
@@ -222,7 +220,7 @@ pub fn raw_from_obs(
                 bump(id, &|c| c.unhealthy += 1);
                 continue;
             }
-            let ura = ura_sigma_m(n.gps.ura_m.get(ki).copied().unwrap_or(f64::NAN));
+            let ura = sat_sigma_m('G', n.gps.ura_m.get(ki).copied().unwrap_or(f64::NAN));
             let l1 = get(i_l1);
             let mut r = RawSat {
                 obs: RawObs {
@@ -284,7 +282,7 @@ pub fn raw_from_obs(
                 bump(id, &|c| c.unhealthy += 1);
                 continue;
             }
-            let ura = broadcast_sigma_m(*sys, e.accuracy_m);
+            let ura = sat_sigma_m(*sys, e.accuracy_m);
             let mut r = RawSat {
                 obs: RawObs {
                     t: ep.t,
@@ -353,6 +351,23 @@ pub fn raw_from_obs(
         sat_var_scale: sat_scale,
         sat_var_dof_eff: sat_dof_eff,
     })
+}
+
+/// Satellite orbit/clock σ [m] of a record for the tight filter: Galileo
+/// SISA as given ([`crate::spp::broadcast_sigma_m`]), a URA as its nominal value
+/// ([`ura_nominal_m`], the ICD's value for accuracy use; the SPP weights
+/// with the interval's upper bound,
+/// [`navfuse_core::gnss::spp::ura_sigma_m`], as RTKLIB does).
+fn sat_sigma_m(sys: char, accuracy_m: f64) -> f64 {
+    #[cfg(test)]
+    if URA_UPPER_BOUND.with(|c| c.get()) {
+        return crate::spp::broadcast_sigma_m(sys, accuracy_m);
+    }
+    if sys == 'E' && accuracy_m > 0.0 {
+        accuracy_m
+    } else {
+        ura_nominal_m(accuracy_m)
+    }
 }
 
 /// Effective degrees of freedom of the SPP's pooled variance factor for the
@@ -475,6 +490,8 @@ pub fn fix_of(sol: &SppSolution, var_scale: f64) -> GnssFix {
 
 #[cfg(test)]
 thread_local! {
+    /// Test-only: the URA's upper bound in the satellite budget (before).
+    pub(crate) static URA_UPPER_BOUND: std::cell::Cell<bool> = const { std::cell::Cell::new(false) };
     /// Test-only: the simulator's own satellite budget as `var_m2`.
     pub(crate) static DIAG_SIM_VAR: std::cell::Cell<bool> = const { std::cell::Cell::new(false) };
     /// Test-only: the satellite-variance scale in place of the SPP's.

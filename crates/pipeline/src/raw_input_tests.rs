@@ -106,13 +106,14 @@ fn every_observation_is_a_record_or_counted() {
     }
     assert_eq!(r.records.iter().filter(|x| x.obs.last_in_epoch).count(), 30);
     assert!(r.records.iter().all(|x| x.sat.iono_m > 0.0 && x.sat.valid));
-    // var = scale · (URA upper bound² + (½ I)²); 30 s of slow satellite
+    // var = scale · (nominal URA² + (½ I)²), URA 2.0 m (index 0, nominal
+    // 2.0 m); 30 s of slow satellite
     // errors (τ 1800 s) are about one sample per residual dof: the
     // a-priori budget stands (scale 1).
     assert!(r.sat_var_dof_eff < crate::spp::MIN_POOLED_DOF as f64);
     assert_eq!(r.sat_var_scale, 1.0);
     let x = &r.records[0];
-    let want = r.sat_var_scale * (2.4f64.powi(2) + (0.5 * x.sat.iono_m as f64).powi(2));
+    let want = r.sat_var_scale * (2.0f64.powi(2) + (0.5 * x.sat.iono_m as f64).powi(2));
     assert!((x.sat.var_m2 as f64 - want).abs() < 1e-3 * want, "{x:?}");
     assert_eq!(r.fixes.len(), 30);
     for f in &r.fixes {

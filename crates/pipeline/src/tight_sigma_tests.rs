@@ -265,10 +265,12 @@ fn tight_sigma_diagnostic() {
                 "scale1" => scale = Some(1.0),
                 "white" => cfg_t.consider_sat_errors = false,
                 "keep" => crate::tight_run::diag::KEEP_PRIOR.with(|c| c.set(true)),
-                // The model before this session: prior kept, the SPP's
-                // factor on the satellite variance at its plain dof.
+                // The model before this session: prior kept, URA upper
+                // bound, the SPP's factor at its plain dof.
+                "upper" => crate::raw_input::URA_UPPER_BOUND.with(|c| c.set(true)),
                 "before" => {
                     crate::tight_run::diag::KEEP_PRIOR.with(|c| c.set(true));
+                    crate::raw_input::URA_UPPER_BOUND.with(|c| c.set(true));
                     scale = Some(raw.var_scale);
                 }
                 "simvar" => crate::raw_input::DIAG_SIM_VAR.with(|c| c.set(true)),
@@ -289,6 +291,7 @@ fn tight_sigma_diagnostic() {
             crate::raw_input::VAR_SCALE_OVERRIDE.with(|c| c.set(None));
             crate::raw_input::DIAG_SIM_VAR.with(|c| c.set(false));
             crate::tight_run::diag::KEEP_PRIOR.with(|c| c.set(false));
+            crate::raw_input::URA_UPPER_BOUND.with(|c| c.set(false));
             let k = consistency(&d, &out);
             let tc = &out.summary["tight_coupling"];
             eprintln!(
@@ -340,21 +343,22 @@ fn series_print(d: &Drive, out: &crate::run::RunOutcome) {
 }
 
 /// Issue 20's band for the tight filter's σ on drives not used to build
-/// its model: seeds 13–18 (300 s each; seeds 1–12 were the diagnostic's),
-/// pooled over the epochs from 30 s after the start, the truth inside the
-/// 95 % horizontal region in [0.90, 0.99] of the epochs and the mean
-/// horizontal NEES in [0.7, 4] (issue 20, must-show 1). Seed range and
-/// bounds written before this test was first run.
+/// its model: seeds 19–24 (300 s each), pooled over the epochs from 30 s
+/// after the start, the truth inside the 95 % horizontal region in
+/// [0.90, 0.99] of the epochs and the mean horizontal NEES in [0.7, 4]
+/// (issue 20, must-show 1).
 ///
-/// First run (said, not hidden): coverage 1.000, NEES 1.27 — above the
-/// band: with the a-priori satellite budget (URA upper bound 2.4 m against
-/// the simulator's 1.0 m) the σ is conservative. Left failing-ignored until
-/// the budget is estimated from the data with an honest uncertainty.
+/// History (said, not hidden): first written for seeds 13–18 with the URA
+/// interval's upper bound in the satellite budget; it failed above the
+/// band (coverage 1.000, NEES 1.27: conservative). The budget then took the
+/// URA's nominal value (IS-GPS-200's value for accuracy use,
+/// [`crate::raw_input`]), chosen after that result; seeds 1–18 have all
+/// been looked at since, so the test moved to seeds 19–24, with the same
+/// bounds, before it was run on them.
 #[test]
-#[ignore = "fails: coverage 1.000 > 0.99 (σ conservative, NEES 1.27); cargo test --release -p navfuse-pipeline tight_sigma_covers -- --ignored --nocapture"]
 fn tight_sigma_covers_the_truth_on_fresh_seeds() {
     let (mut cover, mut nees, mut n) = (0.0, 0.0, 0.0);
-    for seed in 13..=18u64 {
+    for seed in 19..=24u64 {
         let d = drive("tight-sigma", seed, 300.0);
         let out = go(&d, &config(&d, false), "tight");
         let k = consistency(&d, &out);
@@ -368,7 +372,7 @@ fn tight_sigma_covers_the_truth_on_fresh_seeds() {
         let _ = std::fs::remove_dir_all(&d.dir);
     }
     let (cover, nees) = (cover / n, nees / n);
-    eprintln!("seeds 13–18: coverage95_h {cover:.3}, mean NEES_h {nees:.2}");
+    eprintln!("seeds 19–24: coverage95_h {cover:.3}, mean NEES_h {nees:.2}");
     assert!((0.90..=0.99).contains(&cover), "coverage {cover}");
     assert!((0.7..=4.0).contains(&nees), "NEES {nees}");
 }
