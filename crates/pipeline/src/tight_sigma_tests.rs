@@ -311,6 +311,10 @@ fn tight_sigma_diagnostic() {
             let out = go(&d, &config(&d, true), "loose");
             let k = consistency(&d, &out);
             eprintln!(
+                "    loose model: {}",
+                out.summary["filter"]["augmented_states"]
+            );
+            eprintln!(
                 "  loose: cover {:.3} NEES {:.2} h RMS {:.3} median σ_H {:.3}",
                 k.cover, k.nees, k.rms, k.sigma_h
             );
