@@ -501,6 +501,11 @@ fn make_tight(cfg: &RunConfig, eskf: &mut Eskf) -> Result<()> {
         .clone()
         .with_tight_coupling(crate::tight_run::tight_config())
         .map_err(|e| cfg.err(format!("[filter] coupling = \"tight\": {e}")))?;
+    #[cfg(test)]
+    if crate::tight_run::diag::KEEP_PRIOR.with(|c| c.get()) {
+        return Ok(());
+    }
+    eskf.forget_position_prior(crate::tight_run::POSITION_PRIOR_RESET_M);
     Ok(())
 }
 

@@ -37,27 +37,14 @@ pub const KLOBUCHAR: Klobuchar = Klobuchar {
     beta: [8.8060e+04, 1.6380e+04, -1.9660e+05, -1.3110e+05],
 };
 
-/// What [`write_raw_drive`] simulated and wrote.
-pub struct RawDrive {
-    pub sim: navfuse_sim::SimRun,
-    /// The observations of `raw.ubx` (`C1 L1 D1 S1`) and its ephemerides.
-    pub obs: ObsFile,
-    pub nav: NavData,
-}
-
-/// Simulate the drive (`seed`, `duration_s`) and write its files into `dir`
-/// (module documentation).
-pub fn write_raw_drive(dir: &Path, seed: u64, duration_s: f64) -> Result<RawDrive, String> {
-    let opts = PlatformOptions {
-        duration_s,
-        static_start: true,
-        imu: ImuGrade::Consumer,
-        gnss: GnssGrade::Consumer,
-        ..Default::default()
-    };
-    let sim = platform_run(Platform::Car, seed, &opts)
-        .map_err(|e| e.to_string())?
-        .run;
+/// The constellation and the raw-observable configuration of the drive
+/// of `seed` (module documentation): what [`write_raw_drive`] simulates,
+/// exposed so a diagnostic can re-simulate the same draws.
+pub fn drive_sky(
+    sim: &navfuse_sim::SimRun,
+    seed: u64,
+    duration_s: f64,
+) -> (Vec<navfuse_core::gnss::KeplerOrbit>, RawConfig) {
     let t0 = sim.traj.truth[0].t;
     let t_ref = ((t0 + 0.5 * duration_s) / 16.0).round() * 16.0;
     // Angles into the LNAV fields' ±π range (the same orbits).
@@ -76,6 +63,42 @@ pub fn write_raw_drive(dir: &Path, seed: u64, duration_s: f64) -> Result<RawDriv
         seed: seed * 7919 + 17,
         ..Default::default()
     };
+    (orbits, cfg)
+}
+
+/// What [`write_raw_drive`] simulated and wrote.
+pub struct RawDrive {
+    pub sim: navfuse_sim::SimRun,
+    /// The observations of `raw.ubx` (`C1 L1 D1 S1`) and its ephemerides.
+    pub obs: ObsFile,
+    pub nav: NavData,
+}
+
+/// Simulate the drive (`seed`, `duration_s`) and write its files into `dir`
+/// (module documentation).
+pub fn write_raw_drive(dir: &Path, seed: u64, duration_s: f64) -> Result<RawDrive, String> {
+    write_raw_drive_imu(dir, seed, duration_s, ImuGrade::Consumer)
+}
+
+/// [`write_raw_drive`] with another IMU grade (diagnostics: the same GNSS
+/// draws under a better IMU, its preset in `tight.toml`).
+pub fn write_raw_drive_imu(
+    dir: &Path,
+    seed: u64,
+    duration_s: f64,
+    imu: ImuGrade,
+) -> Result<RawDrive, String> {
+    let opts = PlatformOptions {
+        duration_s,
+        static_start: true,
+        imu,
+        gnss: GnssGrade::Consumer,
+        ..Default::default()
+    };
+    let sim = platform_run(Platform::Car, seed, &opts)
+        .map_err(|e| e.to_string())?
+        .run;
+    let (orbits, cfg) = drive_sky(&sim, seed, duration_s);
     let eps = simulate_drive_raw(&sim, &orbits, &cfg);
     let r3 = |x: f64| (x * 1e3).round() / 1e3;
     let mut obs = ObsFile {
@@ -141,7 +164,7 @@ pub fn write_raw_drive(dir: &Path, seed: u64, duration_s: f64) -> Result<RawDriv
          gyro_unit = \"rad\"\naccel_unit = \"m/s2\"\nform = \"increment\"\n\
          [filter]\nimu_preset = \"{}\"\nlever_arm = [{}, {}, {}]\ncoupling = \"tight\"\n",
         sim.scenario.imu.rate_hz,
-        ImuGrade::Consumer.preset(),
+        imu.preset(),
         l[0],
         l[1],
         l[2]

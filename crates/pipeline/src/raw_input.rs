@@ -16,33 +16,35 @@
 //! the SPP's age limit, unhealthy, system not supported, over capacity).
 //!
 //! Per-record satellite error variance `var_m2` (what the filter adds to its
-//! white code noise): the broadcast URA² (upper bound of the index interval,
-//! [`ura_sigma_m`]; Galileo SISA as given) plus the ionosphere residual:
+//! white code noise): the broadcast URA² (the nominal value of its index,
+//! [`ura_nominal_m`], IS-GPS-200's value for accuracy use; Galileo SISA as
+//! given) plus the ionosphere residual:
 //! 50 % of the broadcast Klobuchar delay (RTKLIB `ERR_BRDCI`, the model's
 //! design removes about half, Klobuchar 1987; the SPP's weight), or 5 m
 //! when the input carries no Klobuchar coefficients (RTKLIB `ERR_ION`, the
 //! uncorrected ionosphere); both scaled by the a-posteriori variance factor
 //! σ̂₀² = Σχ²/Σdof that the SPP of the same epochs estimates for this
-//! error model (Teunissen, *Adjustment theory*, §4.4; used from
-//! [`crate::spp::MIN_POOLED_DOF`] degrees of freedom, as `navfuse spp`
-//! scales its σ): the URA upper bound and the 50 % Klobuchar rule are
-//! conservative by design, and the file itself says by how much. The
+//! error model (Teunissen, *Adjustment theory*, §4.4) — only when that
+//! factor has [`crate::spp::MIN_POOLED_DOF`] *effective* degrees of freedom
+//! for these slowly varying errors ([`slow_error_dof`]: a satellite's error
+//! over a file shorter than its correlation time is one sample, however many
+//! epochs see it); else the a-priori budget stands (scale 1; the URA
+//! and the 50 % Klobuchar rule are conservative by design). The
+//! fixes' σ keep the factor at its plain dof count, as `navfuse spp` writes
+//! them. The
 //! filter's own white code/multipath terms are not scaled. The Klobuchar delay `iono_m` is evaluated at
 //! the epoch's SPP position (the nearest solved epoch's when this one has
 //! none; the model varies over hundreds of km, Klobuchar 1987).
 
 use crate::error::{PipelineError, Result};
 use crate::input::InputReport;
-use crate::spp::{
-    broadcast_sigma_m, by_prn, gps_ephemeris, other_system, solve_obs, SppNav, SppOptions,
-    SppSummary,
-};
+use crate::spp::{by_prn, gps_ephemeris, other_system, solve_obs, SppNav, SppOptions, SppSummary};
 use navfuse_core::geodesy::{c_en, ecef_to_geodetic};
 use navfuse_core::gnss::orbit_gnss::{self, OrbitKind};
 use navfuse_core::gnss::raw::{
     GnssSystem, RawObs, RawSat, SatState, Signal, FLAG_LOSS_OF_LOCK, MAX_RAW_SATS,
 };
-use navfuse_core::gnss::spp::{ura_sigma_m, SppSolution};
+use navfuse_core::gnss::spp::{ura_nominal_m, SppSolution};
 use navfuse_core::gnss::{C_LIGHT, LAMBDA_L1, SECONDS_PER_WEEK};
 use navfuse_core::types::GnssFix;
 use navfuse_core::Vec3;
@@ -95,9 +97,16 @@ pub struct RawInput {
     pub spp: SppSummary,
     /// The reader's report (summary.json `inputs.gnss`).
     pub report: InputReport,
-    /// The scale applied to every record's satellite variance (the SPP's
-    /// pooled variance factor, 1 below the dof threshold).
+    /// The scale of the fixes' σ (the SPP's pooled variance factor, 1
+    /// below [`crate::spp::MIN_POOLED_DOF`] degrees of freedom).
     pub var_scale: f64,
+    /// The scale applied to every record's satellite variance: the SPP's
+    /// variance factor when its effective degrees of freedom for the slow
+    /// satellite errors ([`slow_error_dof`]) reach
+    /// [`crate::spp::MIN_POOLED_DOF`], else 1 (the a-priori budget).
+    pub sat_var_scale: f64,
+    /// Those effective degrees of freedom.
+    pub sat_var_dof_eff: f64,
 }
 
 /// Satellite id as in the SPP summary (`G05`, `E11`, `C03`, `J193`).
@@ -142,6 +151,25 @@ pub fn raw_from_obs(
         1.0
     };
     let fixes: Vec<GnssFix> = sols.iter().map(|s| fix_of(s, scale)).collect();
+    let fix_scale = scale;
+    let span = match (sols.first(), sols.last()) {
+        (Some(a), Some(b)) => b.t_rx - a.t_rx,
+        _ => 0.0,
+    };
+    let sat_dof_eff = slow_error_dof(
+        spp.dof_sum,
+        spp.solved,
+        span,
+        crate::tight_run::tight_config().sat_error_tau_s,
+    );
+    let sat_scale = if sat_dof_eff >= crate::spp::MIN_POOLED_DOF as f64 {
+        spp.variance_factor
+    } else {
+        1.0
+    };
+    #[cfg(test)]
+    let sat_scale = VAR_SCALE_OVERRIDE.with(|c| c.get()).unwrap_or(sat_scale);
+    let scale = sat_scale;
     let pos_at = |t: f64| -> Option<Vec3> {
         let k = sols.partition_point(|s| s.t_rx < t - 1e-6);
         let cand = [k.checked_sub(1), (k < sols.len()).then_some(k)];
@@ -192,7 +220,7 @@ pub fn raw_from_obs(
                 bump(id, &|c| c.unhealthy += 1);
                 continue;
             }
-            let ura = ura_sigma_m(n.gps.ura_m.get(ki).copied().unwrap_or(f64::NAN));
+            let ura = sat_sigma_m('G', n.gps.ura_m.get(ki).copied().unwrap_or(f64::NAN));
             let l1 = get(i_l1);
             let mut r = RawSat {
                 obs: RawObs {
@@ -254,7 +282,7 @@ pub fn raw_from_obs(
                 bump(id, &|c| c.unhealthy += 1);
                 continue;
             }
-            let ura = broadcast_sigma_m(*sys, e.accuracy_m);
+            let ura = sat_sigma_m(*sys, e.accuracy_m);
             let mut r = RawSat {
                 obs: RawObs {
                     t: ep.t,
@@ -319,8 +347,57 @@ pub fn raw_from_obs(
         fixes,
         spp,
         report,
-        var_scale: scale,
+        var_scale: fix_scale,
+        sat_var_scale: sat_scale,
+        sat_var_dof_eff: sat_dof_eff,
     })
+}
+
+/// Satellite orbit/clock σ [m] of a record for the tight filter: Galileo
+/// SISA as given ([`crate::spp::broadcast_sigma_m`]), a URA as its nominal value
+/// ([`ura_nominal_m`], the ICD's value for accuracy use; the SPP weights
+/// with the interval's upper bound,
+/// [`navfuse_core::gnss::spp::ura_sigma_m`], as RTKLIB does).
+fn sat_sigma_m(sys: char, accuracy_m: f64) -> f64 {
+    #[cfg(test)]
+    if URA_UPPER_BOUND.with(|c| c.get()) {
+        return crate::spp::broadcast_sigma_m(sys, accuracy_m);
+    }
+    if sys == 'E' && accuracy_m > 0.0 {
+        accuracy_m
+    } else {
+        ura_nominal_m(accuracy_m)
+    }
+}
+
+/// Effective degrees of freedom of the SPP's pooled variance factor for the
+/// slowly varying satellite errors (orbit, clock, ionosphere; first-order
+/// Gauss–Markov with correlation time `tau_s`), from `dof_sum` residual
+/// degrees of freedom over `epochs` solved epochs spanning `span_s`
+/// seconds: the mean residual dof per epoch times the number of
+/// independent samples of a Gauss–Markov process observed for `span_s`,
+/// `ν(T) = T² / ∫∫ ρ²(t − s) ds dt = T² / (Tτ − τ²/2 · (1 − e^(−2T/τ)))`
+/// (Bayley & Hammersley 1946, the effective sample size of a variance
+/// estimated from a correlated series; ν → 1 for T ≪ τ, T/τ for T ≫ τ).
+///
+/// Why: the pooled factor Σχ²/Σdof counts every epoch's residuals as new
+/// samples, but a satellite's slow error is the same sample for all of a
+/// short file. Measured on the simulated car drives of the tight tests
+/// (seeds 1–12, 300 s, ≈ 1 residual dof per epoch, so ν ≈ 1.1): the factor
+/// ranged 0.13–1.94 from seed to seed, and the σ it scaled covered the
+/// truth in 4–100 % of the epochs.
+pub fn slow_error_dof(dof_sum: u64, epochs: usize, span_s: f64, tau_s: f64) -> f64 {
+    if epochs == 0 || span_s.is_nan() || tau_s.is_nan() || span_s <= 0.0 || tau_s <= 0.0 {
+        return 0.0;
+    }
+    let t = span_s;
+    let denom = t * tau_s - 0.5 * tau_s * tau_s * (1.0 - (-2.0 * t / tau_s).exp());
+    let nu = if denom > 0.0 {
+        (t * t / denom).max(1.0)
+    } else {
+        1.0
+    };
+    dof_sum as f64 / epochs as f64 * nu
 }
 
 /// [`SatState`] of a broadcast orbit of any Kepler system for a record
@@ -378,6 +455,18 @@ fn atmosphere(
         _ => var += IONO_SIGMA_NO_MODEL_M * IONO_SIGMA_NO_MODEL_M,
     }
     r.sat.var_m2 = (var * var_scale) as f32;
+    #[cfg(test)]
+    if DIAG_SIM_VAR.with(|c| c.get()) {
+        // The simulator's documented budget (σ_sat 1 m, iono 1 m × obliquity).
+        if let Some(rx) = rx {
+            let g = ecef_to_geodetic(&rx);
+            let d = r.sat.pos_e - rx;
+            let u_n = c_en(g.lat, g.lon) * (d / d.norm());
+            let el = (-u_n.z).clamp(-1.0, 1.0).asin();
+            let of = navfuse_sim::raw_gnss::obliquity(el);
+            r.sat.var_m2 = (1.0 + of * of) as f32;
+        }
+    }
 }
 
 /// An SPP solution as a fix: antenna position at the GPS time of the
@@ -397,6 +486,27 @@ pub fn fix_of(sol: &SppSolution, var_scale: f64) -> GnssFix {
         quality: navfuse_io::pos_writer::Q_SINGLE,
         num_sats: sol.n_used,
     }
+}
+
+#[cfg(test)]
+thread_local! {
+    /// Test-only: the URA's upper bound in the satellite budget (before).
+    pub(crate) static URA_UPPER_BOUND: std::cell::Cell<bool> = const { std::cell::Cell::new(false) };
+    /// Test-only: the simulator's own satellite budget as `var_m2`.
+    pub(crate) static DIAG_SIM_VAR: std::cell::Cell<bool> = const { std::cell::Cell::new(false) };
+    /// Test-only: the satellite-variance scale in place of the SPP's.
+    pub(crate) static VAR_SCALE_OVERRIDE: std::cell::Cell<Option<f64>> =
+        const { std::cell::Cell::new(None) };
+}
+
+#[cfg(test)]
+#[test]
+fn slow_error_dof_limits() {
+    // T ≪ τ: one sample per residual dof; T ≫ τ: T/τ samples.
+    assert!((slow_error_dof(100, 100, 1.0, 1800.0) - 1.0).abs() < 1e-3);
+    let long = slow_error_dof(100, 100, 1800.0 * 1000.0, 1800.0);
+    assert!((long / 1000.0 - 1.0).abs() < 1e-2, "{long}");
+    assert_eq!(slow_error_dof(0, 0, 300.0, 1800.0), 0.0);
 }
 
 #[cfg(test)]

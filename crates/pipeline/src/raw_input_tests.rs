@@ -106,9 +106,14 @@ fn every_observation_is_a_record_or_counted() {
     }
     assert_eq!(r.records.iter().filter(|x| x.obs.last_in_epoch).count(), 30);
     assert!(r.records.iter().all(|x| x.sat.iono_m > 0.0 && x.sat.valid));
-    // var = scale · (URA upper bound² + (½ I)²).
+    // var = scale · (nominal URA² + (½ I)²), URA 2.0 m (index 0, nominal
+    // 2.0 m); 30 s of slow satellite
+    // errors (τ 1800 s) are about one sample per residual dof: the
+    // a-priori budget stands (scale 1).
+    assert!(r.sat_var_dof_eff < crate::spp::MIN_POOLED_DOF as f64);
+    assert_eq!(r.sat_var_scale, 1.0);
     let x = &r.records[0];
-    let want = r.var_scale * (2.4f64.powi(2) + (0.5 * x.sat.iono_m as f64).powi(2));
+    let want = r.sat_var_scale * (2.0f64.powi(2) + (0.5 * x.sat.iono_m as f64).powi(2));
     assert!((x.sat.var_m2 as f64 - want).abs() < 1e-3 * want, "{x:?}");
     assert_eq!(r.fixes.len(), 30);
     for f in &r.fixes {
@@ -145,5 +150,15 @@ fn geonet_rinex_raw_input_accounts_for_every_observation() {
     assert_eq!(r.fixes.len(), r.spp.solved);
     assert!(r.records.len() as u64 > r.observations / 2);
     assert_eq!(r.var_scale, r.spp.variance_factor);
+    let want = if r.sat_var_dof_eff >= crate::spp::MIN_POOLED_DOF as f64 {
+        r.spp.variance_factor
+    } else {
+        1.0
+    };
+    eprintln!(
+        "satellite variance: dof_eff {:.1}, scale {:.3}",
+        r.sat_var_dof_eff, r.sat_var_scale
+    );
+    assert_eq!(r.sat_var_scale, want);
     assert!(r.records.iter().all(|x| x.sat.iono_m > 0.0));
 }

@@ -24,14 +24,38 @@ use std::collections::BTreeMap;
 /// truth was inside the reported 95 % ellipse 0–61 % of the time (mean
 /// 20 %), with consider states 4–100 % (mean 70 %, loose coupling 71 %),
 /// at a mean horizontal RMS of 2.55 m against 2.22 m white and 2.50 m
-/// loose. `navfuse experiment tight` keeps the white model (its metric is
+/// loose. Three causes were found from the simulator's truth
+/// (`sigma_tests::tight_sigma_diagnostic`, which splits every simulated
+/// pseudorange error into its components): the alignment's position prior
+/// counted the satellite errors a second time ([`POSITION_PRIOR_RESET_M`]);
+/// the satellite variance was scaled by an SPP variance factor estimated
+/// from ≈ 1 effective degree of freedom (0.09–1.94 from seed to seed,
+/// [`crate::raw_input::slow_error_dof`]); without that factor the URA
+/// interval's upper bound over-covered (100 %), its nominal value is the
+/// ICD's value for accuracy use ([`crate::raw_input`]). Since, per 6 seeds
+/// (coverage / mean NEES / h RMS): seeds 1–6 98 % / 1.33 / 2.35 m, 7–12
+/// 94 % / 2.25 / 2.93 m, 13–18 99 % / 1.55 / 2.45 m, 19–24 (the test
+/// `tight_sigma_covers_the_truth_on_fresh_seeds`) 97 % / 1.60 / 2.39 m.
+/// `navfuse experiment tight` keeps the white model (its metric is
 /// accuracy; the issue's must-show 2).
 pub fn tight_config() -> TightConfig {
+    #[cfg(test)]
+    if let Some(c) = diag::TIGHT_OVERRIDE.with(|c| c.get()) {
+        return c;
+    }
     TightConfig {
         consider_sat_errors: true,
         ..TightConfig::consumer()
     }
 }
+
+/// σ [m] per axis of the position prior when tight coupling starts
+/// ([`navfuse_core::estimators::eskf::Eskf::forget_position_prior`]): the
+/// alignment's position came from single-point fixes of the same
+/// pseudoranges, so it is no independent information; 100 m is vague
+/// against any code solution (metres) and leaves the first tight epochs to
+/// place the position, their satellite errors in the consider states.
+pub const POSITION_PRIOR_RESET_M: f64 = 100.0;
 
 /// Key of a record in [`TightStats::per_sat`].
 fn key(r: &RawSat) -> usize {
@@ -87,6 +111,10 @@ pub struct TightAccount {
     /// Scale of the records' satellite variance (URA², ionosphere): the
     /// SPP's a-posteriori variance factor ([`crate::raw_input`]).
     pub satellite_variance_scale: f64,
+    /// Effective degrees of freedom of that factor for the slow satellite
+    /// errors ([`crate::raw_input::slow_error_dof`]); below
+    /// [`crate::spp::MIN_POOLED_DOF`] the scale is 1.
+    pub satellite_variance_dof_eff: f64,
     pub measurement_model: String,
 }
 
@@ -199,7 +227,8 @@ pub fn account(
         clock_initialisations: stats.clock_inits,
         clock: clock.map(ClockJson::from),
         spp_epochs_solved: raw.spp.solved,
-        satellite_variance_scale: raw.var_scale,
+        satellite_variance_scale: raw.sat_var_scale,
+        satellite_variance_dof_eff: raw.sat_var_dof_eff,
         measurement_model: "consumer single-frequency receiver (TightConfig::consumer): \
                             code 0.5 m at 45 dB-Hz, multipath 0.6 m / sin el (≤ 3 m), \
                             Doppler 0.05 m/s, mask 10°, 25 dB-Hz, χ² gate 0.9999 per satellite; \
@@ -211,3 +240,21 @@ pub fn account(
 #[cfg(test)]
 #[path = "tight_run_tests.rs"]
 mod tests;
+
+#[cfg(test)]
+#[path = "tight_sigma_tests.rs"]
+mod sigma_tests;
+
+/// Test-only hooks of the diagnostics ([`tests`]): a measurement model in
+/// place of [`tight_config`] on this thread.
+#[cfg(test)]
+pub(crate) mod diag {
+    use navfuse_core::estimators::eskf::TightConfig;
+    thread_local! {
+        /// Keep the alignment's position prior (the behaviour before
+        /// [`super::POSITION_PRIOR_RESET_M`]).
+        pub(crate) static KEEP_PRIOR: std::cell::Cell<bool> = const { std::cell::Cell::new(false) };
+        pub(crate) static TIGHT_OVERRIDE: std::cell::Cell<Option<TightConfig>> =
+            const { std::cell::Cell::new(None) };
+    }
+}

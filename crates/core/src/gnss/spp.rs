@@ -111,6 +111,24 @@ pub fn ura_sigma_m(broadcast_m: f64) -> f64 {
         .unwrap_or(URA_UPPER_M[14])
 }
 
+/// Nominal URA [m] for a broadcast "SV accuracy" value [m]: the value X
+/// of its URA index N, `X = 2^(1 + N/2)` for N ≤ 6 and `2^(N − 2)` for
+/// 6 < N ≤ 14 (IS-GPS-200 §20.3.3.3.1.3.1: "suitable for use as a
+/// conservative prediction of the RMS signal-in-space range errors for
+/// accuracy-related purposes"; the interval's upper bound,
+/// [`ura_sigma_m`], is the integrity reading). Index 15 and missing
+/// values give 6144 m, as [`ura_sigma_m`].
+pub fn ura_nominal_m(broadcast_m: f64) -> f64 {
+    if broadcast_m.is_nan() || broadcast_m < 0.0 {
+        return URA_UPPER_M[14];
+    }
+    match URA_UPPER_M.iter().position(|&b| b >= broadcast_m) {
+        Some(n) if n <= 6 => 2f64.powf(1.0 + n as f64 / 2.0),
+        Some(n) => 2f64.powi(n as i32 - 2),
+        None => URA_UPPER_M[14],
+    }
+}
+
 /// One satellite's code (and optional Doppler) observation with its ephemeris.
 #[derive(Clone, Copy, Debug, PartialEq, Default)]
 pub struct SppObs {

@@ -288,3 +288,28 @@ fn rejections_and_skips_are_counted() {
         Err(SppReject::GdopTooHigh { .. })
     ));
 }
+
+/// Nominal URA values of IS-GPS-200 §20.3.3.3.1.3.1 by index.
+#[test]
+fn ura_nominal_values_by_index() {
+    use super::ura_nominal_m;
+    let cases = [
+        (0.5, 2.0),
+        (2.4, 2.0),
+        (2.5, 2.0f64.powf(1.5)),
+        (4.0, 4.0),
+        (10.0, 2.0f64.powf(3.5)),
+        (20.0, 16.0),
+        (40.0, 32.0),
+        (6000.0, 4096.0),
+        (f64::NAN, 6144.0),
+        (1e5, 6144.0),
+    ];
+    for (b, want) in cases {
+        assert!(
+            (ura_nominal_m(b) - want).abs() < 1e-9,
+            "{b}: {}",
+            ura_nominal_m(b)
+        );
+    }
+}

@@ -643,6 +643,32 @@ impl Eskf {
         Ok(self)
     }
 
+    /// Forget the position's prior: its covariance rows and columns (with
+    /// the clock/slot cross terms of tight coupling) are zeroed and its
+    /// variance set to `sigma_m²` per axis; the estimate is kept.
+    ///
+    /// Why: a position aligned on single-point fixes carries the same
+    /// satellite errors as the pseudoranges the tight filter then uses
+    /// (the fix is a least-squares image of those ranges). Kept as an
+    /// independent prior, it is counted twice (Bar-Shalom, Li &
+    /// Kirubarajan 2001, §8.6 on fusing correlated estimates): the
+    /// satellite consider states start uncorrelated with it, and the
+    /// filter reports the σ of two independent measurements of one error.
+    pub fn forget_position_prior(&mut self, sigma_m: f64) {
+        for k in I_POS..I_POS + 3 {
+            for j in 0..NX {
+                self.p[(k, j)] = 0.0;
+                self.p[(j, k)] = 0.0;
+            }
+            self.p[(k, k)] = sigma_m * sigma_m;
+            if let Some(t) = &mut self.tight {
+                for j in 0..NK {
+                    t.p_xc[(k, j)] = 0.0;
+                }
+            }
+        }
+    }
+
     /// Counters of the tight coupling (`None`: off).
     pub fn tight_stats(&self) -> Option<&TightStats> {
         self.tight.as_ref().map(|t| &t.stats)
