@@ -29,6 +29,7 @@ pub mod counter_clock;
 pub mod csv_imu;
 pub mod data;
 pub mod error;
+pub mod galileo_inav;
 pub mod gps_lnav;
 pub mod imu;
 pub mod kfgins;
