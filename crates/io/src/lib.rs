@@ -24,6 +24,7 @@
 //! - [`time`]: GPS week/TOW ↔ GPS seconds ↔ GPST/UTC calendar
 
 pub mod atomic;
+pub mod beidou_d1d2;
 pub mod carrier_phase;
 pub mod counter_clock;
 pub mod csv_imu;
