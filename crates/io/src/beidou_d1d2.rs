@@ -344,6 +344,9 @@ fn get_int(frames: &[[u32; NUM_WORDS]], (k, s, l): (usize, u32, u32)) -> u64 {
 
 /// The orbit parameter `p` of `o` (TGD2 from `tgd2`).
 fn value(o: &KeplerOrbit, tgd2: f64, p: P, toc_sow: f64, toe_sow: f64) -> (f64, &'static str) {
+    // M0, Ω0 and ω are angles of a circle: written in [−π, π) (±1
+    // semicircle, the range of their 32-bit fields).
+    let wrap = |v: f64| v - (v / (2.0 * GPS_PI) + 0.5).floor() * 2.0 * GPS_PI;
     match p {
         P::Toc => (toc_sow, "t_oc"),
         P::Tgd1 => (o.tgd, "TGD1"),
@@ -353,7 +356,7 @@ fn value(o: &KeplerOrbit, tgd2: f64, p: P, toc_sow: f64, toe_sow: f64) -> (f64, 
         P::A2 => (o.af2, "a2"),
         P::DeltaN => (o.delta_n, "Δn"),
         P::Cuc => (o.cuc, "C_uc"),
-        P::M0 => (o.m0, "M0"),
+        P::M0 => (wrap(o.m0), "M0"),
         P::E => (o.e, "e"),
         P::Cus => (o.cus, "C_us"),
         P::Crc => (o.crc, "C_rc"),
@@ -365,8 +368,8 @@ fn value(o: &KeplerOrbit, tgd2: f64, p: P, toc_sow: f64, toe_sow: f64) -> (f64, 
         P::OmegaDot => (o.omega_dot, "Ω̇"),
         P::Cis => (o.cis, "C_is"),
         P::Idot => (o.idot, "IDOT"),
-        P::Omega0 => (o.omega0, "Ω0"),
-        P::Argp => (o.argp, "ω"),
+        P::Omega0 => (wrap(o.omega0), "Ω0"),
+        P::Argp => (wrap(o.argp), "ω"),
     }
 }
 

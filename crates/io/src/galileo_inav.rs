@@ -228,6 +228,14 @@ impl InavAssembler {
             return None;
         }
         let k = usize::from(svid - 1);
+        // Word type 2 opens a new set (as RTKLIB's `decode_enav`): on E1-B
+        // it is the first of the subframe's ephemeris words (order 2, 4,
+        // 1, 3, 5, the I/NAV nominal sub-frame layout of §4.3.3), so the word type 5
+        // (BGD, health, GST) joined is the one sent with this batch, not
+        // an older one.
+        if wt == 2 {
+            self.last[k] = [None; 5];
+        }
         self.last[k][usize::from(wt - 1)] = Some(word);
         let [Some(w1), Some(w2), Some(w3), Some(w4), Some(w5)] = self.last[k] else {
             return None;
@@ -332,6 +340,10 @@ fn q_unsigned(v: f64, e: i32, len: u32, name: &'static str) -> Result<u64, InavE
     Ok(x as u64)
 }
 
+/// The order E1-B transmits word types 1–5 within a sub-frame (2, 4, 1,
+/// 3, 5; §4.3.3), as indices into [`encode_ephemeris`]'s result.
+pub const E1B_ORDER: [usize; 5] = [1, 3, 0, 2, 4];
+
 /// Word types 1–5 of Galileo ephemeris `e` (its `tgd` written as
 /// BGD(E1,E5b), BGD(E1,E5a) = `bgd_e1e5a`, `accuracy_m` as the SISA index
 /// [`sisa_index`], `health_word` in the [`GalEphemeris`] layout), with
@@ -367,6 +379,9 @@ pub fn encode_ephemeris(
         return Err(InavError::Range("GST week"));
     }
     let semi = |v: f64| v / GPS_PI;
+    // M0, Ω0 and ω are angles of a circle: written in [−π, π) (±1
+    // semicircle, the range of their 32-bit fields).
+    let wrap = |v: f64| v - (v / (2.0 * GPS_PI) + 0.5).floor() * 2.0 * GPS_PI;
     let iod = u64::from(iod_nav);
     let mut w = [Word(0), Word(0), Word(0), Word(0), Word(0)];
     for (i, x) in w.iter_mut().enumerate() {
@@ -380,12 +395,12 @@ pub fn encode_ephemeris(
         return Err(InavError::Range("t_oe (60 s grid)"));
     }
     w[0].put(16, 14, toe / 60);
-    w[0].put(30, 32, q_signed(semi(o.m0), -31, 32, "M_0")?);
+    w[0].put(30, 32, q_signed(semi(wrap(o.m0)), -31, 32, "M_0")?);
     w[0].put(62, 32, q_unsigned(o.e, -33, 32, "e")?);
     w[0].put(94, 32, q_unsigned(o.sqrt_a, -19, 32, "√A")?);
-    w[1].put(16, 32, q_signed(semi(o.omega0), -31, 32, "Ω_0")?);
+    w[1].put(16, 32, q_signed(semi(wrap(o.omega0)), -31, 32, "Ω_0")?);
     w[1].put(48, 32, q_signed(semi(o.i0), -31, 32, "i_0")?);
-    w[1].put(80, 32, q_signed(semi(o.argp), -31, 32, "ω")?);
+    w[1].put(80, 32, q_signed(semi(wrap(o.argp)), -31, 32, "ω")?);
     w[1].put(112, 14, q_signed(semi(o.idot), -43, 14, "IDOT")?);
     w[2].put(16, 24, q_signed(semi(o.omega_dot), -43, 24, "Ω̇")?);
     w[2].put(40, 16, q_signed(semi(o.delta_n), -43, 16, "Δn")?);
@@ -490,11 +505,11 @@ mod tests {
         n.ephs[0]
     }
 
-    fn decode_all(pages: &[[u32; 8]], week: u16) -> Option<GalEphemeris> {
+    fn decode_all(pages: &[[u32; 8]; 5], week: u16) -> Option<GalEphemeris> {
         let mut a = InavAssembler::default();
         let mut got = None;
-        for p in pages {
-            if let Some(e) = a.push(11, decode_pages(p).unwrap(), week) {
+        for p in E1B_ORDER.map(|i| pages[i]) {
+            if let Some(e) = a.push(11, decode_pages(&p).unwrap(), week) {
                 got = Some(e);
             }
         }
@@ -584,19 +599,30 @@ mod tests {
         let r = rinex_record();
         let a = encode_ephemeris(&r, 12, 0, 0.0, 175_394.0).unwrap();
         let b = encode_ephemeris(&r, 13, 0, 0.0, 175_394.0).unwrap();
-        // Word types 1-3 of IOD 12 and 4 of IOD 13 do not join; the
-        // missing word 4 of 13... then IOD 12's word 4 completes.
+        // E1-B order 2, 4, 1, 3, 5 with word 4 of another batch (IOD 13):
+        // no ephemeris; IOD 12's word 4 then completes the set.
         let mut asm = InavAssembler::default();
-        for p in [a[0], a[1], a[2], b[3], a[4]] {
+        for p in [a[1], b[3], a[0], a[2], a[4]] {
             assert!(asm.push(11, decode_pages(&p).unwrap(), 2034).is_none());
         }
         assert!(asm.push(11, decode_pages(&a[3]).unwrap(), 2034).is_some());
-        // The same batch again is not new; a new IOD is.
-        assert!(asm.push(11, decode_pages(&a[0]).unwrap(), 2034).is_none());
+        // The same batch again is not new.
+        for i in E1B_ORDER {
+            assert!(asm.push(11, decode_pages(&a[i]).unwrap(), 2034).is_none());
+        }
+        // A word type 5 from before word type 2 is not joined: 5 of the
+        // old set, then 2, 4, 1, 3 of IOD 13 wait for their own 5.
+        let mut asm = InavAssembler::default();
+        asm.push(11, decode_pages(&a[4]).unwrap(), 2034);
+        for i in [1, 3, 0, 2] {
+            assert!(asm.push(11, decode_pages(&b[i]).unwrap(), 2034).is_none());
+        }
+        let e = asm.push(11, decode_pages(&b[4]).unwrap(), 2034).unwrap();
+        assert_eq!(e.iod_nav, 13);
         // Word 4's SVID (11) must be the satellite's.
         let mut other = InavAssembler::default();
-        for p in &a {
-            assert!(other.push(12, decode_pages(p).unwrap(), 2034).is_none());
+        for i in E1B_ORDER {
+            assert!(other.push(12, decode_pages(&a[i]).unwrap(), 2034).is_none());
         }
         // Health: E1-B HS = 3 ("in test"), E5b DVS set.
         let h = (3 << 1) | (1 << 6);
