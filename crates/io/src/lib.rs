@@ -48,6 +48,7 @@ pub mod parquet_out;
 pub mod pos;
 pub mod pos_writer;
 pub mod rinex;
+pub mod rinex_glonass;
 pub mod rinex_nav3;
 pub mod sigma_read;
 pub mod stdfile;
