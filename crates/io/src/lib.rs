@@ -31,6 +31,7 @@ pub mod csv_imu;
 pub mod data;
 pub mod error;
 pub mod galileo_inav;
+pub mod glonass_str;
 pub mod gps_lnav;
 pub mod imu;
 pub mod kfgins;

@@ -25,10 +25,12 @@
 use crate::beidou_d1d2::{self as bds, BdsAssembler};
 use crate::error::{ReadError, RecordStats};
 use crate::galileo_inav::{self as gal, InavAssembler};
+use crate::glonass_str::{self as glo, GloAssembler};
 use crate::gps_lnav::{decode_subframe, encode_ephemeris, encode_iono, Assembler};
 use crate::rinex::{GnssObs, NavData, ObsEpoch, ObsFile, ObsValue, SatObs};
 use crate::rinex_nav3::GnssEph;
 use crate::ubx::{encode, RawxMeas, RxmRawx, RxmSfrbx, UbxMessage, UbxReader, SFRBX_MAX_WORDS};
+use navfuse_core::gnss::glonass::GlonassEph;
 use navfuse_core::gnss::orbit_gnss::BDT_MINUS_GPST;
 use navfuse_core::gnss::SECONDS_PER_WEEK;
 use std::io::Read;
@@ -39,6 +41,7 @@ pub const MAX_PENDING_SUBFRAMES: usize = 4096;
 const GNSS_GPS: u8 = 0;
 const GNSS_GAL: u8 = 2;
 const GNSS_BDS: u8 = 3;
+const GNSS_GLO: u8 = 6;
 const SIG_L1CA: u8 = 0;
 /// RINEX 3 codes written for Galileo (E1 C, then E1 B) and BeiDou (B1I):
 /// code, phase, Doppler, C/N0 per signal.
@@ -63,7 +66,9 @@ pub struct UbxGnssReport {
     pub galileo_alert_pages: u64,
     /// BeiDou subframes with a bad preamble, FraID, page number or length.
     pub beidou_subframes_bad: u64,
-    /// Subframes of other systems (SBAS, QZSS, GLONASS: not used here).
+    /// GLONASS strings with a bad length or string number.
+    pub glonass_strings_bad: u64,
+    /// Subframes of other systems (SBAS, QZSS: not used here).
     pub subframes_other_system: u64,
     /// Subframes dropped because no RAWX week came within the pending cap.
     pub subframes_without_week: u64,
@@ -72,6 +77,8 @@ pub struct UbxGnssReport {
     /// Galileo and BeiDou ephemerides assembled.
     pub ephemerides_galileo: u64,
     pub ephemerides_beidou: u64,
+    /// GLONASS ephemerides assembled (strings 1–4).
+    pub ephemerides_glonass: u64,
     /// Other UBX messages in the log.
     pub other_messages: u64,
 }
@@ -88,6 +95,10 @@ pub struct UbxGnss {
     pub nav: NavData,
     /// Galileo and BeiDou ephemerides, as the RINEX 3 reader gives them.
     pub other: Vec<GnssEph>,
+    /// GLONASS ephemerides (strings 1–4), as [`crate::rinex_glonass`]
+    /// gives them (not used by the SPP yet: its measurements are counted
+    /// in `other_signal_meas`).
+    pub glonass: Vec<GlonassEph>,
     pub report: UbxGnssReport,
     pub stats: RecordStats,
 }
@@ -98,6 +109,7 @@ struct Decoders {
     gps: Assembler,
     gal: InavAssembler,
     bds: BdsAssembler,
+    glo: GloAssembler,
 }
 
 /// Read a UBX log's raw observations and broadcast navigation data (GPS,
@@ -123,17 +135,18 @@ pub fn read_ubx_gnss<R: Read>(rdr: R, name: &str) -> Result<UbxGnss, ReadError> 
         },
         ..Default::default()
     };
-    let rep = &mut out.report;
     let mut dec = Decoders::default();
     let mut week: Option<u16> = None;
+    let mut rx_t = 0.0;
     let mut pending: Vec<RxmSfrbx> = Vec::new();
     for msg in r.by_ref() {
         match msg? {
             UbxMessage::RxmRawx(x) => {
-                rep.rawx_epochs += 1;
+                out.report.rawx_epochs += 1;
                 week = Some(x.week);
+                rx_t = f64::from(x.week) * SECONDS_PER_WEEK + x.rcv_tow;
                 for m in pending.drain(..) {
-                    subframe(&m, x.week, &mut dec, &mut out.nav, &mut out.other, rep);
+                    subframe(&m, x.week, rx_t, &mut dec, &mut out);
                 }
                 let mut ep = ObsEpoch {
                     t: f64::from(x.week) * SECONDS_PER_WEEK + x.rcv_tow,
@@ -160,15 +173,15 @@ pub fn read_ubx_gnss<R: Read>(rdr: R, name: &str) -> Result<UbxGnss, ReadError> 
                             continue;
                         }
                         (GNSS_GAL, s @ (0 | 1)) if (1..=gal::MAX_SVID).contains(&m.sv_id) => {
-                            rep.galileo_meas += 1;
+                            out.report.galileo_meas += 1;
                             ('E', GAL_CODES.len(), 4 * usize::from(s))
                         }
                         (GNSS_BDS, 0 | 1) if (1..=bds::MAX_PRN).contains(&m.sv_id) => {
-                            rep.beidou_meas += 1;
+                            out.report.beidou_meas += 1;
                             ('C', BDS_CODES.len(), 0)
                         }
                         _ => {
-                            rep.other_signal_meas += 1;
+                            out.report.other_signal_meas += 1;
                             continue;
                         }
                     };
@@ -189,35 +202,29 @@ pub fn read_ubx_gnss<R: Read>(rdr: R, name: &str) -> Result<UbxGnss, ReadError> 
                 out.gnss.epochs.push(others);
             }
             UbxMessage::RxmSfrbx(m) => {
-                if !matches!(m.gnss_id, GNSS_GPS | GNSS_GAL | GNSS_BDS) {
-                    rep.subframes_other_system += 1;
+                if !matches!(m.gnss_id, GNSS_GPS | GNSS_GAL | GNSS_BDS | GNSS_GLO) {
+                    out.report.subframes_other_system += 1;
                 } else if let Some(w) = week {
-                    subframe(&m, w, &mut dec, &mut out.nav, &mut out.other, rep);
+                    subframe(&m, w, rx_t, &mut dec, &mut out);
                 } else if pending.len() < MAX_PENDING_SUBFRAMES {
                     pending.push(m);
                 } else {
-                    rep.subframes_without_week += 1;
+                    out.report.subframes_without_week += 1;
                 }
             }
-            _ => rep.other_messages += 1,
+            _ => out.report.other_messages += 1,
         }
     }
-    rep.subframes_without_week += pending.len() as u64;
+    out.report.subframes_without_week += pending.len() as u64;
     out.nav.iono = dec.gps.iono;
     out.stats = r.stats().clone();
     Ok(out)
 }
 
-/// One subframe / page pair into its system's assembler; a new ephemeris
-/// goes to `nav` (GPS) or `other`.
-fn subframe(
-    m: &RxmSfrbx,
-    week: u16,
-    dec: &mut Decoders,
-    nav: &mut NavData,
-    other: &mut Vec<GnssEph>,
-    rep: &mut UbxGnssReport,
-) {
+/// One subframe / page pair / string into its system's assembler; a new
+/// ephemeris goes to `out.nav` (GPS), `out.other` or `out.glonass`.
+fn subframe(m: &RxmSfrbx, week: u16, rx_t: f64, dec: &mut Decoders, out: &mut UbxGnss) {
+    let rep = &mut out.report;
     let n = usize::from(m.num_words).min(SFRBX_MAX_WORDS);
     let words = &m.words[..n];
     match m.gnss_id {
@@ -229,8 +236,8 @@ fn subframe(
             match decode_subframe(&w) {
                 Ok(sf) => {
                     if let Some(e) = dec.gps.push(m.sv_id, &sf, week) {
-                        nav.orbits.push(e.orbit);
-                        nav.ura_m.push(e.ura_m);
+                        out.nav.orbits.push(e.orbit);
+                        out.nav.ura_m.push(e.ura_m);
                         rep.ephemerides += 1;
                     }
                 }
@@ -240,17 +247,26 @@ fn subframe(
         GNSS_GAL => match gal::decode_pages(words) {
             Ok(word) => {
                 if let Some(e) = dec.gal.push(m.sv_id, word, week) {
-                    other.push(e.eph);
+                    out.other.push(e.eph);
                     rep.ephemerides_galileo += 1;
                 }
             }
             Err(gal::InavError::AlertPage) => rep.galileo_alert_pages += 1,
             Err(_) => rep.galileo_pages_bad += 1,
         },
+        GNSS_GLO => match glo::decode_string(words) {
+            Ok(s) => {
+                if let Some(e) = dec.glo.push(m.sv_id, m.freq_id, &s, rx_t) {
+                    out.glonass.push(e);
+                    rep.ephemerides_glonass += 1;
+                }
+            }
+            Err(_) => rep.glonass_strings_bad += 1,
+        },
         _ => match bds::decode_subframe(words, bds::is_geo(m.sv_id)) {
             Ok(sf) => {
                 if let Some(e) = dec.bds.push(m.sv_id, &sf, week) {
-                    other.push(e.eph);
+                    out.other.push(e.eph);
                     rep.ephemerides_beidou += 1;
                 }
             }
@@ -265,7 +281,7 @@ fn subframe(
 /// first epoch (the reader's week), transmitted at that epoch's time.
 /// Errors: a field that does not fit its LNAV bits (names it).
 pub fn write_ubx_gnss(obs: &ObsFile, nav: &NavData) -> Result<Vec<u8>, String> {
-    write_ubx_multi(obs, &GnssObs::default(), nav, &[])
+    write_ubx_multi(obs, &GnssObs::default(), nav, &[], &[])
 }
 
 /// One RAWX measurement from a code/phase/Doppler/C/N0 quadruple.
@@ -301,13 +317,15 @@ const SIGNALS: [(char, u8, u8, [&str; 4]); 5] = [
 /// B1I → 0, or 1 for a GEO's D2) as further RAWX measurements, and the
 /// records of `other` as I/NAV page pairs (word types in E1-B order 2, 4,
 /// 1, 3, 5, IOD_nav = index mod 1024, health ≠ 0 → E1-B HS 1) or D1
-/// subframes 1–3 / D2 pages 1–10 (AODE = index mod 32), all sent after the
-/// first epoch. Errors: a field that does not fit its bits (names it).
+/// subframes 1–3 / D2 pages 1–10 (AODE = index mod 32), and `glonass` as
+/// strings 1–4 (frame identifier = index), all sent after the first epoch.
+/// Errors: a field that does not fit its bits (names it).
 pub fn write_ubx_multi(
     obs: &ObsFile,
     gnss: &GnssObs,
     nav: &NavData,
     other: &[GnssEph],
+    glonass: &[GlonassEph],
 ) -> Result<Vec<u8>, String> {
     let idx = |c: &str| obs.index(c);
     let (ic, il, id, is) = (idx("C1"), idx("L1"), idx("D1"), idx("S1"));
@@ -355,18 +373,29 @@ pub fn write_ubx_multi(
         })));
         if k == 0 {
             let tx = (tow / 6.0).floor() * 6.0;
-            let mut put = |gnss_id: u8, sv: u8, w: &[u32]| {
+            let mut put_f = |gnss_id: u8, sv: u8, freq_id: u8, w: &[u32]| {
                 let mut words = [0u32; SFRBX_MAX_WORDS];
                 words[..w.len()].copy_from_slice(w);
                 out.extend(encode(&UbxMessage::RxmSfrbx(RxmSfrbx {
                     gnss_id,
                     sv_id: sv,
+                    freq_id,
                     num_words: w.len() as u8,
                     version: 2,
                     words,
                     ..Default::default()
                 })));
             };
+            for (j, e) in glonass.iter().enumerate() {
+                let s = glo::encode_strings(e, j as u16)
+                    .map_err(|x| format!("R{:02} t_b {}: {x}", e.slot, e.t_b))?;
+                let freq_id = u8::try_from(i16::from(e.freq_ch) + 7)
+                    .map_err(|_| format!("R{:02}: frequency channel {}", e.slot, e.freq_ch))?;
+                for w in &s {
+                    put_f(GNSS_GLO, e.slot, freq_id, w);
+                }
+            }
+            let mut put = |gnss_id: u8, sv: u8, w: &[u32]| put_f(gnss_id, sv, 0, w);
             for (j, o) in nav.orbits.iter().enumerate() {
                 let ura = nav.ura_m.get(j).copied().unwrap_or(0.0);
                 let sfs = encode_ephemeris(o, (j % 256) as u8, ura, tx)
@@ -413,4 +442,41 @@ pub fn write_ubx_multi(
         }
     }
     Ok(out)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A GLONASS ephemeris written as RXM-SFRBX strings next to a RAWX
+    /// epoch comes back from the reader unchanged (values on the grid),
+    /// with its frequency channel from `freqId`.
+    #[test]
+    fn glonass_strings_through_the_log() {
+        let text =
+            "     3.04           N: GNSS NAV DATA    R: GLONASS          RINEX VERSION / TYPE
+                                                            END OF HEADER
+R07 2012 09 07 00 15 00-1.199999824166E-04 9.094947017729E-13 0.000000000000E+00
+     7.003008789062E+03 7.835416793823E-01 0.000000000000E+00 0.000000000000E+00
+    -1.220662695312E+04 2.804252624512E+00 1.862645149231E-09-3.000000000000E+00
+     2.128076562500E+04 1.352515220642E+00-5.587935447693E-09 3.000000000000E+00
+";
+        let r = crate::rinex_glonass::parse_nav_glonass(text, "t").unwrap();
+        let obs = ObsFile {
+            types: vec!["C1".into()],
+            epochs: vec![ObsEpoch {
+                t: r[0].t_b + 30.0,
+                flag: 0,
+                sats: Vec::new(),
+            }],
+            ..ObsFile::default()
+        };
+        let b = write_ubx_multi(&obs, &GnssObs::default(), &NavData::default(), &[], &r).unwrap();
+        let u = read_ubx_gnss(&b[..], "t").unwrap();
+        assert_eq!(u.report.ephemerides_glonass, 1);
+        let g = u.glonass[0];
+        assert_eq!((g.slot, g.freq_ch, g.t_b), (7, -3, r[0].t_b));
+        let d = (g.position_ecef(g.t_b + 900.0) - r[0].position_ecef(g.t_b + 900.0)).norm();
+        assert!(d < 1e-3, "{d} m");
+    }
 }

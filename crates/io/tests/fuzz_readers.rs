@@ -1251,8 +1251,8 @@ fn fuzz_odometer_csv() {
 /// UBX raw GNSS (issue 14): RXM-RAWX and RXM-SFRBX through
 /// `read_ubx_gnss`, whose decoders for Galileo I/NAV and BeiDou D1/D2 are
 /// reached through the SFRBX fix-up below. Checks: no panic, GPS and
-/// multi-GNSS epochs parallel, every ephemeris decoded evaluates to a
-/// finite-or-NaN position without a panic, of the system it came from.
+/// multi-GNSS epochs parallel, every ephemeris decoded (GLONASS too)
+/// evaluates without a panic, of the system it came from.
 fn run_ubx_gnss(b: &[u8]) -> usize {
     let Ok(u) = navfuse_io::ubx_gnss::read_ubx_gnss(b, "f") else {
         return 0;
@@ -1263,7 +1263,11 @@ fn run_ubx_gnss(b: &[u8]) -> usize {
         let _ = navfuse_core::gnss::orbit_gnss::position_ecef(&e.orbit, e.kind, e.orbit.t_oe);
         let _ = navfuse_core::gnss::orbit_gnss::clock_offset(&e.orbit, e.kind, e.orbit.t_oe);
     }
-    let n = u.obs.epochs.len() + u.nav.orbits.len() + u.other.len();
+    for e in &u.glonass {
+        let _ = e.position_ecef(e.t_b + 900.0);
+    }
+    let n = u.obs.epochs.len() + u.nav.orbits.len() + u.other.len() + u.glonass.len();
+    assert_eq!(u.report.ephemerides_glonass, u.glonass.len() as u64);
     assert_eq!(
         u.report.ephemerides_galileo + u.report.ephemerides_beidou,
         u.other.len() as u64
@@ -1290,7 +1294,16 @@ fn ubx_gnss_seeds(systems: &[char]) -> Vec<Vec<u8>> {
         meo.kind = navfuse_core::gnss::orbit_gnss::OrbitKind::BeiDou;
         other.push(meo);
     }
-    let t0 = other[0].orbit.t_oe;
+    let glonass = if systems.contains(&'R') {
+        navfuse_io::rinex_glonass::parse_nav_glonass(GLO_NAV, "seed").unwrap()
+    } else {
+        Vec::new()
+    };
+    let t0 = other
+        .first()
+        .map(|e| e.orbit.t_oe)
+        .or(glonass.first().map(|e| e.t_b))
+        .unwrap();
     let v = |x: f64| Some(ObsValue { value: x, lli: 0 });
     let obs = ObsFile {
         types: vec!["C1".into(), "L1".into(), "D1".into(), "S1".into()],
@@ -1325,9 +1338,10 @@ fn ubx_gnss_seeds(systems: &[char]) -> Vec<Vec<u8>> {
             .collect(),
     };
     let whole =
-        navfuse_io::ubx_gnss::write_ubx_multi(&obs, &gnss, &NavData::default(), &other).unwrap();
+        navfuse_io::ubx_gnss::write_ubx_multi(&obs, &gnss, &NavData::default(), &other, &glonass)
+            .unwrap();
     assert!(
-        run_ubx_gnss(&whole) >= 3 + other.len(),
+        run_ubx_gnss(&whole) >= 3 + other.len() + glonass.len(),
         "the seed decodes its ephemerides"
     );
     // The whole stream, and its frames one by one.
@@ -1367,6 +1381,12 @@ fn sfrbx_fixup(b: &mut Vec<u8>, rng: &mut Rng) {
                             (((even >> 14) & ((1u128 << 112) - 1)) << 16) | ((odd >> 110) & 0xFFFF);
                         Some(navfuse_io::galileo_inav::encode_pages(data).to_vec())
                     }
+                    (6, 4) if rng.chance(0.8) => {
+                        let mut w = words.clone();
+                        let m = (w[0] >> 27) & 0xF;
+                        w[0] = (w[0] & !(0xF << 27)) | ((m % 4 + 1) << 27);
+                        Some(w)
+                    }
                     (3, 10) if rng.chance(0.8) => {
                         let mut w = words.clone();
                         w[0] = (w[0] & !(0x7FF << 19)) | (0x712 << 19);
@@ -1394,6 +1414,26 @@ fn fuzz_ubx_sfrbx_galileo() {
         "ubx_sfrbx_galileo",
         run_ubx_gnss,
         ubx_gnss_seeds(&['E']),
+        Some(sfrbx_fixup),
+    );
+}
+
+/// A GLONASS RINEX 3 record on the broadcast grid (t_b 03:15 Moscow time).
+const GLO_NAV: &str =
+    "     3.04           N: GNSS NAV DATA    R: GLONASS          RINEX VERSION / TYPE
+                                                            END OF HEADER
+R07 2012 09 07 00 15 00-1.199999824166E-04 9.094947017729E-13 0.000000000000E+00
+     7.003008789062E+03 7.835416793823E-01 0.000000000000E+00 0.000000000000E+00
+    -1.220662695312E+04 2.804252624512E+00 1.862645149231E-09 1.000000000000E+00
+     2.128076562500E+04 1.352515220642E+00-5.587935447693E-09 3.000000000000E+00
+";
+
+#[test]
+fn fuzz_ubx_sfrbx_glonass() {
+    fuzz(
+        "ubx_sfrbx_glonass",
+        run_ubx_gnss,
+        ubx_gnss_seeds(&['R']),
         Some(sfrbx_fixup),
     );
 }

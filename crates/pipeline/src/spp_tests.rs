@@ -554,8 +554,9 @@ fn ubx_multi_gnss_log_gives_the_rinex_answer() {
             orbits: gps,
             iono: None,
         };
-        let b = navfuse_io::ubx_gnss::write_ubx_multi(&one, &GnssObs::default(), &nav, &others)
-            .unwrap();
+        let b =
+            navfuse_io::ubx_gnss::write_ubx_multi(&one, &GnssObs::default(), &nav, &others, &[])
+                .unwrap();
         let u = navfuse_io::ubx_gnss::read_ubx_gnss(&b[..], "broadcast").unwrap();
         assert_eq!((u.nav.orbits.len(), u.other.len()), (24, 49));
         u.nav
@@ -652,7 +653,8 @@ fn ubx_multi_gnss_log_gives_the_rinex_answer() {
     };
     let (a, sum_a) = solve(&obs, &gnss, &nav);
 
-    let bytes = navfuse_io::ubx_gnss::write_ubx_multi(&obs, &gnss, &nav.gps, &nav.other).unwrap();
+    let bytes =
+        navfuse_io::ubx_gnss::write_ubx_multi(&obs, &gnss, &nav.gps, &nav.other, &[]).unwrap();
     let dir = tmp_dir("ubx-multi");
     let log = dir.join("multi.ubx");
     std::fs::write(&log, &bytes).unwrap();
