@@ -1418,6 +1418,49 @@ fn fuzz_ubx_sfrbx_galileo() {
     );
 }
 
+/// RINEX 2 `.g` and RINEX 3 GLONASS records (`rinex_glonass`): whatever
+/// parses integrates over ±15 min without a panic.
+fn run_rinex_glonass(b: &[u8]) -> usize {
+    let text = String::from_utf8_lossy(b);
+    navfuse_io::rinex_glonass::parse_nav_glonass(&text, "f").map_or(0, |v| {
+        for e in &v {
+            let _ = e.position_ecef(e.t_b + 900.0);
+            let _ = e.position_ecef(e.t_b - 900.0);
+        }
+        v.len()
+    })
+}
+
+/// A RINEX 2.11 GLONASS navigation file (D exponents).
+const GLO_NAV2: &str =
+    "     2.11           G: GLONASS NAV DATA                     RINEX VERSION / TYPE
+                                                            END OF HEADER
+ 7 12  9  7  0 15  0.0-1.199999824166D-04 9.094947017729D-13 0.000000000000D+00
+    7.003008789062D+03 7.835416793823D-01 0.000000000000D+00 0.000000000000D+00
+   -1.220662695312D+04 2.804252624512D+00 1.862645149231D-09 1.000000000000D+00
+    2.128076562500D+04 1.352515220642D+00-5.587935447693D-09 3.000000000000D+00
+";
+
+#[test]
+fn fuzz_rinex_glonass_nav() {
+    assert_eq!(
+        run_rinex_glonass(GLO_NAV.as_bytes()),
+        1,
+        "the RINEX 3 seed parses"
+    );
+    assert_eq!(
+        run_rinex_glonass(GLO_NAV2.as_bytes()),
+        1,
+        "the RINEX 2 seed parses"
+    );
+    fuzz(
+        "rinex_glonass_nav",
+        run_rinex_glonass,
+        vec![GLO_NAV.as_bytes().to_vec(), GLO_NAV2.as_bytes().to_vec()],
+        None,
+    );
+}
+
 /// A GLONASS RINEX 3 record on the broadcast grid (t_b 03:15 Moscow time).
 const GLO_NAV: &str =
     "     3.04           N: GNSS NAV DATA    R: GLONASS          RINEX VERSION / TYPE
