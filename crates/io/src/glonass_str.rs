@@ -15,7 +15,8 @@
 //! verified the string; [`encode_strings`] writes it as zeros).
 //! [`GloAssembler`] joins strings 1–4 of one satellite and one frame
 //! (their frame identifiers equal) whose string 4 slot number is the
-//! satellite's.
+//! satellite's; string 5 sets its time-scale parameters (N^A, τ_c, N_4,
+//! τ_GPS: [`GloTimeParams`]).
 //!
 //! Time: t_b is the index of a 15-min interval of the Moscow day (Moscow
 //! time = UTC(SU) plus 3 h, ICD 5.1 §3.3.3); the day is that of the
@@ -112,12 +113,38 @@ pub fn decode_string(words: &[u32]) -> Result<GloString, GloError> {
     })
 }
 
+/// String 5 (non-immediate information, ICD 5.1 Table 4.5/4.4): the
+/// time-scale parameters.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct GloTimeParams {
+    /// Calendar day number within the four-year interval N^A (11 bits).
+    pub day_na: u16,
+    /// τ_c: GLONASS time scale correction to UTC(SU) [s] (32 bits, 2⁻³¹ s).
+    pub tau_c: f64,
+    /// N_4: four-year interval number since 1996 (5 bits).
+    pub n4: u8,
+    /// τ_GPS: GPS − GLONASS time fractional difference [s] (22 bits, 2⁻³⁰ s).
+    pub tau_gps: f64,
+}
+
+/// String 5's parameters (any slot broadcasts the same system values).
+pub fn decode_time_params(s: &GloString) -> Option<GloTimeParams> {
+    (s.m == 5).then(|| GloTimeParams {
+        day_na: getu(s.bits, 5, 11) as u16,
+        tau_c: getsm(s.bits, 16, 32) * 2f64.powi(-31),
+        n4: getu(s.bits, 49, 5) as u8,
+        tau_gps: getsm(s.bits, 54, 22) * 2f64.powi(-30),
+    })
+}
+
 /// Joins strings 1–4 per slot. Fixed size, no allocation.
 #[derive(Clone, Debug)]
 pub struct GloAssembler {
     last: [[Option<GloString>; 4]; MAX_SLOT as usize],
     /// (t_b index, frame) of the last ephemeris emitted per slot.
     emitted: [Option<(u64, u16)>; MAX_SLOT as usize],
+    /// The last string 5's time parameters.
+    pub time: Option<GloTimeParams>,
 }
 
 impl Default for GloAssembler {
@@ -125,6 +152,7 @@ impl Default for GloAssembler {
         GloAssembler {
             last: [[None; 4]; MAX_SLOT as usize],
             emitted: [None; MAX_SLOT as usize],
+            time: None,
         }
     }
 }
@@ -141,6 +169,10 @@ impl GloAssembler {
     /// frame are present, string 4's n is `slot`, and (t_b, frame) differs
     /// from the last one emitted. Other strings (5, almanac) are ignored.
     pub fn push(&mut self, slot: u8, freq_id: u8, s: &GloString, rx_t: f64) -> Option<GlonassEph> {
+        if let Some(p) = decode_time_params(s) {
+            self.time = Some(p);
+            return None;
+        }
         // freqId = k + 7 with k in −7…+13 (RINEX's range; ICD 5.1 §3.3.1.1: −7…+6).
         if !(1..=MAX_SLOT).contains(&slot)
             || !(1..=4).contains(&s.m)
@@ -342,6 +374,35 @@ R07 2012 09 07 00 15 00-1.199999824166E-04 9.094947017729E-13 0.000000000000E+00
         let mut far = r;
         far.pos_m.x = 1e11;
         assert_eq!(encode_strings(&far, 1), Err(GloError::Range("position")));
+    }
+
+    /// String 5: N^A, τ_c, N_4, τ_GPS at their Table 4.5 positions.
+    #[test]
+    fn string_5_time_parameters() {
+        let mut w = 0u128;
+        put(&mut w, 1, 4, 5);
+        put(&mut w, 5, 11, 1234);
+        put(
+            &mut w,
+            16,
+            32,
+            q_sm(-1.5e-8, 2f64.powi(-31), 32, "τc").unwrap(),
+        );
+        put(&mut w, 49, 5, 7);
+        put(
+            &mut w,
+            54,
+            22,
+            q_sm(2.0e-9, 2f64.powi(-30), 22, "τGPS").unwrap(),
+        );
+        let words: [u32; 4] = core::array::from_fn(|i| (w >> (96 - 32 * i)) as u32);
+        let s = decode_string(&words).unwrap();
+        let mut a = GloAssembler::default();
+        assert!(a.push(3, 7, &s, 1e9).is_none());
+        let p = a.time.unwrap();
+        assert_eq!((p.day_na, p.n4), (1234, 7));
+        assert!((p.tau_c + 1.5e-8).abs() <= 2f64.powi(-32));
+        assert!((p.tau_gps - 2.0e-9).abs() <= 2f64.powi(-31));
     }
 
     /// Sign–magnitude: −0 and +0 both read 0, the MSB is the sign.

@@ -99,6 +99,8 @@ pub struct UbxGnss {
     /// gives them (not used by the SPP yet: its measurements are counted
     /// in `other_signal_meas`).
     pub glonass: Vec<GlonassEph>,
+    /// The last GLONASS string 5's time-scale parameters (τ_c, τ_GPS, N_4).
+    pub glonass_time: Option<glo::GloTimeParams>,
     pub report: UbxGnssReport,
     pub stats: RecordStats,
 }
@@ -217,6 +219,7 @@ pub fn read_ubx_gnss<R: Read>(rdr: R, name: &str) -> Result<UbxGnss, ReadError> 
     }
     out.report.subframes_without_week += pending.len() as u64;
     out.nav.iono = dec.gps.iono;
+    out.glonass_time = dec.glo.time;
     out.stats = r.stats().clone();
     Ok(out)
 }
