@@ -24,11 +24,14 @@
 //! - [`time`]: GPS week/TOW ↔ GPS seconds ↔ GPST/UTC calendar
 
 pub mod atomic;
+pub mod beidou_d1d2;
 pub mod carrier_phase;
 pub mod counter_clock;
 pub mod csv_imu;
 pub mod data;
 pub mod error;
+pub mod galileo_inav;
+pub mod glonass_str;
 pub mod gps_lnav;
 pub mod imu;
 pub mod kfgins;
@@ -46,6 +49,7 @@ pub mod parquet_out;
 pub mod pos;
 pub mod pos_writer;
 pub mod rinex;
+pub mod rinex_glonass;
 pub mod rinex_nav3;
 pub mod sigma_read;
 pub mod stdfile;

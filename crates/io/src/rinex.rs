@@ -83,7 +83,7 @@ pub(crate) const LAYOUT_V3: RecordLayout = RecordLayout {
 };
 
 /// RINEX 2 epoch line: ` 1 10  7  1  0  0  0.0` then the clock values.
-const LAYOUT_V2: RecordLayout = RecordLayout {
+pub(crate) const LAYOUT_V2: RecordLayout = RecordLayout {
     date: [(3, 5), (6, 8), (9, 11), (12, 14), (15, 17), (17, 22)],
     clk_start: 22,
     indent: 3,
@@ -269,9 +269,11 @@ pub fn parse_nav_data(text: &str, name: &str) -> Result<NavData, ReadError> {
         }
         let ln0 = i + 1;
         if v3 && !l0.starts_with('G') {
-            // Other constellations: skip the record (GLONASS/SBAS 4 lines, others 8).
+            // Other constellations: skip the record (GLONASS/SBAS 4 lines,
+            // GLONASS 5 from RINEX 3.05 on, others 8).
             let n = match l0.chars().next() {
-                Some('R') | Some('S') => 4,
+                Some('R') => crate::rinex_glonass::record_lines(version),
+                Some('S') => 4,
                 _ => 8,
             };
             i += n;

@@ -1,8 +1,9 @@
 //! RINEX 3 navigation records of every Kepler-orbit system — GPS (`G`),
 //! Galileo (`E`), BeiDou (`C`) and QZSS (`J`) — as [`GnssEph`]s
-//! (RINEX 3.04 Tables A6, A8, A14, A10). GLONASS and SBAS records (4 lines)
-//! and NavIC records are counted and skipped; RINEX 2 files give their GPS
-//! records through [`crate::rinex::parse_nav_data`].
+//! (RINEX 3.04 Tables A6, A8, A14, A10). GLONASS records (read by
+//! [`crate::rinex_glonass`]), SBAS records (4 lines) and NavIC records are
+//! counted and skipped here; RINEX 2 files give their GPS records through
+//! [`crate::rinex::parse_nav_data`].
 //!
 //! Times become GPS seconds: the epoch (t_oc) and the week are in the
 //! system's time scale — GST and QZSST are GPS time (GST's offset to GPS,
@@ -128,7 +129,13 @@ pub fn parse_nav_gnss(text: &str, name: &str) -> Result<GnssNav, ReadError> {
         let sys = l0.chars().next().unwrap_or(' ');
         match sys {
             'G' | 'E' | 'C' | 'J' => {}
-            'R' | 'S' => {
+            'R' => {
+                // GLONASS: read by `crate::rinex_glonass` (4 lines, 5 from 3.05).
+                out.skipped += 1;
+                i += crate::rinex_glonass::record_lines(version);
+                continue;
+            }
+            'S' => {
                 out.skipped += 1;
                 i += 4;
                 continue;

@@ -1248,6 +1248,249 @@ fn fuzz_odometer_csv() {
     fuzz("odometer_csv", run_odometer_csv, odometer_csv_seed(), None);
 }
 
+/// UBX raw GNSS (issue 14): RXM-RAWX and RXM-SFRBX through
+/// `read_ubx_gnss`, whose decoders for Galileo I/NAV and BeiDou D1/D2 are
+/// reached through the SFRBX fix-up below. Checks: no panic, GPS and
+/// multi-GNSS epochs parallel, every ephemeris decoded (GLONASS too)
+/// evaluates without a panic, of the system it came from.
+fn run_ubx_gnss(b: &[u8]) -> usize {
+    let Ok(u) = navfuse_io::ubx_gnss::read_ubx_gnss(b, "f") else {
+        return 0;
+    };
+    assert_eq!(u.obs.epochs.len(), u.gnss.epochs.len());
+    for e in &u.other {
+        assert!(matches!(e.sys, 'E' | 'C'), "{e:?}");
+        let _ = navfuse_core::gnss::orbit_gnss::position_ecef(&e.orbit, e.kind, e.orbit.t_oe);
+        let _ = navfuse_core::gnss::orbit_gnss::clock_offset(&e.orbit, e.kind, e.orbit.t_oe);
+    }
+    for e in &u.glonass {
+        let _ = e.position_ecef(e.t_b + 900.0);
+    }
+    let n = u.obs.epochs.len() + u.nav.orbits.len() + u.other.len() + u.glonass.len();
+    assert_eq!(u.report.ephemerides_glonass, u.glonass.len() as u64);
+    assert_eq!(
+        u.report.ephemerides_galileo + u.report.ephemerides_beidou,
+        u.other.len() as u64
+    );
+    n
+}
+
+/// Seeds: one RAWX epoch (GPS, Galileo E1, BeiDou B1I measurements) and
+/// the SFRBX of the RINEX 3 seed's Galileo (I/NAV, E1-B order) or BeiDou
+/// (C01 as D2 pages, the same elements as C11 in D1 subframes) records,
+/// written by `write_ubx_multi`; each system alone and together.
+fn ubx_gnss_seeds(systems: &[char]) -> Vec<Vec<u8>> {
+    use navfuse_io::rinex::{GnssObs, NavData, ObsEpoch, ObsFile, ObsValue};
+    let nav = navfuse_io::rinex_nav3::parse_nav_gnss(RINEX3_NAV, "seed").unwrap();
+    let mut other: Vec<_> = nav
+        .ephs
+        .iter()
+        .filter(|e| systems.contains(&e.sys))
+        .copied()
+        .collect();
+    if let Some(c) = other.iter().find(|e| e.sys == 'C').copied() {
+        let mut meo = c;
+        meo.orbit.prn = 11;
+        meo.kind = navfuse_core::gnss::orbit_gnss::OrbitKind::BeiDou;
+        other.push(meo);
+    }
+    let glonass = if systems.contains(&'R') {
+        navfuse_io::rinex_glonass::parse_nav_glonass(GLO_NAV, "seed").unwrap()
+    } else {
+        Vec::new()
+    };
+    let t0 = other
+        .first()
+        .map(|e| e.orbit.t_oe)
+        .or(glonass.first().map(|e| e.t_b))
+        .unwrap();
+    let v = |x: f64| Some(ObsValue { value: x, lli: 0 });
+    let obs = ObsFile {
+        types: vec!["C1".into(), "L1".into(), "D1".into(), "S1".into()],
+        epochs: (0..3)
+            .map(|k| ObsEpoch {
+                t: t0 + k as f64,
+                flag: 0,
+                sats: vec![(5, vec![v(2.1e7), v(1.1e8), v(-1200.0), v(44.0)])],
+            })
+            .collect(),
+        ..ObsFile::default()
+    };
+    let gnss = GnssObs {
+        sys_codes: vec![
+            (
+                'E',
+                vec!["C1C".into(), "L1C".into(), "D1C".into(), "S1C".into()],
+            ),
+            (
+                'C',
+                vec!["C2I".into(), "L2I".into(), "D2I".into(), "S2I".into()],
+            ),
+        ],
+        epochs: (0..3)
+            .map(|_| {
+                vec![
+                    ('E', 11, vec![v(2.4e7), v(1.2e8), v(300.0), v(41.0)]),
+                    ('C', 1, vec![v(3.7e7), v(1.9e8), v(5.0), v(38.0)]),
+                    ('C', 11, vec![v(2.2e7), v(1.15e8), v(-900.0), v(40.0)]),
+                ]
+            })
+            .collect(),
+    };
+    let whole =
+        navfuse_io::ubx_gnss::write_ubx_multi(&obs, &gnss, &NavData::default(), &other, &glonass)
+            .unwrap();
+    assert!(
+        run_ubx_gnss(&whole) >= 3 + other.len() + glonass.len(),
+        "the seed decodes its ephemerides"
+    );
+    // The whole stream, and its frames one by one.
+    let mut out = vec![whole.clone()];
+    let mut i = 0;
+    while i + 8 <= whole.len() {
+        let len = usize::from(u16::from_le_bytes([whole[i + 4], whole[i + 5]]));
+        out.push(whole[i..i + 8 + len].to_vec());
+        i += 8 + len;
+    }
+    out
+}
+
+/// [`ubx_fixup`] after repairing mutated SFRBX content so that it reaches
+/// the field decoders: a Galileo page pair (gnssId 2, 8 words) gets its
+/// even/odd bits, page type and CRC-24Q rebuilt around its data bits, a
+/// BeiDou subframe (gnssId 3, 10 words) its preamble.
+#[allow(clippy::ptr_arg)] // must match the `Fixup` signature
+fn sfrbx_fixup(b: &mut Vec<u8>, rng: &mut Rng) {
+    let mut i = 0;
+    while i + 8 <= b.len() {
+        let len = usize::from(u16::from_le_bytes([b[i + 4], b[i + 5]]));
+        if b[i] == 0xB5 && b[i + 1] == 0x62 && b[i + 2] == 0x02 && b[i + 3] == 0x13 {
+            let p = i + 6;
+            let n = usize::from(b.get(p + 4).copied().unwrap_or(0));
+            if p + 8 + 4 * n <= b.len() {
+                let word = |k: usize| {
+                    let o = p + 8 + 4 * k;
+                    u32::from_le_bytes([b[o], b[o + 1], b[o + 2], b[o + 3]])
+                };
+                let words: Vec<u32> = (0..n).map(word).collect();
+                let fixed: Option<Vec<u32>> = match (b[p], n) {
+                    (2, 8) if rng.chance(0.8) => {
+                        let j = |w: &[u32]| w.iter().fold(0u128, |a, &x| (a << 32) | u128::from(x));
+                        let (even, odd) = (j(&words[..4]), j(&words[4..]));
+                        let data =
+                            (((even >> 14) & ((1u128 << 112) - 1)) << 16) | ((odd >> 110) & 0xFFFF);
+                        Some(navfuse_io::galileo_inav::encode_pages(data).to_vec())
+                    }
+                    (6, 4) if rng.chance(0.8) => {
+                        let mut w = words.clone();
+                        let m = (w[0] >> 27) & 0xF;
+                        w[0] = (w[0] & !(0xF << 27)) | ((m % 4 + 1) << 27);
+                        Some(w)
+                    }
+                    (3, 10) if rng.chance(0.8) => {
+                        let mut w = words.clone();
+                        w[0] = (w[0] & !(0x7FF << 19)) | (0x712 << 19);
+                        Some(w)
+                    }
+                    _ => None,
+                };
+                if let Some(f) = fixed {
+                    for (k, x) in f.iter().enumerate() {
+                        let o = p + 8 + 4 * k;
+                        b[o..o + 4].copy_from_slice(&x.to_le_bytes());
+                    }
+                }
+            }
+        }
+        let sync = b[i] == 0xB5 && b[i + 1] == 0x62;
+        i += if sync { 8 + len } else { 1 };
+    }
+    ubx_fixup(b, rng);
+}
+
+#[test]
+fn fuzz_ubx_sfrbx_galileo() {
+    fuzz(
+        "ubx_sfrbx_galileo",
+        run_ubx_gnss,
+        ubx_gnss_seeds(&['E']),
+        Some(sfrbx_fixup),
+    );
+}
+
+/// RINEX 2 `.g` and RINEX 3 GLONASS records (`rinex_glonass`): whatever
+/// parses integrates over ±15 min without a panic.
+fn run_rinex_glonass(b: &[u8]) -> usize {
+    let text = String::from_utf8_lossy(b);
+    navfuse_io::rinex_glonass::parse_nav_glonass(&text, "f").map_or(0, |v| {
+        for e in &v {
+            let _ = e.position_ecef(e.t_b + 900.0);
+            let _ = e.position_ecef(e.t_b - 900.0);
+        }
+        v.len()
+    })
+}
+
+/// A RINEX 2.11 GLONASS navigation file (D exponents).
+const GLO_NAV2: &str =
+    "     2.11           G: GLONASS NAV DATA                     RINEX VERSION / TYPE
+                                                            END OF HEADER
+ 7 12  9  7  0 15  0.0-1.199999824166D-04 9.094947017729D-13 0.000000000000D+00
+    7.003008789062D+03 7.835416793823D-01 0.000000000000D+00 0.000000000000D+00
+   -1.220662695312D+04 2.804252624512D+00 1.862645149231D-09 1.000000000000D+00
+    2.128076562500D+04 1.352515220642D+00-5.587935447693D-09 3.000000000000D+00
+";
+
+#[test]
+fn fuzz_rinex_glonass_nav() {
+    assert_eq!(
+        run_rinex_glonass(GLO_NAV.as_bytes()),
+        1,
+        "the RINEX 3 seed parses"
+    );
+    assert_eq!(
+        run_rinex_glonass(GLO_NAV2.as_bytes()),
+        1,
+        "the RINEX 2 seed parses"
+    );
+    fuzz(
+        "rinex_glonass_nav",
+        run_rinex_glonass,
+        vec![GLO_NAV.as_bytes().to_vec(), GLO_NAV2.as_bytes().to_vec()],
+        None,
+    );
+}
+
+/// A GLONASS RINEX 3 record on the broadcast grid (t_b 03:15 Moscow time).
+const GLO_NAV: &str =
+    "     3.04           N: GNSS NAV DATA    R: GLONASS          RINEX VERSION / TYPE
+                                                            END OF HEADER
+R07 2012 09 07 00 15 00-1.199999824166E-04 9.094947017729E-13 0.000000000000E+00
+     7.003008789062E+03 7.835416793823E-01 0.000000000000E+00 0.000000000000E+00
+    -1.220662695312E+04 2.804252624512E+00 1.862645149231E-09 1.000000000000E+00
+     2.128076562500E+04 1.352515220642E+00-5.587935447693E-09 3.000000000000E+00
+";
+
+#[test]
+fn fuzz_ubx_sfrbx_glonass() {
+    fuzz(
+        "ubx_sfrbx_glonass",
+        run_ubx_gnss,
+        ubx_gnss_seeds(&['R']),
+        Some(sfrbx_fixup),
+    );
+}
+
+#[test]
+fn fuzz_ubx_sfrbx_beidou() {
+    fuzz(
+        "ubx_sfrbx_beidou",
+        run_ubx_gnss,
+        ubx_gnss_seeds(&['C']),
+        Some(sfrbx_fixup),
+    );
+}
+
 mod structured {
     //! proptest strategies that build well-formed frames/sentences around
     //! arbitrary content, so the field parsers behind the checksums are hit.
@@ -1289,7 +1532,7 @@ mod structured {
         fn arbitrary_bytes_every_reader(b in proptest::collection::vec(any::<u8>(), 0..2000)) {
             for run in [run_kfgins_imu, run_kfgins_gnss, run_kfgins_nav, run_pos, run_csv_imu,
                         run_nav_csv, run_nmea, run_ubx, run_gpsd, run_imu_lines, run_rinex_obs,
-                        run_rinex_nav] {
+                        run_rinex_nav, run_ubx_gnss] {
                 run(&b);
             }
         }

@@ -421,8 +421,9 @@ pub fn pos_row(sol: &SppSolution, var_scale: f64) -> (NavSolution, PosEpoch) {
     (s, e)
 }
 
-/// Whether `p` is a UBX log (`.ubx`, any case): raw GPS epochs (RXM-RAWX)
-/// and its own ephemerides (RXM-SFRBX), [`navfuse_io::ubx_gnss`].
+/// Whether `p` is a UBX log (`.ubx`, any case): raw GPS, Galileo and
+/// BeiDou epochs (RXM-RAWX) and their own ephemerides (RXM-SFRBX),
+/// [`navfuse_io::ubx_gnss`].
 pub fn is_ubx(p: &Path) -> bool {
     p.extension()
         .and_then(|e| e.to_str())
@@ -436,10 +437,11 @@ pub fn load(obs: &Path, nav: &[PathBuf]) -> Result<(ObsFile, GnssObs, SppNav)> {
     let mut n = SppNav::default();
     let (o, g) = if is_ubx(obs) {
         let (rdr, name) = navfuse_io::open(obs).map_err(|e| PipelineError::Input(e.to_string()))?;
-        let (o, nd, _, _) = navfuse_io::ubx_gnss::read_ubx_gnss(rdr, &name)
+        let u = navfuse_io::ubx_gnss::read_ubx_gnss(rdr, &name)
             .map_err(|e| PipelineError::Input(e.to_string()))?;
-        n.gps = nd;
-        (o, GnssObs::default())
+        n.gps = u.nav;
+        n.other = u.other;
+        (u.obs, u.gnss)
     } else {
         read_obs_gnss(obs).map_err(|e| PipelineError::Input(e.to_string()))?
     };

@@ -14,6 +14,7 @@
 //! - [`raw`]: raw observations (pseudorange, phase, Doppler) as events.
 //! - [`tropo`]: Saastamoinen zenith delays and Niell mapping functions.
 //! - [`orbit_gnss`]: Galileo/BeiDou (incl. GEO)/QZSS broadcast orbits.
+//! - [`glonass`]: GLONASS broadcast ephemeris (RK4 in PZ-90, ICD 5.1 A.3.1.2).
 //! - [`iono`]: Klobuchar broadcast ionosphere (IS-GPS-200 Fig. 20-4).
 //! - [`spp`]: single-point positioning (WLS, RAIM FDE, DOPs, Doppler velocity).
 //!
@@ -28,6 +29,7 @@ use crate::prelude::*;
 use crate::{Mat3, Vec3};
 
 pub mod dd;
+pub mod glonass;
 pub mod iono;
 pub mod orbit_gnss;
 pub mod raw;
