@@ -298,9 +298,9 @@ const MAX_REFINE: usize = 2;
 /// passes) fitted by a parabola; its vertex is the maximum-likelihood τ and
 /// its curvature the observed information (σ = 1/√curvature). A vertex
 /// more than h beyond the probed span is not trusted (the parabola would
-/// be extrapolated): a run at it (at most 2h beyond) is added and the
-/// parabola refitted on the three probes nearest to it, ≤ [`MAX_REFINE`]
-/// times. Returns the refined τ and its σ.
+/// be extrapolated), nor is a parabola that is not convex: a run at the
+/// vertex (at most 2h beyond) or 2h downhill is added and the parabola
+/// refitted on the three probes nearest to it, ≤ [`MAX_REFINE`] times. Returns the refined τ and its σ.
 ///
 /// Why: the passes read τ from the GNSS *velocities* only (`∂v/∂τ = −a`);
 /// the filter also sees τ in the *positions* (`∂p/∂τ = −v`: a turn shifts
@@ -313,8 +313,8 @@ const MAX_REFINE: usize = 2;
 ///
 /// σ is inflated by √(mean NIS per dof) when that exceeds 1 (the filter's R
 /// too small for its residuals; the reduced-χ² scaling of a least-squares
-/// σ). Declined (`Err`, the passes' τ̂ stays) when the curvature is not
-/// positive or the vertex stays beyond the probes.
+/// σ). Declined (`Err`, the passes' τ̂ stays) when the curvature is still
+/// not positive or the vertex still beyond the probes after that.
 fn refine_by_likelihood(
     center: &EskfRun,
     plus: &EskfRun,
@@ -349,29 +349,39 @@ fn refine_by_likelihood(
         let Some((vertex, curv)) = parabola(&pts) else {
             return Ok(Err("degenerate probes".into()));
         };
-        if !(curv.is_finite() && curv > 0.0) {
-            return Ok(Err(format!(
-                "likelihood not convex (curvature {curv:.3e} 1/s²)"
-            )));
-        }
         let lo = pts.iter().map(|p| p.0).fold(f64::INFINITY, f64::min);
         let hi = pts.iter().map(|p| p.0).fold(f64::NEG_INFINITY, f64::max);
-        let i0 = idx[0];
-        let chi2_per_dof = (2.0 * nll[i0] / dof).max(1.0);
-        let sd = (chi2_per_dof / curv).sqrt();
-        if vertex >= lo - h && vertex <= hi + h {
-            return Ok(Ok((vertex, sd)));
+        let convex = curv.is_finite() && curv > 0.0;
+        if convex && vertex >= lo - h && vertex <= hi + h {
+            let chi2_per_dof = (2.0 * nll[idx[0]] / dof).max(1.0);
+            return Ok(Ok((vertex, (chi2_per_dof / curv).sqrt())));
         }
         if round == MAX_REFINE {
-            break;
+            let why = if convex {
+                "vertex beyond the probes"
+            } else {
+                "likelihood not convex over the probes"
+            };
+            return Ok(Err(format!("{why} after {MAX_REFINE} re-centred runs")));
         }
-        let next = vertex.clamp(lo - 2.0 * h, hi + 2.0 * h);
+        // Not convex over the probes (the capped terms flatten the NLL away
+        // from its minimum, so probes far from it can bend the other way):
+        // a step of 2h downhill from the lower end probe; else a step to
+        // the vertex, at most 2h beyond the probes.
+        let at = |t: f64| pts.iter().find(|p| p.0 == t).map_or(f64::NAN, |p| p.1);
+        let next = if !convex {
+            if at(hi) < at(lo) {
+                hi + 2.0 * h
+            } else {
+                lo - 2.0 * h
+            }
+        } else {
+            vertex.clamp(lo - 2.0 * h, hi + 2.0 * h)
+        };
         terms.push(gnss_nll_terms(&run_at(next)?, gnss));
         taus.push(next);
     }
-    Ok(Err(format!(
-        "vertex beyond the probes after {MAX_REFINE} re-centred runs"
-    )))
+    Ok(Err("no refinement".into()))
 }
 
 /// The share of the remaining offset a pass measures, from the last two
