@@ -14,7 +14,10 @@
 //! honest σ (|τ| > 3.29 σ, a 0.1 % two-sided false alarm, and σ ≤ 20 ms):
 //! the last pass's σ (itself at least the split-half σ of the core fit),
 //! its residual and the spread of the last two passes ([`honest_std`]);
-//! otherwise the first pass (no offset) is the result. An applied offset's
+//! otherwise the first pass (no offset) is the result. An applied offset is
+//! then refined by the filter's own GNSS likelihood
+//! ([`refine_by_likelihood`]), which also reads τ from the positions. An
+//! applied offset's
 //! σ enters the reported σ (two more runs at τ ± σ_τ,
 //! [`crate::offset_sens`]); the solutions stay those at τ. No assumption about
 //! course and heading is made, so every platform is served by the same
