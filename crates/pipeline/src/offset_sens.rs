@@ -110,8 +110,32 @@ fn add_to_row(r: &mut StdRow, d: &Sensitivity) {
 /// solutions' own σ and the σ rows), from the runs at τ̂ ± σ_τ. Returns the
 /// largest horizontal sensitivity added [m] (for the summary note).
 pub fn add_offset_covariance(base: &mut EskfRun, plus: &EskfRun, minus: &EskfRun) -> f64 {
+    add_offset_covariance_scaled(base, plus, minus, 1.0)
+}
+
+/// [`add_offset_covariance`] from runs at τ̂ ± h where σ_τ = `scale`·h
+/// (the sensitivity is linear in the step: `σ_τ ∂x/∂τ ≈ scale·(x₊ − x₋)/2`).
+pub fn add_offset_covariance_scaled(
+    base: &mut EskfRun,
+    plus: &EskfRun,
+    minus: &EskfRun,
+    scale: f64,
+) -> f64 {
     let mut largest = 0.0f64;
-    let fwd = sensitivities(&base.solutions, &plus.solutions, &minus.solutions);
+    let scaled = |v: Vec<Sensitivity>| -> Vec<Sensitivity> {
+        v.into_iter()
+            .map(|d| Sensitivity {
+                pos_ned: d.pos_ned * scale,
+                vel_ned: d.vel_ned * scale,
+                att_rpy: d.att_rpy * scale,
+            })
+            .collect()
+    };
+    let fwd = scaled(sensitivities(
+        &base.solutions,
+        &plus.solutions,
+        &minus.solutions,
+    ));
     for (k, d) in fwd.iter().enumerate() {
         add_to_solution(&mut base.solutions[k], d);
         if let Some(r) = base.std.get_mut(k) {
@@ -119,7 +143,11 @@ pub fn add_offset_covariance(base: &mut EskfRun, plus: &EskfRun, minus: &EskfRun
         }
         largest = largest.max(d.pos_ned.xy().norm());
     }
-    let smo = sensitivities(&base.smoothed, &plus.smoothed, &minus.smoothed);
+    let smo = scaled(sensitivities(
+        &base.smoothed,
+        &plus.smoothed,
+        &minus.smoothed,
+    ));
     for (k, d) in smo.iter().enumerate() {
         add_to_solution(&mut base.smoothed[k], d);
         if let Some(r) = base.smoothed_std.get_mut(k) {

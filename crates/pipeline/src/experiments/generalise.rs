@@ -240,6 +240,9 @@ pub struct SeedRow {
     pub h_rms_m: [f64; 3],
     pub outage_rms_of_max_m: [f64; 3],
     pub default: Option<RunDiag>,
+    /// h_rms and outage drift of the default given the true offset
+    /// (`known_offset` only; NaN where it failed).
+    pub known_offset: Option<[f64; 2]>,
 }
 
 /// The experiment's settings, written beside the cells.
@@ -312,6 +315,8 @@ fn score_variant(v: Variant, pr: &PlatformRun) -> Result<RunScore, String> {
     s.diag.align_wait_s = r.align_wait_s;
     s.diag.align_yaw_std_deg = r.align_yaw_std_deg;
     s.diag.warnings = r.warnings.clone();
+    s.diag.tau_applied_s = s.tau_applied;
+    s.diag.time_offset_passes = r.time_offset_passes.clone().unwrap_or_default();
     if s.n == 0 {
         return Err("no solution after motion start + 60 s".into());
     }
@@ -420,6 +425,7 @@ pub fn run_generalise(
             let [d, o, k] = [0, 1, 2].map(|k| pool(&rows, k));
             let paired = paired_report(&rows, opt.known_offset);
             let ps: [_; 3] = [0, 1, 2].map(|k| per_seed(&rows, k));
+            let pk = per_seed(&rows, 3);
             let per_seed_rows = rows
                 .iter()
                 .enumerate()
@@ -428,6 +434,7 @@ pub fn run_generalise(
                     h_rms_m: ps.each_ref().map(|p| p.0[i]),
                     outage_rms_of_max_m: ps.each_ref().map(|p| p.1[i]),
                     default: s[0].as_ref().ok().map(|r| r.diag.clone()),
+                    known_offset: opt.known_offset.then(|| [pk.0[i], pk.1[i]]),
                 })
                 .collect();
             let targets = Targets {
@@ -548,8 +555,17 @@ pub fn format_per_seed(r: &GeneraliseReport) -> String {
                     d.warnings.len()
                 )
             });
+            let known = match (&row.known_offset, &row.default) {
+                (Some([h, o]), Some(d)) => format!(
+                    "  known-τ h {} out {}  τ̂−τ {:+.1} ms",
+                    f(*h),
+                    f(*o),
+                    1e3 * (d.tau_applied_s - c.offset_s)
+                ),
+                _ => String::new(),
+            };
             s += &format!(
-                "{}:{}:{}:{} seed {:>3}  h {}/{}/{}  out {}/{}/{}  {d}\n",
+                "{}:{}:{}:{} seed {:>3}  h {}/{}/{}  out {}/{}/{}  {d}{known}\n",
                 c.platform,
                 c.imu,
                 c.gnss,

@@ -64,6 +64,10 @@ pub struct RunDiag {
     pub yaw_err_max_deg: f64,
     /// The run's warnings (summary.json `warnings`).
     pub warnings: Vec<String>,
+    /// The time offset applied [s] (0 when none) and the velocity passes'
+    /// note (every pass's residual and the decision; empty when none ran).
+    pub tau_applied_s: f64,
+    pub time_offset_passes: String,
 }
 
 /// Score `sols` against `traj` from `t_from` [s] on; `outages` are
