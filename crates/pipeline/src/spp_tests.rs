@@ -210,6 +210,24 @@ fn spp_is_at_least_as_fast_as_rtklib() {
 /// each system's orbit model, inter-system clock offsets of 25 m (Galileo)
 /// and −40 m (BeiDou); the receiver position comes back to the millimetre
 /// and the offsets as clock differences.
+/// The SPP navigation data of `ephs`: GPS as Kepler orbits with URA
+/// `ura_m` and no ionosphere, the other systems as broadcast records.
+fn spp_nav(ephs: &[navfuse_io::rinex_nav3::GnssEph], ura_m: f64) -> SppNav {
+    let gps_ephs: Vec<navfuse_core::gnss::KeplerOrbit> = ephs
+        .iter()
+        .filter(|e| e.sys == 'G')
+        .map(|e| e.orbit)
+        .collect();
+    SppNav {
+        gps: NavData {
+            ura_m: vec![ura_m; gps_ephs.len()],
+            orbits: gps_ephs,
+            iono: None,
+        },
+        other: ephs.iter().filter(|e| e.sys != 'G').copied().collect(),
+    }
+}
+
 #[test]
 fn galileo_beidou_gps_together() {
     use navfuse_core::geodesy::{c_e_enu, geodetic_to_ecef, Geodetic};
@@ -353,19 +371,7 @@ fn galileo_beidou_gps_together() {
         ],
         epochs: vec![all],
     };
-    let gps_ephs: Vec<KeplerOrbit> = ephs
-        .iter()
-        .filter(|e| e.sys == 'G')
-        .map(|e| e.orbit)
-        .collect();
-    let nav = SppNav {
-        gps: NavData {
-            ura_m: vec![2.0; gps_ephs.len()],
-            orbits: gps_ephs,
-            iono: None,
-        },
-        other: ephs.iter().filter(|e| e.sys != 'G').copied().collect(),
-    };
+    let nav = spp_nav(&ephs, 2.0);
     let mut opts = SppOptions::default();
     opts.solver.iono = false;
     opts.solver.tropo = navfuse_core::gnss::spp::TropoModel::None;
@@ -626,19 +632,7 @@ fn ubx_multi_gnss_log_gives_the_rinex_answer() {
         sys_codes: vec![('E', vec!["C1C".into()]), ('C', vec!["C2I".into()])],
         epochs: all_epochs,
     };
-    let gps_ephs: Vec<KeplerOrbit> = ephs
-        .iter()
-        .filter(|e| e.sys == 'G')
-        .map(|e| e.orbit)
-        .collect();
-    let nav = SppNav {
-        gps: NavData {
-            ura_m: vec![2.4; gps_ephs.len()],
-            orbits: gps_ephs,
-            iono: None,
-        },
-        other: ephs.iter().filter(|e| e.sys != 'G').copied().collect(),
-    };
+    let nav = spp_nav(&ephs, 2.4);
     let mut opts = SppOptions::default();
     opts.solver.iono = false;
     opts.solver.tropo = navfuse_core::gnss::spp::TropoModel::None;
