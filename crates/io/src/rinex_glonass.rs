@@ -151,24 +151,7 @@ pub fn read_nav_glonass(path: &Path) -> Result<Vec<GlonassEph>, ReadError> {
 /// Parse a RINEX 2 GLONASS or RINEX 3 navigation file's GLONASS records.
 pub fn parse_nav_glonass(text: &str, name: &str) -> Result<Vec<GlonassEph>, ReadError> {
     let lines: Vec<&str> = text.lines().collect();
-    let (mut i, mut version, mut kind) = (0, 0.0, ' ');
-    let mut header_end = false;
-    while i < lines.len() {
-        let l = lines[i];
-        let label = l.get(60..).unwrap_or("");
-        i += 1;
-        if label.starts_with("RINEX VERSION") {
-            version = field(l, 0, 9).trim().parse().unwrap_or(0.0);
-            kind = field(l, 20, 21).chars().next().unwrap_or(' ');
-        }
-        if label.starts_with("END OF HEADER") {
-            header_end = true;
-            break;
-        }
-    }
-    if !header_end {
-        return Err(err(name, 1, "<header>", "no END OF HEADER"));
-    }
+    let (mut i, version, kind) = crate::rinex_nav3::nav_header(&lines, name)?;
     let v3 = version >= 3.0;
     if !v3 && kind != 'G' {
         return Err(err(

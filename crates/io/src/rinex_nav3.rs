@@ -89,27 +89,29 @@ const NAMES: [&str; 29] = [
     "fit/AODC",
 ];
 
+/// The header of a RINEX navigation file: the index of the first line after
+/// `END OF HEADER`, the `RINEX VERSION / TYPE` version (0 when absent or
+/// unreadable) and its file-type character (column 21). An error naming
+/// `name` when there is no `END OF HEADER`.
+pub(crate) fn nav_header(lines: &[&str], name: &str) -> Result<(usize, f64, char), ReadError> {
+    let (mut version, mut kind) = (0.0, ' ');
+    for (i, l) in lines.iter().enumerate() {
+        let label = l.get(60..).unwrap_or("");
+        if label.starts_with("RINEX VERSION") {
+            version = field(l, 0, 9).trim().parse().unwrap_or(0.0);
+            kind = field(l, 20, 21).chars().next().unwrap_or(' ');
+        }
+        if label.starts_with("END OF HEADER") {
+            return Ok((i + 1, version, kind));
+        }
+    }
+    Err(err(name, 1, "<header>", "no END OF HEADER"))
+}
+
 /// Parse RINEX 3 navigation text; `name` is used in errors.
 pub fn parse_nav_gnss(text: &str, name: &str) -> Result<GnssNav, ReadError> {
     let lines: Vec<&str> = text.lines().collect();
-    let mut i = 0;
-    let mut version = 0.0;
-    let mut header_end = false;
-    while i < lines.len() {
-        let l = lines[i];
-        let label = l.get(60..).unwrap_or("");
-        i += 1;
-        if label.starts_with("RINEX VERSION") {
-            version = field(l, 0, 9).trim().parse().unwrap_or(0.0);
-        }
-        if label.starts_with("END OF HEADER") {
-            header_end = true;
-            break;
-        }
-    }
-    if !header_end {
-        return Err(err(name, 1, "<header>", "no END OF HEADER"));
-    }
+    let (mut i, version, _) = nav_header(&lines, name)?;
     if version < 3.0 {
         return Err(err(
             name,

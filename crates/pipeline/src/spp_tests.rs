@@ -228,11 +228,50 @@ fn spp_nav(ephs: &[navfuse_io::rinex_nav3::GnssEph], ura_m: f64) -> SppNav {
     }
 }
 
+/// Noise-free pseudorange [m] of `e` at a receiver at `rx` (ECEF) with
+/// ECEF→ENU rotation `c_en` at reception time `t`, with receiver clock
+/// `clk` [m] per system (GPS, Galileo, BeiDou): light-time iteration with
+/// the earth rotation during travel (Groves eq. 8.36), satellite clock and
+/// group delay. `None` below a 16° elevation mask.
+fn simulated_pseudorange(
+    e: &navfuse_io::rinex_nav3::GnssEph,
+    rx: &Vec3,
+    c_en: &navfuse_core::Mat3,
+    t: f64,
+    clk: &[f64; 3],
+) -> Option<f64> {
+    use navfuse_core::gnss::orbit_gnss::{clock_offset, position_ecef};
+    use navfuse_core::gnss::OMEGA_E_DOT;
+    let mut tau = 0.075;
+    let (mut p, mut range) = (Vec3::zeros(), 0.0);
+    for _ in 0..10 {
+        let q = position_ecef(&e.orbit, e.kind, t - tau);
+        let th = OMEGA_E_DOT * tau;
+        p = Vec3::new(
+            th.cos() * q.x + th.sin() * q.y,
+            -th.sin() * q.x + th.cos() * q.y,
+            q.z,
+        );
+        range = (p - rx).norm();
+        tau = range / C_LIGHT;
+    }
+    if (c_en * ((p - rx) / range)).z.asin() < 16f64.to_radians() {
+        return None;
+    }
+    let group = match e.sys {
+        'E' => 1,
+        'C' => 2,
+        _ => 0,
+    };
+    let dts = clock_offset(&e.orbit, e.kind, t - tau);
+    Some(range + clk[group] - C_LIGHT * dts + C_LIGHT * e.orbit.tgd)
+}
+
 #[test]
 fn galileo_beidou_gps_together() {
     use navfuse_core::geodesy::{c_e_enu, geodetic_to_ecef, Geodetic};
-    use navfuse_core::gnss::orbit_gnss::{clock_offset, position_ecef};
-    use navfuse_core::gnss::{KeplerOrbit, OMEGA_E_DOT};
+    use navfuse_core::gnss::orbit_gnss::position_ecef;
+    use navfuse_core::gnss::KeplerOrbit;
     use navfuse_io::rinex::{ObsEpoch, ObsValue};
     use navfuse_io::rinex_nav3::GnssEph;
 
@@ -308,30 +347,9 @@ fn galileo_beidou_gps_together() {
     let mut all = Vec::new();
     let (mut n_e, mut n_c, mut geo_seen) = (0, 0, false);
     for e in &ephs {
-        let mut tau = 0.075;
-        let (mut p, mut range) = (Vec3::zeros(), 0.0);
-        for _ in 0..10 {
-            let q = position_ecef(&e.orbit, e.kind, t - tau);
-            let th = OMEGA_E_DOT * tau;
-            p = Vec3::new(
-                th.cos() * q.x + th.sin() * q.y,
-                -th.sin() * q.x + th.cos() * q.y,
-                q.z,
-            );
-            range = (p - rx).norm();
-            tau = range / C_LIGHT;
-        }
-        let el = (c * ((p - rx) / range)).z.asin();
-        if el < 16f64.to_radians() {
+        let Some(pr) = simulated_pseudorange(e, &rx, &c, t, &clk) else {
             continue;
-        }
-        let group = match e.sys {
-            'E' => 1,
-            'C' => 2,
-            _ => 0,
         };
-        let dts = clock_offset(&e.orbit, e.kind, t - tau);
-        let pr = range + clk[group] - C_LIGHT * dts + C_LIGHT * e.orbit.tgd;
         let v = vec![Some(ObsValue { value: pr, lli: 0 })];
         match e.sys {
             'G' => gps_sats.push((e.orbit.prn, v.clone())),
@@ -465,8 +483,8 @@ fn ubx_log_gives_the_rinex_answer_on_geonet() {
 #[test]
 fn ubx_multi_gnss_log_gives_the_rinex_answer() {
     use navfuse_core::geodesy::{c_e_enu, ecef_to_geodetic, geodetic_to_ecef, Geodetic};
-    use navfuse_core::gnss::orbit_gnss::{clock_offset, position_ecef};
-    use navfuse_core::gnss::{KeplerOrbit, OMEGA_E_DOT};
+    use navfuse_core::gnss::orbit_gnss::position_ecef;
+    use navfuse_core::gnss::KeplerOrbit;
     use navfuse_io::rinex::{ObsEpoch, ObsValue};
     use navfuse_io::rinex_nav3::GnssEph;
 
@@ -584,29 +602,9 @@ fn ubx_multi_gnss_log_gives_the_rinex_answer() {
         let t = t0 + 600.0 + 30.0 * j as f64;
         let (mut gps, mut all) = (Vec::new(), Vec::new());
         for e in &ephs {
-            let mut tau = 0.075;
-            let (mut p, mut range) = (Vec3::zeros(), 0.0);
-            for _ in 0..10 {
-                let q = position_ecef(&e.orbit, e.kind, t - tau);
-                let th = OMEGA_E_DOT * tau;
-                p = Vec3::new(
-                    th.cos() * q.x + th.sin() * q.y,
-                    -th.sin() * q.x + th.cos() * q.y,
-                    q.z,
-                );
-                range = (p - rx).norm();
-                tau = range / C_LIGHT;
-            }
-            if (c * ((p - rx) / range)).z.asin() < 16f64.to_radians() {
+            let Some(pr) = simulated_pseudorange(e, &rx, &c, t, &clk) else {
                 continue;
-            }
-            let group = match e.sys {
-                'E' => 1,
-                'C' => 2,
-                _ => 0,
             };
-            let dts = clock_offset(&e.orbit, e.kind, t - tau);
-            let pr = range + clk[group] - C_LIGHT * dts + C_LIGHT * e.orbit.tgd;
             let v = vec![Some(ObsValue { value: pr, lli: 0 })];
             geo_seen |= e.kind == OrbitKind::BeiDouGeo;
             match e.sys {

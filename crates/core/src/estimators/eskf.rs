@@ -1621,13 +1621,16 @@ impl Eskf {
         if self.cfg.smoother_every > 0 && self.rec_p_prior.is_none() {
             self.rec_p_prior = Some(p_prior);
         }
-        for sn in [&mut self.sens, &mut self.sens_w].into_iter().flatten() {
-            if self.aug.is_some() {
-                let kx = k_f.fixed_rows::<NX>(0).into_owned();
+        if self.sens.is_some() {
+            // The gain applied, split into the filter's and the augmented rows.
+            let (kx, ka) = if self.aug.is_some() {
                 let ka = k_f.fixed_rows::<NA>(NX).into_owned();
-                sn.update(h, h_a, &r_used, &kx, Some(&ka), kind);
+                (k_f.fixed_rows::<NX>(0).into_owned(), Some(ka))
             } else {
-                sn.update(h, h_a, &r_used, &k_x, None, kind);
+                (k_x, None)
+            };
+            for sn in [&mut self.sens, &mut self.sens_w].into_iter().flatten() {
+                sn.update(h, h_a, &r_used, &kx, ka.as_ref(), kind);
             }
         }
         apply_correction(&mut self.nav, &mut self.err, &dx);
