@@ -380,6 +380,10 @@ pub struct NhcCfg {
     pub adaptive: Option<bool>,
     pub min_std: Option<f64>,
     pub max_std: Option<f64>,
+    /// Estimate the mounting pitch/yaw and the forward offset from the
+    /// non-holonomic point as states (default: the profile's, on for `car`
+    /// and `robot`).
+    pub mount_states: Option<bool>,
 }
 
 /// `[filter.zupt]`: standstill detection and zero-velocity/-rate update

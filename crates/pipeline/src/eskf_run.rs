@@ -291,6 +291,9 @@ fn override_constraints(cfg: &RunConfig, pr: &mut Profile) -> Result<()> {
                 interval: 0.1,
                 min_speed: 0.5,
             });
+            if n.mount_states == Some(true) && pr.nhc_mount.is_none() {
+                pr.nhc_mount = Platform::Car.profile().nhc_mount;
+            }
             c.std = pos(n.std, "nhc.std")?.unwrap_or(c.std);
             c.min_speed = pos(n.min_speed, "nhc.min_speed")?.unwrap_or(c.min_speed);
             c.interval = pos(n.interval, "nhc.interval")?.unwrap_or(c.interval);
@@ -582,7 +585,23 @@ pub(crate) fn run_eskf_span(
                 .to_string(),
         )
     } else {
-        crate::gnss_error::augmented_states(cfg, gnss)?
+        let (mut aug, mut how) = crate::gnss_error::augmented_states(cfg, gnss)?;
+        // Opt-in (`[filter.nhc] mount_states = true`): see `crate::profile`.
+        let wanted = cfg.filter.nhc.as_ref().and_then(|n| n.mount_states) == Some(true);
+        aug.nhc_mount = setup
+            .profile
+            .as_ref()
+            .filter(|p| wanted && p.nhc.is_some())
+            .and_then(|p| p.nhc_mount);
+        if let Some(m) = aug.nhc_mount {
+            how += &format!(
+                "{}NHC mounting pitch/yaw (0 ± {:.1}°) and forward lever (0 ± {:.1} m) estimated",
+                if how.is_empty() { "" } else { "; " },
+                m.angle_std_rad.to_degrees(),
+                m.lever_std_m
+            );
+        }
+        (aug, how)
     };
     let new_eskf = |nav, std: &InitStd| {
         let e = Eskf::new(ecfg, nav, a.errors, std);

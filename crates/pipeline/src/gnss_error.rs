@@ -277,6 +277,7 @@ pub fn augmented_states(cfg: &RunConfig, gnss: &[GnssFix]) -> Result<(AugmentedS
         AugmentedStates {
             gnss_error,
             time_offset,
+            nhc_mount: None,
         },
         notes.join("; "),
     ))

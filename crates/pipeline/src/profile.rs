@@ -27,6 +27,7 @@
 //! when adaptation is on.
 
 use navfuse_core::estimators::adaptive::{AdaptiveConstraints, AdaptiveNoise};
+use navfuse_core::estimators::eskf::NhcMountStates;
 use navfuse_core::estimators::eskf::{EskfConfig, NhcConfig, ZuptConfig};
 use serde::{Deserialize, Serialize};
 
@@ -86,6 +87,19 @@ pub struct Profile {
     pub platform: Platform,
     /// Non-holonomic constraint, if the platform obeys one.
     pub nhc: Option<NhcConfig>,
+    /// Prior σ of the NHC's systematic terms (mounting pitch and yaw,
+    /// forward offset from the non-holonomic point) when they are
+    /// estimated as states ([`NhcMountStates`]; opt-in, `[filter.nhc]
+    /// mount_states = true`). Not the default, measured: a simulated drive
+    /// with the IMU yawed 3° drifts 6–10 m in a 30 s outage without them
+    /// and 0.5–3 m with them (core test
+    /// `nhc_mount_states_learn_a_yawed_imu_and_keep_the_outage_straight`),
+    /// but drive_0708 (mounting yaw 0.44 ± 0.18°, lever 0.02 ± 0.04 m as
+    /// estimated) drifts more with them (RMS of outage maxima 7.8 → 12.2 m;
+    /// its first outage, 120 s after the start, comes before the states
+    /// have converged, and the NHC then holds the heading only to their σ).
+    /// `None`: no prior for this platform (a car's is used when asked).
+    pub nhc_mount: Option<NhcMountStates>,
     /// Standstill detection and zero-velocity/-rate updates.
     pub zupt: Option<ZuptConfig>,
     /// The GNSS course over ground is the body heading when moving (NHC holds).
@@ -99,6 +113,12 @@ pub struct Profile {
     /// changes beyond it are outliers (alignment, time offset).
     pub max_accel: f64,
 }
+
+/// Prior 1-σ of the IMU's mounting pitch and yaw in a wheeled vehicle:
+/// a sensor box set by eye against the body edges is square to 1–2°, and
+/// brackets, seats and body flex add about 1°; 3° keeps a 9° mistake within
+/// 3σ and the small-angle model (first order in the angles) within 0.4 %.
+pub const MOUNT_ANGLE_STD_RAD: f64 = 3.0 * core::f64::consts::PI / 180.0;
 
 /// χ² gate probability of every update of a profiled run: a 1-in-10⁴ false
 /// rejection per update, so over a 1 h, 10 Hz constraint stream ≈ 4 honest
@@ -174,6 +194,13 @@ impl Platform {
                     interval: 0.1,
                     min_speed: 0.5,
                 }),
+                nhc_mount: Some(NhcMountStates {
+                    angle_std_rad: MOUNT_ANGLE_STD_RAD,
+                    // The IMU anywhere between the bumpers: −1 m (behind
+                    // the rear axle, in the boot) to +3.5 m (engine bay)
+                    // from the rear axle of a 4.5 m car.
+                    lever_std_m: 1.5,
+                }),
                 zupt: Some(car_zupt),
                 course_is_heading: true,
                 course_follows_heading: true,
@@ -190,6 +217,11 @@ impl Platform {
                     std: 0.2,
                     interval: 0.1,
                     min_speed: 0.1,
+                }),
+                nhc_mount: Some(NhcMountStates {
+                    angle_std_rad: MOUNT_ANGLE_STD_RAD,
+                    // Within a ≤ 1 m chassis.
+                    lever_std_m: 0.3,
                 }),
                 // No combustion engine: the vibration at rest is sensor noise
                 // plus fans/motors, an order below a car's.
@@ -210,6 +242,7 @@ impl Platform {
             Platform::Pedestrian => Profile {
                 platform: self,
                 nhc: None,
+                nhc_mount: None,
                 // Standing with a hand-held device: hand tremor 0.05–0.1 m/s²
                 // and a few °/s of wrist motion; walking shakes it with
                 // 1–3 m/s² at the step frequency, far above. The hand sways
@@ -231,6 +264,7 @@ impl Platform {
             Platform::Uav => Profile {
                 platform: self,
                 nhc: None,
+                nhc_mount: None,
                 zupt: None,
                 course_is_heading: false,
                 course_follows_heading: false,
@@ -239,6 +273,7 @@ impl Platform {
             Platform::Marine => Profile {
                 platform: self,
                 nhc: None,
+                nhc_mount: None,
                 zupt: None,
                 course_is_heading: false,
                 course_follows_heading: false,
@@ -247,6 +282,7 @@ impl Platform {
             Platform::Static => Profile {
                 platform: self,
                 nhc: None,
+                nhc_mount: None,
                 // Always at rest: the detector is switched wide open.
                 zupt: Some(ZuptConfig {
                     max_accel_std: f64::INFINITY,

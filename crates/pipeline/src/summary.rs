@@ -117,6 +117,9 @@ fn filter_json(run: &EskfRun) -> serde_json::Value {
         "augmented_estimate": run.augmented.map(|a| serde_json::json!({
             "gnss_error_ned_m": v(&a.gnss_error_n), "gnss_error_std_m": v(&a.gnss_error_std),
             "time_offset_s": a.time_offset_s, "time_offset_std_s": a.time_offset_std_s,
+            "nhc_mount_pitch_yaw_deg": [a.nhc_mount.x.to_degrees(), a.nhc_mount.y.to_degrees()],
+            "nhc_mount_pitch_yaw_std_deg": [a.nhc_mount_std.x.to_degrees(), a.nhc_mount_std.y.to_degrees()],
+            "nhc_lever_x_m": a.nhc_mount.z, "nhc_lever_x_std_m": a.nhc_mount_std.z,
         })),
         "noise": {
             "arw_rad_per_sqrt_s": v(&c.noise.arw), "vrw_m_s_per_sqrt_s": v(&c.noise.vrw),

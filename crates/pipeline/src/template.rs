@@ -453,6 +453,12 @@ fn constraint_blocks(o: &mut String, platform: Platform) {
                 &format!("max_std = {}", num(NHC_ADAPT_MAX)),
                 "[m/s]",
             );
+            line(
+                o,
+                true,
+                "mount_states = false",
+                "estimate mounting pitch/yaw and the lever to the rear axle",
+            );
         }
         None => {
             let _ = writeln!(o, "\n# [filter.nhc]                # profile `{platform}`: no NHC (the platform slips sideways)");

@@ -58,7 +58,7 @@ pub use aiding::{AidingConfig, AidingStats, MAX_LAG_S};
 use aug::{gated_update, Aug};
 pub use aug::{
     AugConfigError, AugSmootherRecord, AugmentedEstimate, AugmentedStates, GnssErrorStates,
-    TimeOffsetState, IA_GNSS, IA_ODO, IA_TAU, NA, NF,
+    NhcMountStates, TimeOffsetState, IA_GNSS, IA_MNT, IA_ODO, IA_TAU, NA, NF,
 };
 use sens::Sens;
 pub use sens::SensitivityModel;
@@ -1122,7 +1122,11 @@ impl Eskf {
     /// Gauss–Markov GNSS position error (NED [m]) and/or the IMU–GNSS time
     /// offset τ [s] (true time = IMU stamp + τ). `a` all off (the default)
     /// changes nothing.
-    pub fn with_augmented_states(mut self, a: AugmentedStates) -> Result<Self, AugConfigError> {
+    /// The NHC mounting states are kept only when the filter has NHC.
+    pub fn with_augmented_states(mut self, mut a: AugmentedStates) -> Result<Self, AugConfigError> {
+        if self.cfg.nhc.is_none() {
+            a.nhc_mount = None;
+        }
         let odo = self.cfg.aiding.odometer;
         self.aug = if a.is_off() && odo.is_none() {
             None
@@ -1848,9 +1852,22 @@ impl Eskf {
                     h[(r, I_ATT + k)] = h_a[(r + 1, k)];
                 }
             }
-            let dz = SVector::<f64, 2>::new(v_b.y, v_b.z);
+            let mut dz = SVector::<f64, 2>::new(v_b.y, v_b.z);
+            // The mounting states (module `aug`): u_y = v_y + ω_z l_x − ψ_m v_x,
+            // u_z = v_z − ω_y l_x + θ_m v_x.
+            let mut h_a = SMatrix::<f64, 2, NA>::zeros();
+            if let Some(a) = self.aug.as_ref().filter(|a| a.has_nhc_mount()) {
+                let (th, psi, lx) = (a.x[IA_MNT], a.x[IA_MNT + 1], a.x[IA_MNT + 2]);
+                let w = self.w_ib_b;
+                dz.x += w.z * lx - psi * v_b.x;
+                dz.y += -w.y * lx + th * v_b.x;
+                h_a[(0, IA_MNT + 1)] = -v_b.x;
+                h_a[(0, IA_MNT + 2)] = w.z;
+                h_a[(1, IA_MNT)] = v_b.x;
+                h_a[(1, IA_MNT + 2)] = -w.y;
+            }
             let r = constraint_r(&mut self.adapt.nhc, &self.p, &h, &dz, n.std);
-            match self.update(&h, &r, &dz, true, UpdateKind::Nhc) {
+            match self.update_aug(&h, &h_a, &r, &dz, true, UpdateKind::Nhc) {
                 Ok(_) => self.stats.nhc_used += 1,
                 Err(UpdateReject::Gate) => self.stats.nhc_rejected_gate += 1,
                 Err(UpdateReject::Singular) => {}

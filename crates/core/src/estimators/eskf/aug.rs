@@ -1,7 +1,7 @@
 //! Augmented error states of the ESKF, off by default (then nothing of this
 //! module runs and every output is bit-identical to the 21-state filter).
 //!
-//! Five states after the 21 of [`super::NX`], kept outside the 21×21
+//! Eight states after the 21 of [`super::NX`], kept outside the 21×21
 //! covariance so the per-sample cost of the plain filter does not change:
 //! `P = [[P_xx, P_xa], [P_xaᵀ, P_aa]]`, with `P_xx` the filter's own `Cov`.
 //! The model has no coupling from these states into the INS error dynamics
@@ -35,6 +35,18 @@
 //!   `scale_rw_psd` from the odometer configuration (active only when the
 //!   filter has odometer aiding, [`crate::measurements::odometer`]).
 //!
+//! * `m` (3): the non-holonomic constraint's systematic terms
+//!   ([`NhcMountStates`]): the pitch `θ_m` and yaw `ψ_m` of the vehicle
+//!   frame against the IMU body frame [rad] and the IMU's forward offset
+//!   `l_x` from the non-holonomic point (the rear, non-steered axle) [m],
+//!   random constants. The constrained velocity is the vehicle-frame
+//!   velocity of that point, `u_v = (I − [m×]) (v_b + ω_b × l)`,
+//!   `m = (0, θ_m, ψ_m)`, `l = (l_x, 0, 0)`: to first order
+//!   `u_y = v_y + ω_z l_x − ψ_m v_x`, `u_z = v_z − ω_y l_x + θ_m v_x`
+//!   (Groves 2nd ed. §16.2.2 on the vehicle frame; Shin 2005, "Estimation
+//!   techniques for low-cost inertial navigation", §4.3.3 on the lever
+//!   arm of the non-holonomic point). Active only with NHC.
+//!
 //! Error signs follow the position state: `δa = â − a`, feedback `â ← â − δa`.
 
 use super::{FSparse, UpdateReject, NX};
@@ -45,7 +57,7 @@ use crate::Vec3;
 use nalgebra::{SMatrix, SVector};
 
 /// Number of augmented states.
-pub const NA: usize = 5;
+pub const NA: usize = 8;
 /// Full dimension with the augmented states.
 pub const NF: usize = NX + NA;
 /// Index (within the augmented states) of the GNSS position error `b`, NED.
@@ -55,6 +67,22 @@ pub const IA_TAU: usize = 3;
 /// Index (within the augmented states) of the odometer scale-factor error
 /// `s` (measured speed = (1 + s) · true speed; [`crate::measurements::odometer`]).
 pub const IA_ODO: usize = 4;
+/// Index (within the augmented states) of the NHC mounting pitch `θ_m`,
+/// followed by the yaw `ψ_m` and the forward lever `l_x` ([`NhcMountStates`]).
+pub const IA_MNT: usize = 5;
+
+/// Systematic terms of the non-holonomic constraint as states (module doc):
+/// the mounting pitch and yaw of the IMU in the vehicle and its forward
+/// offset from the non-holonomic point. Without them the NHC treats these
+/// constant violations as white noise, repeated at every update, and pulls
+/// the heading by the mounting yaw.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct NhcMountStates {
+    /// Initial 1-σ of the mounting pitch and yaw [rad] (> 0).
+    pub angle_std_rad: f64,
+    /// Initial 1-σ of the forward offset from the non-holonomic point [m] (> 0).
+    pub lever_std_m: f64,
+}
 
 /// First-order Gauss–Markov GNSS position-error states.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -93,12 +121,14 @@ pub struct TimeOffsetState {
 pub struct AugmentedStates {
     pub gnss_error: Option<GnssErrorStates>,
     pub time_offset: Option<TimeOffsetState>,
+    /// NHC mounting states (used only when the filter has NHC).
+    pub nhc_mount: Option<NhcMountStates>,
 }
 
 impl AugmentedStates {
     /// Nothing augmented (the default): the 21-state filter.
     pub fn is_off(&self) -> bool {
-        self.gnss_error.is_none() && self.time_offset.is_none()
+        self.gnss_error.is_none() && self.time_offset.is_none() && self.nhc_mount.is_none()
     }
 }
 
@@ -115,6 +145,10 @@ pub struct AugmentedEstimate {
     /// odometer aiding).
     pub odometer_scale: f64,
     pub odometer_scale_std: f64,
+    /// NHC mounting pitch, yaw [rad] and forward lever [m] with their 1-σ
+    /// (zero when not estimated).
+    pub nhc_mount: Vec3,
+    pub nhc_mount_std: Vec3,
 }
 
 /// Why [`super::Eskf::with_augmented_states`] refused a configuration.
@@ -126,6 +160,8 @@ pub enum AugConfigError {
     TimeOffset,
     /// Odometer: see [`OdometerConfig::is_valid`].
     Odometer,
+    /// NHC mounting states: need finite σ > 0.
+    NhcMount,
     /// The sensitivity covariance follows the 21-state (or augmented)
     /// update only, not the joint update of tight coupling.
     TightCoupling,
@@ -147,6 +183,10 @@ impl core::fmt::Display for AugConfigError {
             AugConfigError::TimeOffset => write!(
                 f,
                 "time-offset state: need a finite initial value, std > 0 and a random-walk PSD >= 0"
+            ),
+            AugConfigError::NhcMount => write!(
+                f,
+                "NHC mounting states: need finite angle and lever sigma > 0"
             ),
             AugConfigError::Odometer => write!(
                 f,
@@ -252,6 +292,21 @@ impl Aug {
                 gain_mask.get_or_insert_with(|| SVector::<f64, NF>::repeat(1.0))[NX + IA_TAU] = 0.0;
             }
         }
+        if let Some(m) = cfg.nhc_mount {
+            let ok = [m.angle_std_rad, m.lever_std_m]
+                .iter()
+                .all(|s| s.is_finite() && *s > 0.0);
+            if !ok {
+                return Err(AugConfigError::NhcMount);
+            }
+            for (k, s) in [m.angle_std_rad, m.angle_std_rad, m.lever_std_m]
+                .into_iter()
+                .enumerate()
+            {
+                p_aa[(IA_MNT + k, IA_MNT + k)] = s * s;
+                active[IA_MNT + k] = true;
+            }
+        }
         if let Some(o) = odo {
             if !o.is_valid() {
                 return Err(AugConfigError::Odometer);
@@ -283,6 +338,11 @@ impl Aug {
     /// Whether the time offset is estimated.
     pub(super) fn has_time_offset(&self) -> bool {
         self.cfg.time_offset.is_some()
+    }
+
+    /// Whether the NHC mounting states are estimated.
+    pub(super) fn has_nhc_mount(&self) -> bool {
+        self.cfg.nhc_mount.is_some()
     }
 
     /// Whether the time offset is a consider state (never estimated).
@@ -410,6 +470,8 @@ impl Aug {
             time_offset_std_s: sd(IA_TAU),
             odometer_scale: self.x[IA_ODO],
             odometer_scale_std: sd(IA_ODO),
+            nhc_mount: self.x.fixed_rows::<3>(IA_MNT).into(),
+            nhc_mount_std: Vec3::new(sd(IA_MNT), sd(IA_MNT + 1), sd(IA_MNT + 2)),
         }
     }
 

@@ -98,6 +98,7 @@ impl Sens {
                 consider: false,
             }),
             time_offset: filter_aug.and_then(|a| a.cfg.time_offset),
+            nhc_mount: filter_aug.and_then(|a| a.cfg.nhc_mount),
         };
         let mut aug = Aug::new(cfg, filter_aug.and(odo))?;
         if let Some(fa) = filter_aug {
