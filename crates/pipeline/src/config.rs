@@ -384,6 +384,11 @@ pub struct NhcCfg {
     /// non-holonomic point as states (default: the profile's, on for `car`
     /// and `robot`).
     pub mount_states: Option<bool>,
+    /// Initial mounting pitch [deg], yaw [deg] and forward lever [m] of the
+    /// mounting states (default 0, 0, 0).
+    pub mount_initial: Option<[f64; 3]>,
+    /// Their 1-σ, same units (default: the profile's prior).
+    pub mount_std: Option<[f64; 3]>,
 }
 
 /// `[filter.zupt]`: standstill detection and zero-velocity/-rate update

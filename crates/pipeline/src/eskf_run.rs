@@ -294,6 +294,21 @@ fn override_constraints(cfg: &RunConfig, pr: &mut Profile) -> Result<()> {
             if n.mount_states == Some(true) && pr.nhc_mount.is_none() {
                 pr.nhc_mount = Platform::Car.profile().nhc_mount;
             }
+            if let Some(m) = &mut pr.nhc_mount {
+                let si = |v: [f64; 3]| Vec3::new(v[0].to_radians(), v[1].to_radians(), v[2]);
+                if let Some(v) = n.mount_initial {
+                    if !v.iter().all(|x| x.is_finite()) {
+                        return Err(cfg.err("[filter.nhc] mount_initial must be finite"));
+                    }
+                    m.initial = si(v);
+                }
+                if let Some(v) = n.mount_std {
+                    if !v.iter().all(|x| x.is_finite() && *x > 0.0) {
+                        return Err(cfg.err("[filter.nhc] mount_std must be finite and > 0"));
+                    }
+                    m.std = si(v);
+                }
+            }
             c.std = pos(n.std, "nhc.std")?.unwrap_or(c.std);
             c.min_speed = pos(n.min_speed, "nhc.min_speed")?.unwrap_or(c.min_speed);
             c.interval = pos(n.interval, "nhc.interval")?.unwrap_or(c.interval);
@@ -595,10 +610,15 @@ pub(crate) fn run_eskf_span(
             .and_then(|p| p.nhc_mount);
         if let Some(m) = aug.nhc_mount {
             how += &format!(
-                "{}NHC mounting pitch/yaw (0 ± {:.1}°) and forward lever (0 ± {:.1} m) estimated",
+                "{}NHC mounting states estimated from pitch {:.2} ± {:.2}°, yaw {:.2} ± {:.2}°, \
+                 forward lever {:.2} ± {:.2} m",
                 if how.is_empty() { "" } else { "; " },
-                m.angle_std_rad.to_degrees(),
-                m.lever_std_m
+                m.initial.x.to_degrees(),
+                m.std.x.to_degrees(),
+                m.initial.y.to_degrees(),
+                m.std.y.to_degrees(),
+                m.initial.z,
+                m.std.z
             );
         }
         (aug, how)

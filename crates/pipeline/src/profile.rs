@@ -194,13 +194,10 @@ impl Platform {
                     interval: 0.1,
                     min_speed: 0.5,
                 }),
-                nhc_mount: Some(NhcMountStates {
-                    angle_std_rad: MOUNT_ANGLE_STD_RAD,
-                    // The IMU anywhere between the bumpers: −1 m (behind
-                    // the rear axle, in the boot) to +3.5 m (engine bay)
-                    // from the rear axle of a 4.5 m car.
-                    lever_std_m: 1.5,
-                }),
+                // Lever σ: the IMU anywhere between the bumpers, −1 m
+                // (behind the rear axle, in the boot) to +3.5 m (engine
+                // bay) from the rear axle of a 4.5 m car.
+                nhc_mount: Some(NhcMountStates::prior(MOUNT_ANGLE_STD_RAD, 1.5)),
                 zupt: Some(car_zupt),
                 course_is_heading: true,
                 course_follows_heading: true,
@@ -218,11 +215,8 @@ impl Platform {
                     interval: 0.1,
                     min_speed: 0.1,
                 }),
-                nhc_mount: Some(NhcMountStates {
-                    angle_std_rad: MOUNT_ANGLE_STD_RAD,
-                    // Within a ≤ 1 m chassis.
-                    lever_std_m: 0.3,
-                }),
+                // Lever σ: within a ≤ 1 m chassis.
+                nhc_mount: Some(NhcMountStates::prior(MOUNT_ANGLE_STD_RAD, 0.3)),
                 // No combustion engine: the vibration at rest is sensor noise
                 // plus fans/motors, an order below a car's.
                 zupt: Some(ZuptConfig {

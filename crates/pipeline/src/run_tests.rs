@@ -586,3 +586,56 @@ fn run_config_rejects_unknown_keys_with_the_field() {
     assert_eq!(c.filter.preset, "enhanced");
     assert_eq!(c.input.imu_rate, 100.0);
 }
+
+/// `[filter.nhc] mount_states`: the run estimates the mounting states from
+/// the given start (summary text and estimates), a non-positive σ is an
+/// error naming the key, and a run without NHC carries none.
+#[test]
+fn nhc_mount_states_are_configured_reported_and_checked() {
+    let dir = std::env::temp_dir().join(format!("navfuse-mount-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    write_north_drive(&dir);
+    let cfg = |platform: &str, nhc: &str| {
+        let p = dir.join(format!("{platform}.toml"));
+        std::fs::write(
+            &p,
+            format!(
+                "[input]\nimu = \"imu.txt\"\ngnss = \"gnss.txt\"\n[filter]\nplatform = \"{platform}\"\n\
+                 [filter.nhc]\nmount_states = true\n{nhc}\n"
+            ),
+        )
+        .unwrap();
+        p
+    };
+    let (_, s) = run_and_read(
+        &cfg("car", "mount_initial = [0.0, 1.0, 0.5]"),
+        &dir.join("out_car"),
+        0,
+    );
+    let f = &s["filter"];
+    assert!(
+        f["augmented_states"]
+            .as_str()
+            .unwrap()
+            .contains("NHC mounting states estimated from pitch 0.00 ± 3.00°, yaw 1.00 ± 3.00°"),
+        "{}",
+        f["augmented_states"]
+    );
+    let a = &f["augmented_estimate"];
+    let yaw_std = a["nhc_mount_pitch_yaw_std_deg"][1].as_f64().unwrap();
+    assert!(yaw_std > 0.0 && yaw_std < 3.0, "{a}");
+    let e = run_to(
+        &cfg("car", "mount_std = [1.0, 0.0, 1.0]"),
+        &dir.join("out_bad"),
+    )
+    .unwrap_err();
+    assert!(e.contains("mount_std"), "{e}");
+    // NHC switched off: the states are not created (σ stays 0).
+    let (_, s) = run_and_read(&cfg("car", "enabled = false"), &dir.join("out_off"), 0);
+    let a = &s["filter"]["augmented_estimate"];
+    assert!(
+        a.is_null() || a["nhc_mount_pitch_yaw_std_deg"][1].as_f64() == Some(0.0),
+        "{a}"
+    );
+    let _ = std::fs::remove_dir_all(&dir);
+}

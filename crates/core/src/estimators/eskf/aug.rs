@@ -78,10 +78,21 @@ pub const IA_MNT: usize = 5;
 /// the heading by the mounting yaw.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct NhcMountStates {
-    /// Initial 1-σ of the mounting pitch and yaw [rad] (> 0).
-    pub angle_std_rad: f64,
-    /// Initial 1-σ of the forward offset from the non-holonomic point [m] (> 0).
-    pub lever_std_m: f64,
+    /// Initial estimate: mounting pitch [rad], yaw [rad], forward offset
+    /// from the non-holonomic point [m] (finite).
+    pub initial: Vec3,
+    /// Their initial 1-σ, same order and units (> 0).
+    pub std: Vec3,
+}
+
+impl NhcMountStates {
+    /// Zero initial estimate with the angle and lever σ given.
+    pub fn prior(angle_std_rad: f64, lever_std_m: f64) -> Self {
+        NhcMountStates {
+            initial: Vec3::zeros(),
+            std: Vec3::new(angle_std_rad, angle_std_rad, lever_std_m),
+        }
+    }
 }
 
 /// First-order Gauss–Markov GNSS position-error states.
@@ -186,7 +197,7 @@ impl core::fmt::Display for AugConfigError {
             ),
             AugConfigError::NhcMount => write!(
                 f,
-                "NHC mounting states: need finite angle and lever sigma > 0"
+                "NHC mounting states: need finite initial values and sigma > 0"
             ),
             AugConfigError::Odometer => write!(
                 f,
@@ -293,17 +304,14 @@ impl Aug {
             }
         }
         if let Some(m) = cfg.nhc_mount {
-            let ok = [m.angle_std_rad, m.lever_std_m]
-                .iter()
-                .all(|s| s.is_finite() && *s > 0.0);
+            let ok = m.std.iter().all(|s| s.is_finite() && *s > 0.0)
+                && m.initial.iter().all(|x| x.is_finite());
             if !ok {
                 return Err(AugConfigError::NhcMount);
             }
-            for (k, s) in [m.angle_std_rad, m.angle_std_rad, m.lever_std_m]
-                .into_iter()
-                .enumerate()
-            {
-                p_aa[(IA_MNT + k, IA_MNT + k)] = s * s;
+            for k in 0..3 {
+                x[IA_MNT + k] = m.initial[k];
+                p_aa[(IA_MNT + k, IA_MNT + k)] = m.std[k] * m.std[k];
                 active[IA_MNT + k] = true;
             }
         }

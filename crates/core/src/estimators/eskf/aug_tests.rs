@@ -642,10 +642,7 @@ fn nhc_mount_states_learn_a_yawed_imu_and_keep_the_outage_straight() {
         if states {
             f = f
                 .with_augmented_states(AugmentedStates {
-                    nhc_mount: Some(NhcMountStates {
-                        angle_std_rad: 3.0f64.to_radians(),
-                        lever_std_m: 1.5,
-                    }),
+                    nhc_mount: Some(NhcMountStates::prior(3.0f64.to_radians(), 1.5)),
                     ..Default::default()
                 })
                 .unwrap();
