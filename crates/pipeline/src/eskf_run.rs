@@ -493,7 +493,16 @@ pub fn run_eskf(
     }
     let shifted: Vec<ImuSample>;
     let mut applied = None;
-    let imu = match mode.resolve(imu, gnss)? {
+    let decided = if mode == TimeOffset::Auto {
+        let mut run = |imu: &[ImuSample]| {
+            let span = select_span(cfg, imu, gnss)?;
+            run_eskf_span(cfg, base_dir, &span, aux, false)
+        };
+        crate::offset_passes::decide_positions_only(imu, gnss, &mut run)?.0
+    } else {
+        mode.resolve(imu, gnss)?
+    };
+    let imu = match decided {
         Some((tau, how)) => {
             shifted = imu
                 .iter()

@@ -34,6 +34,7 @@ use crate::error::Result;
 use crate::eskf_run::EskfRun;
 use crate::time_offset::latency_significant;
 use navfuse_core::attitude::{dcm_from_euler, skew};
+use navfuse_core::estimators::eskf::UpdateLog;
 use navfuse_core::ins::time_offset::TimeOffsetReason;
 use navfuse_core::ins::time_offset_vel::{
     estimate_from_velocity, InsSample, VelOffsetConfig, VelOffsetEstimate,
@@ -186,7 +187,17 @@ pub fn run_with_offset_passes(
             let plus = run(&shifted(imu, tau + std))?;
             let minus = run(&shifted(imu, tau - std))?;
             let mut run_at = |t: f64| run(&shifted(imu, t));
-            let refined = refine_by_likelihood(&r, &plus, &minus, gnss, tau, std, &mut run_at)?;
+            let mut terms_at = |t: f64| Ok(gnss_nll_terms(&run_at(t)?.updates, gnss));
+            let refined = refine_by_likelihood(
+                [
+                    gnss_nll_terms(&minus.updates, gnss),
+                    gnss_nll_terms(&r.updates, gnss),
+                    gnss_nll_terms(&plus.updates, gnss),
+                ],
+                tau,
+                std,
+                &mut terms_at,
+            )?;
             let (mut r, tau, sd, by) = match refined {
                 Ok((t_ml, s_ml)) => {
                     log.push(format!(
@@ -223,7 +234,7 @@ pub fn run_with_offset_passes(
 }
 
 /// One run's NLL terms by (fix index, kind): (½ capped NIS, dof).
-type NllTerms = std::collections::BTreeMap<(usize, u8), (f64, u8)>;
+pub type NllTerms = std::collections::BTreeMap<(usize, u8), (f64, u8)>;
 
 /// The GNSS terms of a run's negative log-likelihood, keyed by update
 /// (index of the fix in `gnss`, kind): `½ min(NIS, c_d)` for every GNSS position and
@@ -234,12 +245,12 @@ type NllTerms = std::collections::BTreeMap<(usize, u8), (f64, u8)>;
 /// at its χ²_d 99.9 % quantile `c_d` (a bounded-influence likelihood): an
 /// update the gate treats as an outlier must not move τ, and the cap keeps
 /// the sum continuous in τ. Gated and accepted updates alike count.
-fn gnss_nll_terms(r: &EskfRun, gnss: &[GnssFix]) -> NllTerms {
+pub fn gnss_nll_terms(updates: &[UpdateLog], gnss: &[GnssFix]) -> NllTerms {
     use navfuse_core::estimators::eskf::UpdateKind;
     // χ²_d 0.999 quantiles, d = 1, 2, 3.
     const CAP: [f64; 3] = [10.83, 13.82, 16.27];
     let mut out = std::collections::BTreeMap::new();
-    for u in &r.updates {
+    for u in updates {
         let kind = match u.kind {
             UpdateKind::GnssPosition => 0u8,
             UpdateKind::GnssVelocity => 1u8,
@@ -319,23 +330,16 @@ const MAX_REFINE: usize = 2;
 /// σ). Declined (`Err`, the passes' τ̂ stays) when the curvature is still
 /// not positive or the vertex still beyond the probes after that.
 fn refine_by_likelihood(
-    center: &EskfRun,
-    plus: &EskfRun,
-    minus: &EskfRun,
-    gnss: &[GnssFix],
+    [minus, center, plus]: [NllTerms; 3],
     tau: f64,
     h: f64,
-    run_at: &mut dyn FnMut(f64) -> Result<EskfRun>,
+    terms_at: &mut dyn FnMut(f64) -> Result<NllTerms>,
 ) -> Result<core::result::Result<(f64, f64), String>> {
     if h.is_nan() || h <= 0.0 {
         return Ok(Err("no step".into()));
     }
     let mut taus = vec![tau - h, tau, tau + h];
-    let mut terms = vec![
-        gnss_nll_terms(minus, gnss),
-        gnss_nll_terms(center, gnss),
-        gnss_nll_terms(plus, gnss),
-    ];
+    let mut terms = vec![minus, center, plus];
     for round in 0..=MAX_REFINE {
         let (nll, dof) = common_nll(&terms);
         if dof == 0.0 {
@@ -381,10 +385,121 @@ fn refine_by_likelihood(
         } else {
             vertex.clamp(lo - 2.0 * h, hi + 2.0 * h)
         };
-        terms.push(gnss_nll_terms(&run_at(next)?, gnss));
+        terms.push(terms_at(next)?);
         taus.push(next);
     }
     Ok(Err("no refinement".into()))
+}
+
+/// An offset to apply with how it was found, and the likelihood's note
+/// when it ran ([`likelihood_on_positions`]).
+pub type PositionsDecision = (Option<(f64, String)>, Option<String>);
+
+/// Largest probe step of [`likelihood_on_positions`] [s]: 0.1 s is a
+/// 10 Hz receiver's epoch, the largest offset a logger's time tagging
+/// leaves unnoticed; larger ones are found by the course estimate itself.
+const POSITION_PROBE_MAX_S: f64 = 0.1;
+/// Smallest probe step [s]: below the course estimate's resolution.
+const POSITION_PROBE_MIN_S: f64 = 0.005;
+/// Smallest step of the fine parabola [s]: 2 ms moves a 20 m/s track by
+/// 4 cm, two RTK σ, so the NLL still changes measurably over it.
+const POSITION_PROBE_FINE_MIN_S: f64 = 0.002;
+
+/// Records without GNSS velocity (no velocity passes) where the course
+/// estimate ([`crate::time_offset::auto_estimate`]) finds an offset under
+/// some model variant but cannot settle it (the variants differ in sign or
+/// not all are significant): the filter's own GNSS-position likelihood
+/// decides ([`refine_by_likelihood`]: probes at 0 and ±h, h the largest
+/// significant variant's |τ| within [5, 100] ms, then again at the vertex
+/// ± its σ). Positions see τ through
+/// `∂p/∂τ = −v` with the filter's weights, and no course–heading model is
+/// assumed, so the variants' disagreement (antenna ahead of the
+/// zero-sideslip point or not) does not enter. Applied under the course
+/// estimate's own rule: |τ| > 3.29 σ and σ ≤ 20 ms. `terms_at(τ)`: the
+/// NLL terms of a run with the IMU stamps shifted by τ. `Ok(None)`: not
+/// triggered or not significant (the note says which, when run).
+pub fn likelihood_on_positions(
+    course: &crate::time_offset::AutoOffset,
+    terms_at: &mut dyn FnMut(f64) -> Result<NllTerms>,
+) -> Result<PositionsDecision> {
+    let cfg = VelOffsetConfig::default();
+    if course.apply {
+        return Ok((None, None));
+    }
+    let h = course
+        .variants
+        .iter()
+        .filter(|(_, e)| e.significant && e.std_s <= cfg.max_std_s)
+        .filter_map(|(_, e)| e.tau_s)
+        .map(f64::abs)
+        .fold(f64::NAN, f64::max);
+    if h.is_nan() {
+        return Ok((None, None));
+    }
+    let h = h.clamp(POSITION_PROBE_MIN_S, POSITION_PROBE_MAX_S);
+    // The capped NLL is quadratic only near its minimum (measured on a
+    // simulated car: a parabola through −h, 0, +h put the vertex 25 ms
+    // from a minimum 8 σ deep): a grid of 9 probes over ±h locates it, a
+    // parabola through its neighbours refines it, and a last one over the
+    // vertex ± its σ (as the velocity passes' refinement) reads τ and σ.
+    let d = h / 4.0;
+    let grid: Vec<f64> = (-4..=4).map(|i| f64::from(i) * d).collect();
+    let mut terms = Vec::with_capacity(grid.len());
+    for &t in &grid {
+        terms.push(terms_at(t)?);
+    }
+    let (nll, dof) = common_nll(&terms);
+    let best = (0..grid.len()).min_by(|&a, &b| nll[a].total_cmp(&nll[b]));
+    let fine = match best {
+        _ if dof == 0.0 => Err("no common GNSS updates".to_string()),
+        Some(i) if i > 0 && i + 1 < grid.len() => {
+            let mut it = terms.into_iter().skip(i - 1);
+            let three = [(); 3].map(|_| it.next().unwrap_or_default());
+            match refine_by_likelihood(three, grid[i], d, terms_at)? {
+                Ok((t1, s1)) => {
+                    let h2 = s1.max(POSITION_PROBE_FINE_MIN_S);
+                    let probes = [terms_at(t1 - h2)?, terms_at(t1)?, terms_at(t1 + h2)?];
+                    refine_by_likelihood(probes, t1, h2, terms_at)?
+                }
+                Err(e) => Err(e),
+            }
+        }
+        _ => Err(format!(
+            "minimum at the edge of the ±{:.0} ms probes",
+            h * 1e3
+        )),
+    };
+    let note = match fine {
+        Ok((tau, sd)) if sd <= cfg.max_std_s && tau.abs() > cfg.k_sigma * sd => {
+            let how = format!(
+                "auto (GNSS-position likelihood, the course variants disagreeing): {tau:+.4} ± {sd:.4} s"
+            );
+            return Ok((Some((tau, how.clone())), Some(how)));
+        }
+        Ok((tau, sd)) => {
+            format!("GNSS-position likelihood {tau:+.4} ± {sd:.4} s: not significant; none applied")
+        }
+        Err(why) => format!("GNSS-position likelihood not used: {why}"),
+    };
+    Ok((None, Some(note)))
+}
+
+/// The offset of a record without GNSS velocity in `auto` mode: the course
+/// estimate when it is conclusive, else [`likelihood_on_positions`] with
+/// `run` (the filter on the given IMU samples). Returns the offset to apply
+/// with how it was found, and the likelihood's note when it ran.
+pub fn decide_positions_only(
+    imu: &[ImuSample],
+    gnss: &[GnssFix],
+    run: &mut dyn FnMut(&[ImuSample]) -> Result<EskfRun>,
+) -> Result<PositionsDecision> {
+    let course = crate::time_offset::auto_estimate(imu, gnss);
+    if course.apply {
+        let how = crate::time_offset::describe(&course);
+        return Ok((course.tau_s.map(|t| (t, how)), None));
+    }
+    let mut terms_at = |t: f64| Ok(gnss_nll_terms(&run(&shifted(imu, t))?.updates, gnss));
+    likelihood_on_positions(&course, &mut terms_at)
 }
 
 /// The share of the remaining offset a pass measures, from the last two
@@ -474,7 +589,21 @@ pub fn decide_on_loaded(
             (applied, _) => (Some(r), applied),
         }
     } else if cfg.input.imu_time_offset.is_some() || default_mode(cfg) == TimeOffset::Auto {
-        (None, TimeOffset::Auto.resolve(&loaded.imu, &loaded.gnss)?)
+        let (imu0, gnss, aux0) = (&loaded.imu, &loaded.gnss, &loaded.aux);
+        let mut run = |imu: &[ImuSample]| {
+            let tau = imu
+                .first()
+                .zip(imu0.first())
+                .map_or(0.0, |(a, b)| a.t - b.t);
+            let aux = aux0.as_ref().map(|a| shift_aux(a, tau));
+            let span = crate::eskf_run::select_span(cfg, imu, gnss)?;
+            crate::eskf_run::run_eskf_span(cfg, base_dir, &span, aux.as_ref(), false)
+        };
+        let (applied, note) = decide_positions_only(imu0, gnss, &mut run)?;
+        if let Some(n) = note {
+            loaded.resolved["imu_time_offset_likelihood"] = serde_json::json!(n);
+        }
+        (None, applied)
     } else {
         (None, None)
     };

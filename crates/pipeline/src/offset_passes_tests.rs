@@ -184,3 +184,90 @@ fn car_offset_refined_by_the_likelihood_within_2_ms() {
     let a = a.expect("an offset applied");
     assert!((a - 0.1).abs() < 0.002, "{a} applied ({note})");
 }
+
+/// A receiver that reports positions only (no velocity, so no velocity
+/// passes): the course estimate decides, and where its variants disagree
+/// the filter's GNSS-position likelihood ([`super::likelihood_on_positions`]).
+/// Car, industrial IMU, RTK, seed 12 (not used before). Targets fixed before
+/// the run (issue 13 must-show 2): nothing applied (or < 5 ms) at τ = 0,
+/// ±50 ms recovered within 10 ms.
+#[test]
+fn positions_only_offsets_recovered_within_10_ms() {
+    for tau in [0.0, 0.05, -0.05] {
+        let opt = PlatformOptions {
+            imu: ImuGrade::Industrial,
+            gnss: GnssGrade::Rtk,
+            imu_time_offset_s: tau,
+            static_start: true,
+            ..Default::default()
+        };
+        let mut pr = platform_run(Platform::Car, 12, &opt).expect("simulation");
+        for g in &mut pr.run.gnss {
+            g.v_n = None;
+            g.std_v_n = None;
+        }
+        let r = run_variant(&variant_config(Variant::Default, &pr), &pr).expect("run");
+        let applied = r.time_offset_applied.as_ref().map(|a| a.0);
+        let how = r.time_offset_applied.as_ref().map(|a| a.1.clone());
+        eprintln!("positions only, τ {tau:+}: applied {applied:?} ({how:?})");
+        if tau == 0.0 {
+            assert!(
+                applied.is_none_or(|a| a.abs() < 0.005),
+                "{applied:?} {how:?}"
+            );
+        } else {
+            let a = applied.unwrap_or_else(|| panic!("τ {tau}: none applied"));
+            assert!((a - tau).abs() < 0.010, "τ {tau}: {a} applied ({how:?})");
+        }
+    }
+}
+
+/// [`super::likelihood_on_positions`] itself, on the positions-only car of
+/// the test above given a course estimate whose two variants disagree in
+/// sign (the case it exists for: the real one agreed there). Targets fixed
+/// before the run: at τ = 0 nothing applied (or < 5 ms); at ±50 ms the
+/// likelihood's τ within 10 ms.
+#[test]
+fn positions_likelihood_settles_disagreeing_course_variants() {
+    use crate::time_offset::{auto_estimate, TimeOffsetCfg};
+    for tau in [0.0, 0.05, -0.05] {
+        let opt = PlatformOptions {
+            imu: ImuGrade::Industrial,
+            gnss: GnssGrade::Rtk,
+            imu_time_offset_s: tau,
+            static_start: true,
+            ..Default::default()
+        };
+        let mut pr = platform_run(Platform::Car, 12, &opt).expect("simulation");
+        for g in &mut pr.run.gnss {
+            g.v_n = None;
+            g.std_v_n = None;
+        }
+        let mut course = auto_estimate(&pr.run.imu, &pr.run.gnss);
+        // Variants of opposite sign, both significant at 30 ms and 60 ms.
+        course.apply = false;
+        for (k, (_, e)) in course.variants.iter_mut().enumerate() {
+            let t = if k % 2 == 0 { 0.03 } else { -0.06 };
+            (e.tau_s, e.std_s, e.significant) = (Some(t), 0.005, true);
+        }
+        let cfg = variant_config(Variant::Default, &pr);
+        let mut terms_at = |t: f64| {
+            let mut c = cfg.clone();
+            c.input.imu_time_offset = Some(TimeOffsetCfg::Seconds(t));
+            let r = run_variant(&c, &pr)?;
+            Ok(super::gnss_nll_terms(&r.updates, &pr.run.gnss))
+        };
+        let (applied, note) = super::likelihood_on_positions(&course, &mut terms_at).unwrap();
+        eprintln!("positions likelihood, τ {tau:+}: {applied:?}; {note:?}");
+        let applied = applied.map(|a| a.0);
+        if tau == 0.0 {
+            assert!(
+                applied.is_none_or(|a| a.abs() < 0.005),
+                "{applied:?} {note:?}"
+            );
+        } else {
+            let a = applied.unwrap_or_else(|| panic!("τ {tau}: none applied ({note:?})"));
+            assert!((a - tau).abs() < 0.010, "τ {tau}: {a} ({note:?})");
+        }
+    }
+}
