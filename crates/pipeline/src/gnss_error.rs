@@ -354,10 +354,12 @@ impl SigmaModels {
     }
 }
 
-/// z of the lower confidence bound of σ_w below which the split is taken as
-/// uninformative for the smoother (two-sided 95 %, the level the σ is
-/// judged at): when `σ_w − z·δσ_w ≤ 0` the data allow every σ_b up to
+/// z of the lower confidence bound of σ_w² below which the split is taken
+/// as uninformative for the smoother (two-sided 95 %, the level the σ is
+/// judged at): when `σ_w² − z·δ(σ_w²) ≤ 0` the data allow every σ_b up to
 /// σ_fix, and the smoothed σ takes σ_b = σ_fix ([`SigmaModels::smoothed`]).
+/// (On σ_w², which the split estimates linearly in the variance of the
+/// differences; the delta-method interval of σ_w breaks down near 0.)
 /// The same upper end is taken, whatever the z, when the split had to use
 /// every fix interval (too few quiet ones, [`crate::fix_dynamics`]): the
 /// trajectory's term between fixes then only raises σ_w, so the fit bounds
@@ -468,8 +470,11 @@ fn carrier_phase_sensitivity(
     // The smoother averages whatever the split calls white, so it takes the
     // upper end of σ_b where the data bound σ_b only from below
     // ([`SMOOTHER_SPLIT_Z`]); the forward σ keeps the point estimate.
+    // σ_w²'s interval (linear in var d, so its normal interval holds down
+    // to 0, unlike σ_w's); δ(σ_w²) as `fit_fast_part` converted it.
+    let sw2_se = 2.0 * sp.white_h_m.max(1e-3) * sp.white_h_unc_m;
     let unbounded =
-        which == ALL_INTERVALS || sp.white_h_m - SMOOTHER_SPLIT_Z * sp.white_h_unc_m <= 0.0;
+        which == ALL_INTERVALS || sp.white_h_m.powi(2) - SMOOTHER_SPLIT_Z * sw2_se <= 0.0;
     let smoothed = unbounded.then_some(SensitivityModel {
         tau_s: tau,
         sigma_m: Vec3::new(mh, mh, mv),
@@ -918,6 +923,45 @@ mod tests {
         assert!(sensitivity_model(&white, &f, None).forward.is_none());
         let kf = run_cfg("[filter]\npreset = \"kf-gins\"\n");
         assert!(sensitivity_model(&kf, &f, None).forward.is_none());
+    }
+
+    /// The smoother's own model ([`SigmaModels::smoothed`]), written before
+    /// the run: on half-white RTK fixes split on quiet intervals it is
+    /// `None` (the forward model serves); the same fixes split on every
+    /// interval (no quiet flags: σ_b only a lower bound) get σ_b = σ_fix
+    /// for the smoother; all-white fixes keep the white model on quiet
+    /// intervals (σ_w well determined) and get σ_fix for the smoother on
+    /// every interval; on all-correlated quiet fixes σ_w²'s 95 % interval
+    /// reaches 0 (a 97.5 % event for σ_w = 0; one seed), so they get σ_fix
+    /// too. The forward model never changes with it.
+    #[test]
+    fn smoother_takes_the_upper_end_only_where_the_split_is_unbounded() {
+        let s = 0.02 / 2f64.sqrt();
+        let split = |f: &[GnssFix], quiet: bool| {
+            let (mh, mv) = median_sigma(f).unwrap();
+            let q = vec![true; f.len() - 1];
+            let m = carrier_phase_sensitivity(f, quiet.then_some(&q[..]), RTK_TAU_S, mh, mv);
+            (m, mh, mv)
+        };
+        let half = fixes_vel(1, s, s, 0.02);
+        let (q, _, _) = split(&half, true);
+        assert!(q.forward.is_some() && q.smoothed.is_none(), "{q:?}");
+        let (a, mh, mv) = split(&half, false);
+        assert_eq!(a.forward, q.forward);
+        assert_eq!(
+            a.smoothed.map(|m| (m.tau_s, m.sigma_m)),
+            Some((RTK_TAU_S, Vec3::new(mh, mh, mv)))
+        );
+        let white = fixes_vel(2, 0.02, 0.0, 0.02);
+        let (w, _, _) = split(&white, true);
+        assert!(w.forward.is_none() && w.smoothed.is_none(), "{w:?}");
+        let (w, mh, _) = split(&white, false);
+        assert!(w.forward.is_none(), "{w:?}");
+        assert_eq!(w.smoothed.map(|m| m.sigma_m.x), Some(mh), "{w:?}");
+        let corr = fixes_vel(3, 0.0, 0.02, 0.02);
+        let (c, mh, _) = split(&corr, true);
+        assert!(c.forward.is_some(), "{c:?}");
+        assert_eq!(c.smoothed.map(|m| m.sigma_m.x), Some(mh), "{c:?}");
     }
 
     /// `kf-gins` with a platform and `live` report σ under the model `run`
