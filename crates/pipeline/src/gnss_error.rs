@@ -373,9 +373,12 @@ pub const SMOOTHER_SPLIT_Z: f64 = 1.96;
 /// cost 27–38 % of pedestrian accuracy — and the σ it reports is the
 /// covariance of its error under white + Gauss–Markov fix errors. The split
 /// comes from the data ([`fit_fast_part`]: σ_b² = σ_fix² − σ_w²), τ is
-/// [`RTK_TAU_S`] (or `[filter.gnss_error] tau_s`). `None` (σ from the white
-/// model, as before) unless the model is `auto` on fixes that are not
-/// code-grade, carry velocities, and show a significant correlated part.
+/// [`RTK_TAU_S`] (or `[filter.gnss_error] tau_s`). `forward` is `None` (σ
+/// from the white model, as before) unless the model is `auto` on fixes
+/// that are not code-grade, carry velocities, and the split finds a
+/// correlated part; `smoothed` is set on the same fixes where the split
+/// bounds σ_b only from below ([`SigmaModels::smoothed`]), whatever
+/// `forward` is; both `None` without GNSS velocity.
 /// (Code-grade fixes get considered states in `navfuse run`,
 /// [`augmented_states`]; a filter that must keep the white gain uses
 /// [`white_gain_sigma_model`].)
