@@ -701,16 +701,23 @@ pub(crate) fn run_eskf_span(
     // σ under a correlated fix error from here on (the bank's decisions
     // above used the filter's own σ; the solutions are unchanged). Not with
     // tight coupling (its gain follows the 21-state update only).
-    let (sens, sens_how) = if tight.is_some() {
-        (None, String::new())
+    let sigma = if tight.is_some() {
+        crate::gnss_error::SigmaModels::default()
     } else {
         crate::gnss_error::sensitivity_model(cfg, gnss, Some(imu))
     };
-    if let Some(sm) = sens {
+    if let Some(sm) = sigma.forward {
         m.eskf
             .start_sensitivity(sm)
             .map_err(|e| cfg.err(format!("[filter.gnss_error] sensitivity: {e}")))?;
     }
+    if let Some(sm) = sigma.smoothed {
+        // The smoothed σ's correlated part (a no-op without the smoother).
+        m.eskf
+            .start_smoother_sensitivity(sm)
+            .map_err(|e| cfg.err(format!("[filter.gnss_error] smoothed sensitivity: {e}")))?;
+    }
+    let sens_how = sigma.how;
     let augmented_states = if sens_how.is_empty() {
         augmented_states
     } else {

@@ -329,6 +329,44 @@ fn median_sigma(gnss: &[GnssFix]) -> Option<(f64, f64)> {
     Some((mh, mv))
 }
 
+/// The σ models of a white-gain filter ([`sensitivity_model`],
+/// [`white_gain_sigma_model`]).
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct SigmaModels {
+    /// The correlated fix error the forward σ is reported under
+    /// ([`Eskf::start_sensitivity`](navfuse_core::estimators::eskf::Eskf::start_sensitivity);
+    /// `None`: the white model).
+    pub forward: Option<SensitivityModel>,
+    /// The one the smoothed σ's correlated part is taken under when it is
+    /// not `forward`'s ([`Eskf::start_smoother_sensitivity`](navfuse_core::estimators::eskf::Eskf::start_smoother_sensitivity)):
+    /// the upper end of σ_b when the data bound it only from below
+    /// ([`SMOOTHER_SPLIT_Z`]).
+    pub smoothed: Option<SensitivityModel>,
+    /// How they were chosen (for `summary.json`).
+    pub how: String,
+}
+
+impl SigmaModels {
+    fn white(how: impl Into<String>) -> Self {
+        SigmaModels {
+            how: how.into(),
+            ..Default::default()
+        }
+    }
+}
+
+/// z of the lower confidence bound of σ_w² below which the split is taken
+/// as uninformative for the smoother (two-sided 95 %, the level the σ is
+/// judged at): when `σ_w² − z·δ(σ_w²) ≤ 0` the data allow every σ_b up to
+/// σ_fix, and the smoothed σ takes σ_b = σ_fix ([`SigmaModels::smoothed`]).
+/// (On σ_w², which the split estimates linearly in the variance of the
+/// differences; the delta-method interval of σ_w breaks down near 0.)
+/// The same upper end is taken, whatever the z, when the split had to use
+/// every fix interval (too few quiet ones, [`crate::fix_dynamics`]): the
+/// trajectory's term between fixes then only raises σ_w, so the fit bounds
+/// σ_b from below and not from above.
+pub const SMOOTHER_SPLIT_Z: f64 = 1.96;
+
 /// The correlated GNSS error model under which a white-gain filter reports
 /// σ ([`navfuse_core::estimators::eskf::Eskf::start_sensitivity`]; Gelb,
 /// *Applied Optimal Estimation* §7.2): for carrier-phase (RTK) fixes the
@@ -336,9 +374,12 @@ fn median_sigma(gnss: &[GnssFix]) -> Option<(f64, f64)> {
 /// cost 27–38 % of pedestrian accuracy — and the σ it reports is the
 /// covariance of its error under white + Gauss–Markov fix errors. The split
 /// comes from the data ([`fit_fast_part`]: σ_b² = σ_fix² − σ_w²), τ is
-/// [`RTK_TAU_S`] (or `[filter.gnss_error] tau_s`). `None` (σ from the white
-/// model, as before) unless the model is `auto` on fixes that are not
-/// code-grade, carry velocities, and show a significant correlated part.
+/// [`RTK_TAU_S`] (or `[filter.gnss_error] tau_s`). `forward` is `None` (σ
+/// from the white model, as before) unless the model is `auto` on fixes
+/// that are not code-grade, carry velocities, and the split finds a
+/// correlated part; `smoothed` is set on the same fixes where the split
+/// bounds σ_b only from below ([`SigmaModels::smoothed`]), whatever
+/// `forward` is; both `None` without GNSS velocity.
 /// (Code-grade fixes get considered states in `navfuse run`,
 /// [`augmented_states`]; a filter that must keep the white gain uses
 /// [`white_gain_sigma_model`].)
@@ -346,7 +387,7 @@ pub fn sensitivity_model(
     cfg: &RunConfig,
     gnss: &[GnssFix],
     imu: Option<&[ImuSample]>,
-) -> (Option<SensitivityModel>, String) {
+) -> SigmaModels {
     let g = cfg.filter.gnss_error.clone().unwrap_or_default();
     let model = g
         .model
@@ -362,7 +403,7 @@ pub fn sensitivity_model(
             let tau = g.tau_s.unwrap_or(RTK_TAU_S);
             carrier_phase_sensitivity(gnss, quiet.as_deref(), tau, mh, mv)
         }
-        _ => (None, String::new()),
+        _ => SigmaModels::default(),
     }
 }
 
@@ -378,12 +419,9 @@ pub fn sensitivity_model(
 ///   differences show no significant correlated part. `run`'s consider
 ///   states also change its gain; here the white gain is kept (KF-GINS's),
 ///   and the σ is that gain's error covariance under the same model.
-pub fn white_gain_sigma_model(
-    gnss: &[GnssFix],
-    imu: Option<&[ImuSample]>,
-) -> (Option<SensitivityModel>, String) {
+pub fn white_gain_sigma_model(gnss: &[GnssFix], imu: Option<&[ImuSample]>) -> SigmaModels {
     let Some((mh, mv)) = median_sigma(gnss) else {
-        return (None, String::new());
+        return SigmaModels::default();
     };
     if mh <= CODE_GRADE_SIGMA_M {
         let quiet = imu.map(|i| crate::fix_dynamics::quiet_pairs(i, gnss));
@@ -391,17 +429,18 @@ pub fn white_gain_sigma_model(
     }
     let ((sh, sv), how, white) = code_grade_split(gnss, mh, mv, CONSIDER_TAU_S);
     if white {
-        return (None, format!("σ from the white model ({how})"));
+        return SigmaModels::white(format!("σ from the white model ({how})"));
     }
-    (
-        Some(SensitivityModel {
+    SigmaModels {
+        forward: Some(SensitivityModel {
             tau_s: CONSIDER_TAU_S,
             sigma_m: Vec3::new(sh, sh, sv),
         }),
-        format!(
+        smoothed: None,
+        how: format!(
             "σ reported under a correlated fix error (white gain kept; Gauss–Markov tau {CONSIDER_TAU_S:.0} s, sigma {sh:.2} m h / {sv:.2} m v; {how})"
         ),
-    )
+    }
 }
 
 /// [`sensitivity_model`] for carrier-phase fixes (median σ `mh`, `mv`).
@@ -411,19 +450,17 @@ fn carrier_phase_sensitivity(
     tau: f64,
     mh: f64,
     mv: f64,
-) -> (Option<SensitivityModel>, String) {
+) -> SigmaModels {
     // The quiet pairs when there are enough of them (a platform that never
     // stops manoeuvring — a walker's steps — or a gyro bias above ~0.5 °/s
     // leaves too few), else every pair: σ_w then includes the trajectory's
     // term and σ_b is a lower bound, as the note below says.
     let fit = quiet
         .and_then(|q| fit_fast_part(gnss, tau, Some(q)).map(|f| (f, "quiet intervals")))
-        .or_else(|| fit_fast_part(gnss, tau, None).map(|f| (f, "all intervals")));
+        .or_else(|| fit_fast_part(gnss, tau, None).map(|f| (f, ALL_INTERVALS)));
     let Some((sp, which)) = fit else {
-        return (
-            None,
-            "σ from the white model (no GNSS velocity or too few fixes to split the fix error)"
-                .into(),
+        return SigmaModels::white(
+            "σ from the white model (no GNSS velocity or too few fixes to split the fix error)",
         );
     };
     // The point estimate of the split, significant or not: the test of
@@ -434,26 +471,51 @@ fn carrier_phase_sensitivity(
     // noise above the reported) only raise σ_w, so σ_b is a lower bound.
     let sh = (mh * mh - sp.white_h_m.powi(2)).max(0.0).sqrt();
     let sv = (mv * mv - sp.white_v_m.powi(2)).max(0.0).sqrt();
+    // The smoother averages whatever the split calls white, so it takes the
+    // upper end of σ_b where the data bound σ_b only from below
+    // ([`SMOOTHER_SPLIT_Z`]); the forward σ keeps the point estimate.
+    // σ_w²'s interval (linear in var d, so its normal interval holds down
+    // to 0, unlike σ_w's); δ(σ_w²) as `fit_fast_part` converted it.
+    let sw2_se = 2.0 * sp.white_h_m.max(1e-3) * sp.white_h_unc_m;
+    let unbounded =
+        which == ALL_INTERVALS || sp.white_h_m.powi(2) - SMOOTHER_SPLIT_Z * sw2_se <= 0.0;
+    let smoothed = unbounded.then_some(SensitivityModel {
+        tau_s: tau,
+        sigma_m: Vec3::new(mh, mh, mv),
+    });
+    let smoothed_how = if unbounded {
+        format!(
+            "; smoothed σ under the upper end sigma {mh:.3} m h / {mv:.3} m v (the split bounds σ_b only from below)"
+        )
+    } else {
+        String::new()
+    };
     if sh <= 0.0 && sv <= 0.0 {
-        return (
-            None,
-            format!(
-                "σ from the white model (fix-to-fix differences, {which}: white {:.3} ± {:.3} m of the reported {mh:.3} m, no correlated part)",
+        return SigmaModels {
+            forward: None,
+            smoothed,
+            how: format!(
+                "σ from the white model (fix-to-fix differences, {which}: white {:.3} ± {:.3} m of the reported {mh:.3} m, no correlated part){smoothed_how}",
                 sp.white_h_m, sp.white_h_unc_m
             ),
-        );
+        };
     }
-    (
-        Some(SensitivityModel {
+    SigmaModels {
+        forward: Some(SensitivityModel {
             tau_s: tau,
             sigma_m: Vec3::new(sh, sh, sv),
         }),
-        format!(
-            "σ reported under a correlated fix error (white gain kept; Gauss–Markov tau {tau:.0} s, sigma {sh:.3} m h / {sv:.3} m v; white {:.3} ± {:.3} m of the reported {mh:.3} m from the fix-to-fix differences, {which})",
+        smoothed,
+        how: format!(
+            "σ reported under a correlated fix error (white gain kept; Gauss–Markov tau {tau:.0} s, sigma {sh:.3} m h / {sv:.3} m v; white {:.3} ± {:.3} m of the reported {mh:.3} m from the fix-to-fix differences, {which}){smoothed_how}",
             sp.white_h_m, sp.white_h_unc_m
         ),
-    )
+    }
 }
+
+/// How [`carrier_phase_sensitivity`] names a split fitted on every fix
+/// interval (too few quiet ones).
+const ALL_INTERVALS: &str = "all intervals";
 
 /// The fast (white) part of code-grade fix errors, from the fix-to-fix
 /// differences (see [`fit_fast_part`]).
@@ -845,7 +907,9 @@ mod tests {
         let auto = run_cfg("");
         for seed in 1..4 {
             let f = fixes_vel(seed, s, s, 0.02);
-            let (m, how) = sensitivity_model(&auto, &f, None);
+            let SigmaModels {
+                forward: m, how, ..
+            } = sensitivity_model(&auto, &f, None);
             let m = m.unwrap_or_else(|| panic!("seed {seed}: none ({how})"));
             assert!(
                 (m.sigma_m.x - s).abs() < 0.005 && m.tau_s == RTK_TAU_S,
@@ -857,12 +921,51 @@ mod tests {
         for x in &mut no_vel {
             x.v_n = None;
         }
-        assert!(sensitivity_model(&auto, &no_vel, None).0.is_none());
-        assert!(sensitivity_model(&auto, &fixes(1), None).0.is_none());
+        assert!(sensitivity_model(&auto, &no_vel, None).forward.is_none());
+        assert!(sensitivity_model(&auto, &fixes(1), None).forward.is_none());
         let white = run_cfg("[filter.gnss_error]\nmodel = \"white\"\n");
-        assert!(sensitivity_model(&white, &f, None).0.is_none());
+        assert!(sensitivity_model(&white, &f, None).forward.is_none());
         let kf = run_cfg("[filter]\npreset = \"kf-gins\"\n");
-        assert!(sensitivity_model(&kf, &f, None).0.is_none());
+        assert!(sensitivity_model(&kf, &f, None).forward.is_none());
+    }
+
+    /// The smoother's own model ([`SigmaModels::smoothed`]), written before
+    /// the run: on half-white RTK fixes split on quiet intervals it is
+    /// `None` (the forward model serves); the same fixes split on every
+    /// interval (no quiet flags: σ_b only a lower bound) get σ_b = σ_fix
+    /// for the smoother; all-white fixes keep the white model on quiet
+    /// intervals (σ_w well determined) and get σ_fix for the smoother on
+    /// every interval; on all-correlated quiet fixes σ_w²'s 95 % interval
+    /// reaches 0 (a 97.5 % event for σ_w = 0; one seed), so they get σ_fix
+    /// too. The forward model never changes with it.
+    #[test]
+    fn smoother_takes_the_upper_end_only_where_the_split_is_unbounded() {
+        let s = 0.02 / 2f64.sqrt();
+        let split = |f: &[GnssFix], quiet: bool| {
+            let (mh, mv) = median_sigma(f).unwrap();
+            let q = vec![true; f.len() - 1];
+            let m = carrier_phase_sensitivity(f, quiet.then_some(&q[..]), RTK_TAU_S, mh, mv);
+            (m, mh, mv)
+        };
+        let half = fixes_vel(1, s, s, 0.02);
+        let (q, _, _) = split(&half, true);
+        assert!(q.forward.is_some() && q.smoothed.is_none(), "{q:?}");
+        let (a, mh, mv) = split(&half, false);
+        assert_eq!(a.forward, q.forward);
+        assert_eq!(
+            a.smoothed.map(|m| (m.tau_s, m.sigma_m)),
+            Some((RTK_TAU_S, Vec3::new(mh, mh, mv)))
+        );
+        let white = fixes_vel(2, 0.02, 0.0, 0.02);
+        let (w, _, _) = split(&white, true);
+        assert!(w.forward.is_none() && w.smoothed.is_none(), "{w:?}");
+        let (w, mh, _) = split(&white, false);
+        assert!(w.forward.is_none(), "{w:?}");
+        assert_eq!(w.smoothed.map(|m| m.sigma_m.x), Some(mh), "{w:?}");
+        let corr = fixes_vel(3, 0.0, 0.02, 0.02);
+        let (c, mh, _) = split(&corr, true);
+        assert!(c.forward.is_some(), "{c:?}");
+        assert_eq!(c.smoothed.map(|m| m.sigma_m.x), Some(mh), "{c:?}");
     }
 
     /// `kf-gins` with a platform and `live` report σ under the model `run`
@@ -876,16 +979,16 @@ mod tests {
         let s = 0.02 / 2f64.sqrt();
         let rtk = fixes_vel(1, s, s, 0.02);
         let m = white_gain_sigma_model(&rtk, None)
-            .0
+            .forward
             .expect("RTK: sensitivity");
-        assert_eq!(Some(m), sensitivity_model(&auto, &rtk, None).0);
+        assert_eq!(Some(m), sensitivity_model(&auto, &rtk, None).forward);
         let mut no_vel = fixes(2);
         for x in &mut no_vel {
             x.v_n = None;
         }
         for code in [fixes(1), no_vel] {
             let m = white_gain_sigma_model(&code, None)
-                .0
+                .forward
                 .expect("code-grade: correlated");
             let g = augmented_states(&auto, &code)
                 .unwrap()
@@ -894,7 +997,7 @@ mod tests {
                 .unwrap();
             assert!(g.consider);
             assert_eq!((m.tau_s, m.sigma_m), (g.tau_s, g.sigma_m));
-            assert!(sensitivity_model(&auto, &code, None).0.is_none());
+            assert!(sensitivity_model(&auto, &code, None).forward.is_none());
         }
         let white = fixes_with(3, 2.24, 0.0);
         assert!(augmented_states(&auto, &white)
@@ -902,6 +1005,6 @@ mod tests {
             .0
             .gnss_error
             .is_none());
-        assert!(white_gain_sigma_model(&white, None).0.is_none());
+        assert!(white_gain_sigma_model(&white, None).forward.is_none());
     }
 }

@@ -14,9 +14,7 @@ use crate::kf_gins_out::{write_err_line, write_nav_line, write_std_line, OutFile
 use crate::kfgins_input::{read_kfgins, RunInput};
 use crate::profile::Platform;
 use crate::time_offset::{auto_estimate, describe, TimeOffset};
-use navfuse_core::estimators::eskf::{
-    rts_smooth, Eskf, EskfConfig, EskfStats, SensitivityModel, SmoothedEpoch,
-};
+use navfuse_core::estimators::eskf::{rts_smooth, Eskf, EskfConfig, EskfStats, SmoothedEpoch};
 use navfuse_core::types::{Estimator, Event, GnssFix, NavSolution};
 use navfuse_io::kfgins_yaml::KfGinsConfig;
 use std::path::{Path, PathBuf};
@@ -77,7 +75,7 @@ pub struct KfGinsRun {
     /// The correlated GNSS error model the σ is reported under (a platform
     /// profile only; `None`: the filter's own white-model σ, as KF-GINS)
     /// and how it was chosen ([`crate::gnss_error::white_gain_sigma_model`]).
-    pub sigma_model: (Option<SensitivityModel>, String),
+    pub sigma_model: crate::gnss_error::SigmaModels,
 }
 
 /// navfuse's land-vehicle configuration on top of a KF-GINS model: the `car`
@@ -198,14 +196,18 @@ pub fn run_kf_gins(yaml: &Path, args: &KfGinsOptions) -> Result<KfGinsRun> {
         let hi = input.gnss.partition_point(|f| f.t <= end);
         crate::gnss_error::white_gain_sigma_model(&input.gnss[lo..hi.max(lo)], Some(&input.imu[..]))
     } else {
-        (None, String::new())
+        crate::gnss_error::SigmaModels::default()
     };
-    if let Some(m) = sigma_model.0 {
+    if let Some(m) = sigma_model.forward {
         eskf.start_sensitivity(m)
             .map_err(|e| PipelineError::Estimator(format!("sensitivity covariance: {e}")))?;
     }
-    if args.verbose && !sigma_model.1.is_empty() {
-        eprintln!("{}", sigma_model.1);
+    if let Some(m) = sigma_model.smoothed {
+        eskf.start_smoother_sensitivity(m)
+            .map_err(|e| PipelineError::Estimator(format!("smoothed sensitivity: {e}")))?;
+    }
+    if args.verbose && !sigma_model.how.is_empty() {
+        eprintln!("{}", sigma_model.how);
     }
 
     let t_filter = Instant::now();

@@ -105,9 +105,9 @@ fn enhanced_sigma_covers_a_simulated_consumer_drive_and_keeps_the_solution() {
         let w = kf_gins(&yaml, &dir.join("white"), true, true);
         let m = s
             .sigma_model
-            .0
+            .forward
             .expect("code-grade fixes: a correlated model");
-        assert!(w.sigma_model.0.is_none());
+        assert!(w.sigma_model.forward.is_none());
         assert_eq!(s.solutions.len(), w.solutions.len());
         for (a, b) in s.solutions.iter().zip(&w.solutions) {
             assert_eq!(
@@ -129,7 +129,7 @@ fn enhanced_sigma_covers_a_simulated_consumer_drive_and_keeps_the_solution() {
         eprintln!("seed {seed}: model {m:?}; coverage95 H white {cov_w:.3} → {cov:.3}, mean NEES H {nees:.2}");
         // The plain KF-GINS model: no σ model, KF-GINS's own σ.
         let p = kf_gins(&yaml, &dir.join("plain"), false, false);
-        assert!(p.sigma_model.0.is_none() && p.sigma_model.1.is_empty());
+        assert!(p.sigma_model.forward.is_none() && p.sigma_model.how.is_empty());
         let _ = std::fs::remove_dir_all(&dir);
     }
     pooled.check("kf-gins --enhanced, pooled");

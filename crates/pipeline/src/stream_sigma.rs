@@ -74,7 +74,10 @@ impl StreamSigma {
             return;
         }
         self.tries += 1;
-        let (m, how) = white_gain_sigma_model(&self.fixes, None);
+        // `live` has no smoother: the forward model only.
+        let crate::gnss_error::SigmaModels {
+            forward: m, how, ..
+        } = white_gain_sigma_model(&self.fixes, None);
         self.note = how;
         if let Some(m) = m {
             match eskf.start_sensitivity(m) {

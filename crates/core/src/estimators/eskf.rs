@@ -889,8 +889,12 @@ pub struct Eskf {
     /// Covariance of the error under a correlated GNSS error model, with
     /// this filter's gains (`None`: σ from `p`; [`Eskf::start_sensitivity`]).
     sens: Option<Sens>,
-    /// The white twin of `sens` (module `sens`, "Smoothed σ"), run only
-    /// with the smoother.
+    /// The sensitivity covariance under the smoother's own model
+    /// ([`Eskf::start_smoother_sensitivity`]; `None`: the smoother uses
+    /// `sens`'s), run only with the smoother.
+    sens_s: Option<Sens>,
+    /// The white twin of `sens_s`, else of `sens` (module `sens`, "Smoothed
+    /// σ"), run only with the smoother.
     sens_w: Option<Sens>,
     /// Tight coupling to raw GNSS (`None`: off, the plain filter).
     tight: Option<tight::Tight>,
@@ -1031,6 +1035,7 @@ impl Eskf {
             aug: None,
             aiding: aiding::AidingState::default(),
             sens: None,
+            sens_s: None,
             sens_w: None,
             tight: None,
             cfg,
@@ -1151,9 +1156,33 @@ impl Eskf {
         }
         let odo = self.cfg.aiding.odometer.as_ref();
         self.sens = Some(Sens::new(m, &self.p, self.aug.as_ref(), odo, true)?);
-        if self.cfg.smoother_every > 0 {
+        if self.cfg.smoother_every > 0 && self.sens_s.is_none() {
             self.sens_w = Some(Sens::new(m, &self.p, self.aug.as_ref(), odo, false)?);
         }
+        Ok(())
+    }
+
+    /// The smoothed σ takes the correlated part of the fix error under `m`
+    /// instead of under [`Eskf::start_sensitivity`]'s model (module `sens`,
+    /// "Smoothed σ", with "Smoother's own model"): for a split of the fix
+    /// error the data bound only from below, the smoother takes the upper
+    /// end. The forward σ (the filter's, or the sensitivity model's) and
+    /// every solution are unchanged; the smoothed σ stays capped at the
+    /// forward σ. A no-op without the smoother; refused as
+    /// [`Eskf::start_sensitivity`] is.
+    pub fn start_smoother_sensitivity(
+        &mut self,
+        m: SensitivityModel,
+    ) -> Result<(), AugConfigError> {
+        if self.tight.is_some() {
+            return Err(AugConfigError::TightCoupling);
+        }
+        if self.cfg.smoother_every == 0 {
+            return Ok(());
+        }
+        let odo = self.cfg.aiding.odometer.as_ref();
+        self.sens_s = Some(Sens::new(m, &self.p, self.aug.as_ref(), odo, true)?);
+        self.sens_w = Some(Sens::new(m, &self.p, self.aug.as_ref(), odo, false)?);
         Ok(())
     }
 
@@ -1348,7 +1377,10 @@ impl Eskf {
         self.f_b = dv / dt;
         let fb = self.error_model(&pre, &c_bn, &e0, &self.w_ib_b, &self.f_b);
         self.propagate_cov(&fb, &c_bn, dt);
-        for sn in [&mut self.sens, &mut self.sens_w].into_iter().flatten() {
+        for sn in [&mut self.sens, &mut self.sens_s, &mut self.sens_w]
+            .into_iter()
+            .flatten()
+        {
             sn.propagate_aug(&self.f_sparse, dt);
         }
         if let Some(a) = &mut self.aug {
@@ -1502,7 +1534,10 @@ impl Eskf {
         let q = (&qv, &qa, &self.q_bias);
         let (fs, t, m) = (&self.f_sparse, &mut self.scratch_t, &mut self.scratch_m);
         propagate_p(&mut self.p, fs, t, m, q, dt);
-        for sn in [&mut self.sens, &mut self.sens_w].into_iter().flatten() {
+        for sn in [&mut self.sens, &mut self.sens_s, &mut self.sens_w]
+            .into_iter()
+            .flatten()
+        {
             // The sensitivity covariances: same Φ and Q (sens module).
             propagate_p(&mut sn.p, fs, t, m, q, dt);
         }
@@ -1557,7 +1592,7 @@ impl Eskf {
         // The gain applied, for the sensitivity covariance.
         let mut k_x = SMatrix::<f64, NX, M>::zeros();
         let mut k_f = SMatrix::<f64, NF, M>::zeros();
-        let want_k = self.sens.is_some();
+        let want_k = self.sens.is_some() || self.sens_s.is_some();
         let res = match &mut self.aug {
             // With tight coupling every update is joint with the clock
             // states (their correlation with the INS must follow); the
@@ -1625,7 +1660,7 @@ impl Eskf {
         if self.cfg.smoother_every > 0 && self.rec_p_prior.is_none() {
             self.rec_p_prior = Some(p_prior);
         }
-        if self.sens.is_some() {
+        if want_k {
             // The gain applied, split into the filter's and the augmented rows.
             let (kx, ka) = if self.aug.is_some() {
                 let ka = k_f.fixed_rows::<NA>(NX).into_owned();
@@ -1633,7 +1668,10 @@ impl Eskf {
             } else {
                 (k_x, None)
             };
-            for sn in [&mut self.sens, &mut self.sens_w].into_iter().flatten() {
+            for sn in [&mut self.sens, &mut self.sens_s, &mut self.sens_w]
+                .into_iter()
+                .flatten()
+            {
                 sn.update(h, h_a, &r_used, &kx, ka.as_ref(), kind);
             }
         }
@@ -1945,21 +1983,25 @@ impl Eskf {
             p_post_diag: self.p.diagonal(),
             aug,
             p_base_prev: base,
-            p_extra: self.sens.as_ref().map(|sn| {
-                let minus = |o: &Cov| {
+            p_extra: self.sens_s.as_ref().or(self.sens.as_ref()).map(|sc| {
+                let minus = |a: &Cov, o: &Cov| {
                     (
-                        sn.p.diagonal() - o.diagonal(),
-                        pos_cross_ned(&sn.p) - pos_cross_ned(o),
+                        a.diagonal() - o.diagonal(),
+                        pos_cross_ned(a) - pos_cross_ned(o),
                     )
                 };
-                let forward = minus(&self.p);
+                // The forward σ reported: the filter's own without `sens`.
+                let forward = self.sens.as_ref().map_or_else(
+                    || (StateVec::zeros(), Vec3::zeros()),
+                    |sn| minus(&sn.p, &self.p),
+                );
                 SensExtra {
                     forward,
                     correlated: self.sens_w.as_ref().map_or(forward, |w| {
                         // Capped at var(b) per position axis (module `sens`).
-                        let (d, c) = minus(&w.p);
+                        let (d, c) = minus(&sc.p, &w.p);
                         let mut d = d.map(|x| x.max(0.0));
-                        for (i, v) in sn.var_b().iter().enumerate() {
+                        for (i, v) in sc.var_b().iter().enumerate() {
                             d[I_POS + i] = d[I_POS + i].min(*v);
                         }
                         (d, c)

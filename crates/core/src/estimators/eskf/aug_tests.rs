@@ -437,6 +437,83 @@ fn sensitivity_without_a_correlated_part_is_the_filter_covariance() {
     }
 }
 
+/// The smoother's own model (module `sens`, "Smoother's own model"),
+/// written before the run: with only [`Eskf::start_smoother_sensitivity`]
+/// (σ_b at the upper end, σ_fix, on fixes 1 m white + 2 m Gauss–Markov),
+/// the forward solutions and σ are bit-identical to the plain white
+/// filter's, and so are the smoothed solutions; the smoothed σ is never
+/// below the plain smoother's nor above the forward σ, and while GNSS is
+/// present it is at least 1.2 × the plain smoother's at most checkpoints
+/// (the plain smoother averages the correlated share as if white).
+#[test]
+fn smoother_model_changes_only_the_smoothed_sigma() {
+    let c = EskfConfig {
+        smoother_every: 10,
+        ..cfg()
+    };
+    let d = gm_drive(300, 1.0, 2.0, 60.0);
+    let total = 5f64.sqrt();
+    let run = |upper: bool| {
+        let mut f = Eskf::new(c, start_state(&d), ImuErrors::default(), &init_std());
+        if upper {
+            f.start_smoother_sensitivity(SensitivityModel {
+                tau_s: 60.0,
+                sigma_m: Vec3::new(total, total, 1.5 * total),
+            })
+            .unwrap();
+        }
+        let (sols, recs) = run_records(&mut f, &d);
+        let mut sm = Vec::new();
+        rts_smooth(&recs, f.last_record_covariance(), |e| sm.push(*e));
+        sm.reverse();
+        (sols, sm)
+    };
+    let (fa, sa) = run(false);
+    let (fb, sb) = run(true);
+    assert_eq!(fa.len(), fb.len());
+    for ((a, _), (b, _)) in fa.iter().zip(&fb) {
+        assert!(
+            a.lat.to_bits() == b.lat.to_bits()
+                && a.lon.to_bits() == b.lon.to_bits()
+                && a.h.to_bits() == b.h.to_bits()
+                && a.std_pos_ned == b.std_pos_ned,
+            "forward changed at t {}",
+            a.t
+        );
+    }
+    assert_eq!(sa.len(), sb.len());
+    let (mut k, mut present, mut wider) = (0, 0, 0);
+    for (a, b) in sa.iter().zip(&sb) {
+        assert!(
+            a.nav.lat.to_bits() == b.nav.lat.to_bits()
+                && a.nav.lon.to_bits() == b.nav.lon.to_bits()
+        );
+        while fa[k].0.t < a.t {
+            k += 1;
+        }
+        let fw = fa[k].0.std_pos_ned;
+        for i in 0..3 {
+            let (pa, pb) = (a.p_diag[I_POS + i], b.p_diag[I_POS + i]);
+            assert!(
+                pb >= pa * (1.0 - 1e-9) && pb.sqrt() <= fw[i] * (1.0 + 1e-9),
+                "t {}: smoothed σ {} against plain {} and forward {}",
+                a.t,
+                pb.sqrt(),
+                pa.sqrt(),
+                fw[i]
+            );
+        }
+        if a.t > 60.0 && !(300.0..362.0).contains(&a.t) {
+            present += 1;
+            wider += usize::from(b.p_diag[I_POS] >= 1.44 * a.p_diag[I_POS]);
+        }
+    }
+    assert!(
+        2 * wider > present,
+        "smoothed σ ≥ 1.2 × plain at {wider} of {present} GNSS-present checkpoints"
+    );
+}
+
 /// Schmidt–Kalman consider states with the true GM model: the position
 /// gain is the best among filters that do not estimate `b`, of which the
 /// white filter is one, so it is not less accurate (5 % for the finite

@@ -50,6 +50,15 @@
 //! version) under-states the smoothed σ: with half of an RTK fix's variance
 //! in `b` the simulated car cells' smoothed coverage95_h was 0.86–0.91 with
 //! GNSS present (`experiments::honesty_diag`, variant `smooth`).
+//!
+//! **Smoother's own model.** The split of `σ_fix²` into white and `b` comes
+//! from the data; where the data bound `σ_b` only from below (a walker's
+//! steps leave no quiet fix interval, and the trajectory between fixes then
+//! raises the white estimate), the forward σ keeps the point estimate but
+//! the smoother must not assume that the unresolved share averages out:
+//! [`super::Eskf::start_smoother_sensitivity`] runs a second sensitivity
+//! covariance and its twin under the upper end of the interval (`σ_b` up
+//! to `σ_fix`), used for the smoothed σ only, still capped at the forward σ.
 
 use super::aug::{Aug, AugConfigError, FullCov, IA_GNSS, NA, NF};
 use super::{AugmentedStates, Cov, FSparse, GnssErrorStates, UpdateKind, NX};
