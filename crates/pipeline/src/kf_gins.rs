@@ -100,11 +100,43 @@ pub fn run_kf_gins(yaml: &Path, args: &KfGinsOptions) -> Result<KfGinsRun> {
         None if args.enhanced || args.platform.is_some() => TimeOffset::Auto,
         None => TimeOffset::None,
     };
-    let applied = mode.resolve(&input.imu, &input.gnss)?;
+    let mut applied = mode.resolve(&input.imu, &input.gnss)?;
     if mode == TimeOffset::Auto && applied.is_none() && args.verbose {
         // Not significant (or not estimable): none applied, as KF-GINS does.
         let e = auto_estimate(&input.imu, &input.gnss);
         eprintln!("IMU–GNSS time offset not applied: {}", describe(&e));
+    }
+    let platform = args.platform.or(args.enhanced.then_some(Platform::Car));
+    let source = args.align.unwrap_or(if platform.is_some() {
+        AlignSource::Auto
+    } else {
+        AlignSource::Yaml
+    });
+    let end = if cfg.endtime < 0.0 {
+        f64::INFINITY
+    } else {
+        cfg.endtime
+    };
+    if mode == TimeOffset::Auto && applied.is_none() {
+        // The course variants may disagree: the filter's likelihood decides.
+        let mut ecfg = cfg.eskf_config();
+        if let Some(p) = platform {
+            ecfg = p.profile().apply(ecfg);
+        }
+        let profile = platform.map(|p| p.profile());
+        let (a, note) = crate::kf_gins_offset::likelihood_offset(
+            yaml,
+            &cfg,
+            &ecfg,
+            &input,
+            profile.as_ref(),
+            source,
+            end,
+        )?;
+        if let (Some(n), true) = (note, args.verbose) {
+            eprintln!("{n}");
+        }
+        applied = a;
     }
     if let Some((tau, how)) = &applied {
         for s in input.imu.iter_mut() {
@@ -118,7 +150,6 @@ pub fn run_kf_gins(yaml: &Path, args: &KfGinsOptions) -> Result<KfGinsRun> {
         eprintln!("read inputs: {:.3} s", t_read.elapsed().as_secs_f64());
     }
     let mut ecfg = cfg.eskf_config();
-    let platform = args.platform.or(args.enhanced.then_some(Platform::Car));
     if let Some(p) = platform {
         ecfg = p.profile().apply(ecfg);
     }
@@ -150,16 +181,6 @@ pub fn run_kf_gins(yaml: &Path, args: &KfGinsOptions) -> Result<KfGinsRun> {
     };
     std::fs::create_dir_all(&out_dir)
         .map_err(PipelineError::io(&out_dir, "cannot create output folder: "))?;
-    let end = if cfg.endtime < 0.0 {
-        f64::INFINITY
-    } else {
-        cfg.endtime
-    };
-    let source = args.align.unwrap_or(if platform.is_some() {
-        AlignSource::Auto
-    } else {
-        AlignSource::Yaml
-    });
     let i0 = input.imu.partition_point(|s| s.t < cfg.starttime);
     let profile = platform.map(|p| p.profile());
     let decision = kf_gins_align::decide(

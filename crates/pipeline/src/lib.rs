@@ -34,6 +34,7 @@ pub mod imu_clock;
 pub mod input;
 pub mod kf_gins;
 pub mod kf_gins_align;
+mod kf_gins_offset;
 mod kf_gins_out;
 pub mod kfgins_input;
 pub mod live;
