@@ -571,16 +571,8 @@ pub fn decide_on_loaded(
                 "estimate": l, "std": sl, "removed": latency_significant(l, sl),
             });
         }
-        let (imu0, gnss, aux0) = (&loaded.imu, &loaded.gnss, &loaded.aux);
-        let mut run = |imu: &[ImuSample]| {
-            let tau = imu
-                .first()
-                .zip(imu0.first())
-                .map_or(0.0, |(a, b)| a.t - b.t);
-            let aux = aux0.as_ref().map(|a| shift_aux(a, tau));
-            let span = crate::eskf_run::select_span(cfg, imu, gnss)?;
-            crate::eskf_run::run_eskf_span(cfg, base_dir, &span, aux.as_ref(), with_std)
-        };
+        let (imu0, gnss) = (&loaded.imu, &loaded.gnss);
+        let mut run = shifted_runner(cfg, base_dir, imu0, gnss, &loaded.aux, with_std);
         let p = run_with_offset_passes(imu0, gnss, &mut run)?;
         let mut r = p.run;
         r.time_offset_passes = Some(latency_note(latency) + &p.note);
@@ -589,16 +581,8 @@ pub fn decide_on_loaded(
             (applied, _) => (Some(r), applied),
         }
     } else if cfg.input.imu_time_offset.is_some() || default_mode(cfg) == TimeOffset::Auto {
-        let (imu0, gnss, aux0) = (&loaded.imu, &loaded.gnss, &loaded.aux);
-        let mut run = |imu: &[ImuSample]| {
-            let tau = imu
-                .first()
-                .zip(imu0.first())
-                .map_or(0.0, |(a, b)| a.t - b.t);
-            let aux = aux0.as_ref().map(|a| shift_aux(a, tau));
-            let span = crate::eskf_run::select_span(cfg, imu, gnss)?;
-            crate::eskf_run::run_eskf_span(cfg, base_dir, &span, aux.as_ref(), false)
-        };
+        let (imu0, gnss) = (&loaded.imu, &loaded.gnss);
+        let mut run = shifted_runner(cfg, base_dir, imu0, gnss, &loaded.aux, false);
         let (applied, note) = decide_positions_only(imu0, gnss, &mut run)?;
         if let Some(n) = note {
             loaded.resolved["imu_time_offset_likelihood"] = serde_json::json!(n);
@@ -619,6 +603,27 @@ pub fn decide_on_loaded(
     }
     loaded.imu_time_offset = applied;
     Ok(kept)
+}
+
+/// The filter on a loaded record with the IMU samples given (shifted
+/// copies of `imu0`; the aux series shifted by the same amount).
+fn shifted_runner<'a>(
+    cfg: &'a crate::config::RunConfig,
+    base_dir: &'a std::path::Path,
+    imu0: &'a [ImuSample],
+    gnss: &'a [GnssFix],
+    aux0: &'a Option<crate::input::AuxSeries>,
+    with_std: bool,
+) -> impl FnMut(&[ImuSample]) -> Result<EskfRun> + 'a {
+    move |imu: &[ImuSample]| {
+        let tau = imu
+            .first()
+            .zip(imu0.first())
+            .map_or(0.0, |(a, b)| a.t - b.t);
+        let aux = aux0.as_ref().map(|a| shift_aux(a, tau));
+        let span = crate::eskf_run::select_span(cfg, imu, gnss)?;
+        crate::eskf_run::run_eskf_span(cfg, base_dir, &span, aux.as_ref(), with_std)
+    }
 }
 
 /// Where the passes decline (their honest σ is too large, e.g. consumer

@@ -53,14 +53,7 @@ fn car_offsets_recovered_within_10_ms() {
 fn lagging_receiver_velocity_does_not_bias_the_offset() {
     const LAG_S: f64 = 0.125;
     let tau = 0.1;
-    let opt = PlatformOptions {
-        imu: ImuGrade::Industrial,
-        gnss: GnssGrade::Rtk,
-        imu_time_offset_s: tau,
-        static_start: true,
-        ..Default::default()
-    };
-    let mut pr = platform_run(Platform::Car, 12, &opt).expect("simulation");
+    let mut pr = car_12(tau);
     let (traj, gnss) = (&pr.run.traj, &mut pr.run.gnss);
     for g in gnss.iter_mut() {
         if let Some(v) = g.v_n.as_mut() {
@@ -185,6 +178,29 @@ fn car_offset_refined_by_the_likelihood_within_2_ms() {
     assert!((a - 0.1).abs() < 0.002, "{a} applied ({note})");
 }
 
+/// The simulated car of these tests: industrial IMU, RTK, seed 12, static
+/// start, IMU offset `tau`.
+fn car_12(tau: f64) -> navfuse_sim::platform::PlatformRun {
+    let opt = PlatformOptions {
+        imu: ImuGrade::Industrial,
+        gnss: GnssGrade::Rtk,
+        imu_time_offset_s: tau,
+        static_start: true,
+        ..Default::default()
+    };
+    platform_run(Platform::Car, 12, &opt).expect("simulation")
+}
+
+/// [`car_12`] with its fixes' velocities removed (positions-only receiver).
+fn positions_only_car(tau: f64) -> navfuse_sim::platform::PlatformRun {
+    let mut pr = car_12(tau);
+    for g in &mut pr.run.gnss {
+        g.v_n = None;
+        g.std_v_n = None;
+    }
+    pr
+}
+
 /// A receiver that reports positions only (no velocity, so no velocity
 /// passes): the course estimate decides, and where its variants disagree
 /// the filter's GNSS-position likelihood ([`super::likelihood_on_positions`]).
@@ -194,18 +210,7 @@ fn car_offset_refined_by_the_likelihood_within_2_ms() {
 #[test]
 fn positions_only_offsets_recovered_within_10_ms() {
     for tau in [0.0, 0.05, -0.05] {
-        let opt = PlatformOptions {
-            imu: ImuGrade::Industrial,
-            gnss: GnssGrade::Rtk,
-            imu_time_offset_s: tau,
-            static_start: true,
-            ..Default::default()
-        };
-        let mut pr = platform_run(Platform::Car, 12, &opt).expect("simulation");
-        for g in &mut pr.run.gnss {
-            g.v_n = None;
-            g.std_v_n = None;
-        }
+        let pr = positions_only_car(tau);
         let r = run_variant(&variant_config(Variant::Default, &pr), &pr).expect("run");
         let applied = r.time_offset_applied.as_ref().map(|a| a.0);
         let how = r.time_offset_applied.as_ref().map(|a| a.1.clone());
@@ -231,18 +236,7 @@ fn positions_only_offsets_recovered_within_10_ms() {
 fn positions_likelihood_settles_disagreeing_course_variants() {
     use crate::time_offset::{auto_estimate, TimeOffsetCfg};
     for tau in [0.0, 0.05, -0.05] {
-        let opt = PlatformOptions {
-            imu: ImuGrade::Industrial,
-            gnss: GnssGrade::Rtk,
-            imu_time_offset_s: tau,
-            static_start: true,
-            ..Default::default()
-        };
-        let mut pr = platform_run(Platform::Car, 12, &opt).expect("simulation");
-        for g in &mut pr.run.gnss {
-            g.v_n = None;
-            g.std_v_n = None;
-        }
+        let pr = positions_only_car(tau);
         let mut course = auto_estimate(&pr.run.imu, &pr.run.gnss);
         // Variants of opposite sign, both significant at 30 ms and 60 ms.
         course.apply = false;
