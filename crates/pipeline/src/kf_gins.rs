@@ -117,38 +117,6 @@ pub fn run_kf_gins(yaml: &Path, args: &KfGinsOptions) -> Result<KfGinsRun> {
     } else {
         cfg.endtime
     };
-    if mode == TimeOffset::Auto && applied.is_none() {
-        // The course variants may disagree: the filter's likelihood decides.
-        let mut ecfg = cfg.eskf_config();
-        if let Some(p) = platform {
-            ecfg = p.profile().apply(ecfg);
-        }
-        let profile = platform.map(|p| p.profile());
-        let (a, note) = crate::kf_gins_offset::likelihood_offset(
-            yaml,
-            &cfg,
-            &ecfg,
-            &input,
-            profile.as_ref(),
-            source,
-            end,
-        )?;
-        if let (Some(n), true) = (note, args.verbose) {
-            eprintln!("{n}");
-        }
-        applied = a;
-    }
-    if let Some((tau, how)) = &applied {
-        for s in input.imu.iter_mut() {
-            s.t += tau;
-        }
-        if args.verbose {
-            eprintln!("IMU–GNSS time offset {tau:+.3} s added to the IMU stamps ({how})");
-        }
-    }
-    if args.verbose {
-        eprintln!("read inputs: {:.3} s", t_read.elapsed().as_secs_f64());
-    }
     let mut ecfg = cfg.eskf_config();
     if let Some(p) = platform {
         ecfg = p.profile().apply(ecfg);
@@ -174,6 +142,34 @@ pub fn run_kf_gins(yaml: &Path, args: &KfGinsOptions) -> Result<KfGinsRun> {
             )));
         }
         ecfg.position_until = Some(cfg.starttime + p);
+    }
+    if mode == TimeOffset::Auto && applied.is_none() {
+        // The course variants may disagree: the filter's likelihood decides.
+        let profile = platform.map(|p| p.profile());
+        let (a, note) = crate::kf_gins_offset::likelihood_offset(
+            yaml,
+            &cfg,
+            &ecfg,
+            &input,
+            profile.as_ref(),
+            source,
+            end,
+        )?;
+        if let (Some(n), true) = (note, args.verbose) {
+            eprintln!("{n}");
+        }
+        applied = a;
+    }
+    if let Some((tau, how)) = &applied {
+        for s in input.imu.iter_mut() {
+            s.t += tau;
+        }
+        if args.verbose {
+            eprintln!("IMU–GNSS time offset {tau:+.3} s added to the IMU stamps ({how})");
+        }
+    }
+    if args.verbose {
+        eprintln!("read inputs: {:.3} s", t_read.elapsed().as_secs_f64());
     }
     let out_dir = match &args.output {
         Some(d) => d.clone(),
