@@ -28,14 +28,24 @@ fn header(s: &mut String, text: &str, label: &str) {
     let _ = writeln!(s, "{text:<60}{label}");
 }
 
-/// `D19.12`-like field (Rust prints `E`; both RTKLIB and our reader accept it).
-fn d19(x: f64) -> String {
-    format!("{:>19}", format!("{x:.12E}"))
+/// Fortran `Ew.d` text of `x`: `d` decimals, a signed two-digit exponent
+/// (`-4.788350421580E-10`, `1.1176E-08`), right-aligned in `w` columns.
+fn fortran_e(x: f64, w: usize, d: usize) -> String {
+    let t = format!("{x:.d$E}");
+    let (m, e) = t.split_once('E').unwrap_or((&t, "0"));
+    let e: i32 = e.parse().unwrap_or(0);
+    let sign = if e < 0 { '-' } else { '+' };
+    format!("{:>w$}", format!("{m}E{sign}{:02}", e.abs()))
 }
 
-/// `D12.4`-like field of the ionosphere header lines.
+/// `D19.12` field of a navigation record.
+fn d19(x: f64) -> String {
+    fortran_e(x, 19, 12)
+}
+
+/// `D12.4` field of the ionosphere header lines.
 fn d12(x: f64) -> String {
-    format!("{:>12}", format!("{x:.4E}"))
+    fortran_e(x, 12, 4)
 }
 
 /// RINEX 3.04 mixed observation text. `times[k]` is the receiver time tag

@@ -259,3 +259,12 @@ fn mixed_observation_round_trip() {
     assert_eq!(o.other_count('E'), 3);
     assert_eq!(o.other_count('C'), 6);
 }
+
+#[test]
+fn fortran_fields() {
+    assert_eq!(d19(-4.78835042158e-10), "-4.788350421580E-10");
+    assert_eq!(d19(0.0), " 0.000000000000E+00");
+    assert_eq!(d19(174_720.0), " 1.747200000000E+05");
+    assert_eq!(d12(1.1176e-8), "  1.1176E-08");
+    assert_eq!(d12(-327_680.0), " -3.2768E+05");
+}
