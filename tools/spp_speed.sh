@@ -39,3 +39,9 @@ done
 "$simbin" "$tmp/sim"
 time_pair "sim 1 h G+E+C" "$tmp/sim/sim.obs" "$tmp/sim/sim.nav" "$here/rtklib_spp_multi.conf"
 python3 "$here/spp_multi_compare.py" "$tmp/n.pos" "$tmp/r.pos" "$tmp/sim/truth.csv"
+# Which systems rnx2rtkp used: its residual status file lists every satellite
+# of each solution.
+{ cat "$here/rtklib_spp_multi.conf"; echo "out-outstat        =residual"; } > "$tmp/stat.conf"
+rnx2rtkp -k "$tmp/stat.conf" -o "$tmp/rs.pos" "$tmp/sim/sim.obs" "$tmp/sim/sim.nav" >/dev/null 2>&1
+awk -F, '/^\$SAT/{n[substr($4,1,1)]++; if (!($3 in e)) {e[$3]=1; ne++}}
+    END{printf "rnx2rtkp satellites used per epoch: G %.2f, E %.2f, C %.2f (%d epochs)\n", n["G"]/ne, n["E"]/ne, n["C"]/ne, ne}' "$tmp/rs.pos.stat"
