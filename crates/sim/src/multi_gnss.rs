@@ -54,9 +54,10 @@ use rand_distr::{Distribution, StandardNormal};
 /// per-epoch capacity (`navfuse_core::gnss::spp::MAX_SATS`).
 pub const MAX_CHANNELS: usize = 32;
 
-/// Broadcast Klobuchar coefficients of the log's navigation header: a
-/// mid-latitude, moderate-activity broadcast set (the GPS values of
-/// 2019-01-01, IGS BRDC00IGS_R_20190010000_01D_MN.rnx header).
+/// Broadcast Klobuchar coefficients of the log's navigation header: a set
+/// of the kind GPS broadcasts at moderate solar activity (amplitude α₀ ≈ 11 ns,
+/// period β₀ ≈ 25 h; both solvers apply the same model, so the values only
+/// set the size of the correction, not an error).
 pub const KLOBUCHAR: Klobuchar = Klobuchar {
     alpha: [1.1176e-8, 7.4506e-9, -5.9605e-8, -5.9605e-8],
     beta: [9.0112e4, 4.9152e4, -1.3107e5, -3.2768e5],
@@ -139,8 +140,8 @@ fn wrap(a: f64) -> f64 {
 /// `t_oe` (BeiDou: `t_oe` + 14 s, a whole BDT second), as the navigation
 /// file holds them (written and read back). Clock terms, eccentricities and
 /// group delays are drawn from `seed`: a_f0 uniform ±0.5 ms, a_f1 ±5e-12,
-/// e uniform 0–0.01, T_GD/BGD uniform ±10 ns (the ranges the broadcast
-/// values of the three systems occupy).
+/// e uniform 0–0.01, T_GD/BGD uniform ±10 ns (of the order the broadcast
+/// values of the three systems take).
 pub fn constellations(t_oe: f64, seed: u64) -> (NavData, Vec<GnssEph>) {
     let mut rng = ChaCha8Rng::seed_from_u64(seed ^ 0x6e61_7666);
     let perturb = |o: &mut KeplerOrbit, rng: &mut ChaCha8Rng| {
