@@ -23,8 +23,9 @@
 //! with `ρ` the light-time range with earth rotation in each system's
 //! frame constants, `δt_s` the broadcast clock with the relativistic term
 //! ([`navfuse_core::gnss::orbit_gnss::clock_offset`]), `b_sys` the
-//! receiver's inter-system bias (Galileo +25 m, BeiDou −40 m: hardware
-//! delays of tens of ns, of the order the GGTO and receiver ISBs reach),
+//! receiver's inter-system bias (Galileo +25 m, BeiDou −40 m, 83 and
+//! 133 ns: the values of the multi-GNSS SPP tests; both solvers estimate a
+//! clock per system, so any constant is absorbed),
 //! `T` Saastamoinen zenith delays with the Niell mapping
 //! ([`navfuse_core::gnss::tropo::slant_delay`]), `I` the broadcast
 //! Klobuchar delay scaled by (f_L1/f)² plus a per-satellite residual, and
