@@ -51,6 +51,7 @@ pub mod pos_writer;
 pub mod rinex;
 pub mod rinex_glonass;
 pub mod rinex_nav3;
+pub mod rinex_write;
 pub mod sigma_read;
 pub mod stdfile;
 pub mod tag;

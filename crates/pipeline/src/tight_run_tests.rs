@@ -289,47 +289,27 @@ fn write_rinex2_nav(p: &Path, nav: &NavData) {
     std::fs::write(p, s).unwrap();
 }
 
-/// Minimal RINEX 3.04 GPS observation writer for `C1C L1C D1C S1C`.
+/// The drive's GPS observations (`C1C L1C D1C S1C`, in the reader's
+/// RINEX 2 names `C1 L1 D1 S1`) as a RINEX 3.04 file
+/// ([`navfuse_io::rinex_write::obs3_text`]).
 fn write_rinex3_obs(p: &Path, f: &ObsFile) {
-    let h = |t: String, l: &str| format!("{t:<60}{l}\n");
-    let mut s = h(
-        format!("{:9.2}{:11}{:<20}{:<20}", 3.04, "", "O", "G"),
-        "RINEX VERSION / TYPE",
-    );
-    s += &h(f.marker.clone(), "MARKER NAME");
-    s += &h("G    4 C1C L1C D1C S1C".into(), "SYS / # / OBS TYPES");
-    s += &h(String::new(), "END OF HEADER");
-    for e in &f.epochs {
-        let c = calendar_from_gps(e.t, TimeSystem::Gpst, 7);
-        let _ = writeln!(
-            s,
-            "> {:4} {:02} {:02} {:02} {:02}{:11.7}  {}{:3}",
-            c.year,
-            c.month,
-            c.day,
-            c.hour,
-            c.minute,
-            c.second,
-            e.flag,
-            e.sats.len()
-        );
-        for (prn, vals) in &e.sats {
-            let _ = write!(s, "G{prn:02}");
-            for v in vals {
-                match v {
-                    Some(o) if o.lli != 0 => {
-                        let _ = write!(s, "{:14.3}{} ", o.value, o.lli);
-                    }
-                    Some(o) => {
-                        let _ = write!(s, "{:14.3}  ", o.value);
-                    }
-                    None => s += &" ".repeat(16),
-                }
-            }
-            s += "\n";
-        }
-    }
-    std::fs::write(p, s).unwrap();
+    let codes = f.types.iter().map(|t| format!("{t}C")).collect();
+    let gnss = navfuse_io::rinex::GnssObs {
+        sys_codes: vec![('G', codes)],
+        epochs: f
+            .epochs
+            .iter()
+            .map(|e| {
+                e.sats
+                    .iter()
+                    .map(|(prn, v)| ('G', *prn, v.clone()))
+                    .collect()
+            })
+            .collect(),
+    };
+    let times: Vec<f64> = f.epochs.iter().map(|e| e.t).collect();
+    let text = navfuse_io::rinex_write::obs3_text(&f.marker, [0.0; 3], &times, &gnss);
+    std::fs::write(p, text).unwrap();
 }
 
 /// Test 2, issue 14 must-show 3 (tight-coupling half): the same simulated

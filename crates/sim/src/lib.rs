@@ -13,6 +13,7 @@ pub mod filter_noise;
 pub mod gnss_model;
 pub mod imu_model;
 pub mod motion_csv;
+pub mod multi_gnss;
 pub mod output;
 pub mod platform;
 pub mod raw_gnss;

@@ -144,9 +144,12 @@ fn works_with_eight_three_two_and_one_satellites() {
 }
 
 /// Cost of one tightly coupled epoch with 20 satellites (pseudorange +
-/// Doppler each): the same 600 s at 100 Hz with and without the raw
-/// records; prints µs per epoch and asserts real-time margin.
-/// `cargo test --release -p navfuse-core tight_epoch_cost -- --ignored --nocapture`.
+/// Doppler each, issue 14 must-show 4): the same 600 s at 100 Hz with and
+/// without the raw records, the two runs alternating 7 times; the median
+/// of the 7 differences per epoch, the median IMU-only cost per sample and
+/// the median cost per IMU sample with the 1 Hz epochs included are
+/// printed, and real-time margin is asserted.
+/// `RAYON_NUM_THREADS=2 nice -n 5 cargo test --release -p navfuse-core tight_epoch_cost -- --ignored --nocapture`.
 #[test]
 #[ignore = "timing: cargo test --release -p navfuse-core tight_epoch_cost -- --ignored"]
 fn tight_epoch_cost_with_20_satellites() {
@@ -216,24 +219,43 @@ fn tight_epoch_cost_with_20_satellites() {
                 }
             }
         }
-        (
-            start.elapsed().as_secs_f64(),
-            f.tight_stats().unwrap().total().pr_used,
-        )
+        let c = f.tight_stats().unwrap().total();
+        (start.elapsed().as_secs_f64(), (c.pr_used, c.dop_used))
     };
-    let (with, used) = run(true);
-    let (without, _) = run(false);
+    let median = |mut v: std::vec::Vec<f64>| {
+        v.sort_by(f64::total_cmp);
+        v[v.len() / 2]
+    };
+    let (mut per_epoch, mut imu_only, mut per_sample) = (std::vec![], std::vec![], std::vec![]);
+    let mut used = (0, 0);
+    for _ in 0..7 {
+        let (with, u) = run(true);
+        let (without, _) = run(false);
+        per_epoch.push((with - without) / 600.0);
+        imu_only.push(without / 60_000.0);
+        per_sample.push(with / 60_000.0);
+        used = u;
+    }
+    let (per_epoch, imu_only, per_sample) =
+        (median(per_epoch), median(imu_only), median(per_sample));
     std::println!(
-        "20 satellites: {:.1} µs per epoch (pr used {used}); IMU-only {:.2} µs per sample",
-        (with - without) / 600.0 * 1e6,
-        without / 60_000.0 * 1e6
+        "20 satellites: {:.1} µs per epoch (20 pseudoranges + 20 Dopplers; used {} + {} of 12000 each); \
+         IMU-only {:.2} µs per sample; with the 1 Hz epochs {:.2} µs per IMU sample (medians of 7 alternating pairs)",
+        per_epoch * 1e6,
+        used.0,
+        used.1,
+        imu_only * 1e6,
+        per_sample * 1e6
     );
-    // The pseudoranges are used (none gated on this clean geometry), and an
-    // epoch costs far less than the 1 s between epochs (measured 625 µs on a
-    // loaded 2-core machine; bound 5 ms, 1/200 of the interval): the filter
-    // keeps up with a 1 Hz 20-satellite receiver in real time.
-    assert!(used >= 600 * 20 * 99 / 100, "{used} pseudoranges used");
-    let per_epoch = (with - without) / 600.0;
+    // The pseudoranges and Dopplers are used (none gated on this clean
+    // geometry but the clock initialisation epoch), and an epoch costs far
+    // less than the 1 s between epochs (bound 5 ms, 1/200 of the interval):
+    // the filter keeps up with a 1 Hz 20-satellite receiver in real time.
+    assert!(
+        used.0 >= 600 * 20 * 99 / 100,
+        "{} pseudoranges used",
+        used.0
+    );
+    assert!(used.1 >= 600 * 20 * 99 / 100, "{} Dopplers used", used.1);
     assert!(per_epoch < 5e-3, "{per_epoch} s per epoch");
-    assert!(used > 10_000);
 }
