@@ -221,9 +221,57 @@ pub struct AugSmootherRecord {
     pub gain_xa: SMatrix<f64, NX, NA>,
     pub gain_ax: SMatrix<f64, NA, NX>,
     pub gain_aa: SMatrix<f64, NA, NA>,
+    /// Blocks of the joint `B_{k−1}` (Joseph form, [`super::rts_smooth`])
+    /// other than the 21×21 one (which is `p_base_prev`).
+    pub base_xa: SMatrix<f64, NX, NA>,
+    pub base_aa: SMatrix<f64, NA, NA>,
+    /// The filtered covariance's augmented blocks at this checkpoint (the
+    /// smoothed covariance starts from them at the last one).
+    pub post_xa: SMatrix<f64, NX, NA>,
+    pub post_aa: SMatrix<f64, NA, NA>,
 }
 
-pub(super) type FullCov = SMatrix<f64, NF, NF>;
+impl AugSmootherRecord {
+    /// The joint smoother gain `A` with `gain_xx` as its 21×21 block.
+    pub(super) fn gain_full(&self, gain_xx: &SMatrix<f64, NX, NX>) -> FullCov {
+        join(gain_xx, &self.gain_xa, &self.gain_ax, &self.gain_aa)
+    }
+    /// The joint `B` with `base_xx` as its 21×21 block.
+    pub(super) fn base_full(&self, base_xx: &SMatrix<f64, NX, NX>) -> FullCov {
+        join(
+            base_xx,
+            &self.base_xa,
+            &self.base_xa.transpose(),
+            &self.base_aa,
+        )
+    }
+    /// The joint filtered covariance with `p_xx` as its 21×21 block.
+    pub(super) fn post_full(&self, p_xx: &SMatrix<f64, NX, NX>) -> FullCov {
+        join(
+            p_xx,
+            &self.post_xa,
+            &self.post_xa.transpose(),
+            &self.post_aa,
+        )
+    }
+}
+
+/// `[[xx, xa], [ax, aa]]`.
+fn join(
+    xx: &SMatrix<f64, NX, NX>,
+    xa: &SMatrix<f64, NX, NA>,
+    ax: &SMatrix<f64, NA, NX>,
+    aa: &SMatrix<f64, NA, NA>,
+) -> FullCov {
+    let mut f = FullCov::zeros();
+    f.fixed_view_mut::<NX, NX>(0, 0).copy_from(xx);
+    f.fixed_view_mut::<NX, NA>(0, NX).copy_from(xa);
+    f.fixed_view_mut::<NA, NX>(NX, 0).copy_from(ax);
+    f.fixed_view_mut::<NA, NA>(NX, NX).copy_from(aa);
+    f
+}
+
+pub type FullCov = SMatrix<f64, NF, NF>;
 
 /// The augmented part of the filter (see the module documentation).
 #[derive(Clone, Copy, Debug)]
@@ -521,6 +569,33 @@ impl Aug {
         }
         let b = phi_t.transpose() * post;
         prior.cholesky().map(|ch| ch.solve(&b).transpose())
+    }
+
+    /// The joint `B = (I − AΦ) P⁺ (I − AΦ)ᵀ + A Q Aᵀ` of [`super::rts_smooth`]
+    /// for the full gain `a` (Q: the diagonal of `P⁻ − Φ P⁺ Φᵀ`, floored
+    /// at 0, as the filter's own block), from the same blocks as
+    /// [`Aug::smoother_gain`].
+    pub(super) fn smoother_base(
+        &self,
+        a: &FullCov,
+        p_post_x: &SMatrix<f64, NX, NX>,
+        phi_t_x: &SMatrix<f64, NX, NX>,
+        p_prior_x: &SMatrix<f64, NX, NX>,
+    ) -> FullCov {
+        let (xa, aa) = self.rec_p_post;
+        let post = join(p_post_x, &xa, &xa.transpose(), &aa);
+        let (pxa, paa) = self.rec_p_prior.unwrap_or((self.p_xa, self.p_aa));
+        let prior = join(p_prior_x, &pxa, &pxa.transpose(), &paa);
+        let mut phi = FullCov::zeros();
+        phi.fixed_view_mut::<NX, NX>(0, 0)
+            .copy_from(&phi_t_x.transpose());
+        for i in 0..NA {
+            phi[(NX + i, NX + i)] = self.rec_phi[i];
+        }
+        let q_full = prior - phi * post * phi.transpose();
+        let q = FullCov::from_diagonal(&q_full.diagonal().map(|x| x.max(0.0)));
+        let i_a = FullCov::identity() - a * phi;
+        i_a * post * i_a.transpose() + a * q * a.transpose()
     }
 
     /// Start a new smoother interval after a checkpoint.
