@@ -381,8 +381,8 @@ pub struct NhcCfg {
     pub min_std: Option<f64>,
     pub max_std: Option<f64>,
     /// Estimate the mounting pitch/yaw and the forward offset from the
-    /// non-holonomic point as states (default: the profile's, on for `car`
-    /// and `robot`).
+    /// non-holonomic point as states (default `false`; the prior σ are the
+    /// profile's, a car's where it has none).
     pub mount_states: Option<bool>,
     /// Initial mounting pitch [deg], yaw [deg] and forward lever [m] of the
     /// mounting states (default 0, 0, 0).

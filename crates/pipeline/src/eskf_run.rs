@@ -282,6 +282,12 @@ fn override_constraints(cfg: &RunConfig, pr: &mut Profile) -> Result<()> {
             _ => Ok(v),
         }
     };
+    // The NHC mounting states are opt-in: the profile's prior (a car's
+    // where it has none) when asked, else none (see `crate::profile`).
+    pr.nhc_mount = match cfg.filter.nhc.as_ref().and_then(|n| n.mount_states) {
+        Some(true) => pr.nhc_mount.or(Platform::Car.profile().nhc_mount),
+        _ => None,
+    };
     if let Some(n) = &cfg.filter.nhc {
         if n.enabled == Some(false) {
             pr.nhc = None;
@@ -291,9 +297,6 @@ fn override_constraints(cfg: &RunConfig, pr: &mut Profile) -> Result<()> {
                 interval: 0.1,
                 min_speed: 0.5,
             });
-            if n.mount_states == Some(true) && pr.nhc_mount.is_none() {
-                pr.nhc_mount = Platform::Car.profile().nhc_mount;
-            }
             if let Some(m) = &mut pr.nhc_mount {
                 let si = |v: [f64; 3]| Vec3::new(v[0].to_radians(), v[1].to_radians(), v[2]);
                 if let Some(v) = n.mount_initial {
@@ -610,12 +613,11 @@ pub(crate) fn run_eskf_span(
         )
     } else {
         let (mut aug, mut how) = crate::gnss_error::augmented_states(cfg, gnss)?;
-        // Opt-in (`[filter.nhc] mount_states = true`): see `crate::profile`.
-        let wanted = cfg.filter.nhc.as_ref().and_then(|n| n.mount_states) == Some(true);
+        // Set by `override_constraints` only when asked for.
         aug.nhc_mount = setup
             .profile
             .as_ref()
-            .filter(|p| wanted && p.nhc.is_some())
+            .filter(|p| p.nhc.is_some())
             .and_then(|p| p.nhc_mount);
         if let Some(m) = aug.nhc_mount {
             how += &format!(

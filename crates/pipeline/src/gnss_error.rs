@@ -456,9 +456,9 @@ fn carrier_phase_sensitivity(
     // leaves too few), else every pair: σ_w then includes the trajectory's
     // term and σ_b is a lower bound, as the note below says.
     let fit = quiet
-        .and_then(|q| fit_fast_part(gnss, tau, Some(q)).map(|f| (f, "quiet intervals")))
-        .or_else(|| fit_fast_part(gnss, tau, None).map(|f| (f, ALL_INTERVALS)));
-    let Some((sp, which)) = fit else {
+        .and_then(|q| fit_fast_part(gnss, tau, Some(q)).map(|f| (f, true)))
+        .or_else(|| fit_fast_part(gnss, tau, None).map(|f| (f, false)));
+    let Some((sp, quiet_only)) = fit else {
         return SigmaModels::white(
             "σ from the white model (no GNSS velocity or too few fixes to split the fix error)",
         );
@@ -477,8 +477,12 @@ fn carrier_phase_sensitivity(
     // σ_w²'s interval (linear in var d, so its normal interval holds down
     // to 0, unlike σ_w's); δ(σ_w²) as `fit_fast_part` converted it.
     let sw2_se = 2.0 * sp.white_h_m.max(1e-3) * sp.white_h_unc_m;
-    let unbounded =
-        which == ALL_INTERVALS || sp.white_h_m.powi(2) - SMOOTHER_SPLIT_Z * sw2_se <= 0.0;
+    let which = if quiet_only {
+        "quiet intervals"
+    } else {
+        "all intervals"
+    };
+    let unbounded = !quiet_only || sp.white_h_m.powi(2) - SMOOTHER_SPLIT_Z * sw2_se <= 0.0;
     let smoothed = unbounded.then_some(SensitivityModel {
         tau_s: tau,
         sigma_m: Vec3::new(mh, mh, mv),
@@ -512,10 +516,6 @@ fn carrier_phase_sensitivity(
         ),
     }
 }
-
-/// How [`carrier_phase_sensitivity`] names a split fitted on every fix
-/// interval (too few quiet ones).
-const ALL_INTERVALS: &str = "all intervals";
 
 /// The fast (white) part of code-grade fix errors, from the fix-to-fix
 /// differences (see [`fit_fast_part`]).

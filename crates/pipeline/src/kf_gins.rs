@@ -188,19 +188,10 @@ pub fn run_kf_gins(yaml: &Path, args: &KfGinsOptions) -> Result<KfGinsRun> {
         profile.as_ref(),
         source,
     )?;
-    let (mut eskf, start) = match &decision.alignment {
-        Some(a) => {
-            if source == AlignSource::Auto {
-                eprintln!("warning: {}", decision.note);
-            }
-            let start = input.imu[(i0 + a.k_start).min(input.imu.len() - 1)].t;
-            (Eskf::new(ecfg, a.nav, a.errors, &a.init_std), start)
-        }
-        None => (
-            Eskf::new(ecfg, cfg.init_nav(), cfg.init_errors(), &cfg.init_std()),
-            cfg.starttime,
-        ),
-    };
+    if source == AlignSource::Auto && decision.alignment.is_some() {
+        eprintln!("warning: {}", decision.note);
+    }
+    let (mut eskf, start) = decision.start_filter(&cfg, &ecfg, &input.imu, i0);
     if args.verbose && !(source == AlignSource::Auto && decision.alignment.is_some()) {
         eprintln!("{}", decision.note);
     }

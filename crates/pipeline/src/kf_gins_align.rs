@@ -24,7 +24,7 @@ use crate::error::{PipelineError, Result};
 use crate::profile::Profile;
 use navfuse_core::attitude::{dcm_from_quat, dcm_from_rotvec, rotvec_from_dcm};
 use navfuse_core::earth::OMEGA_IE;
-use navfuse_core::estimators::eskf::EskfConfig;
+use navfuse_core::estimators::eskf::{Eskf, EskfConfig};
 use navfuse_core::kalman::chi2_quantile;
 use navfuse_core::types::{GnssFix, ImuSample};
 use navfuse_core::Vec3;
@@ -71,6 +71,31 @@ pub struct AlignDecision {
     pub phi_n: Option<Vec3>,
     /// One line for the log: what was decided and why.
     pub note: String,
+}
+
+impl AlignDecision {
+    /// The filter this decision starts (`ecfg`; the data's alignment, else
+    /// the YAML's state) and its start time [s]. `imu`: the run's samples,
+    /// `i0` the index of the first one at or after `starttime` (the
+    /// alignment's `k_start` counts from it).
+    pub fn start_filter(
+        &self,
+        cfg: &KfGinsConfig,
+        ecfg: &EskfConfig,
+        imu: &[ImuSample],
+        i0: usize,
+    ) -> (Eskf, f64) {
+        match &self.alignment {
+            Some(a) => (
+                Eskf::new(*ecfg, a.nav, a.errors, &a.init_std),
+                imu[(i0 + a.k_start).min(imu.len() - 1)].t,
+            ),
+            None => (
+                Eskf::new(*ecfg, cfg.init_nav(), cfg.init_errors(), &cfg.init_std()),
+                cfg.starttime,
+            ),
+        }
+    }
 }
 
 /// Decide the initial state of a `kf-gins` run. `imu` starts at the YAML's

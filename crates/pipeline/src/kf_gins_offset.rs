@@ -11,7 +11,7 @@ use crate::kfgins_input::RunInput;
 use crate::offset_passes::{gnss_nll_terms, likelihood_on_positions, NllTerms, PositionsDecision};
 use crate::profile::Profile;
 use crate::time_offset::auto_estimate;
-use navfuse_core::estimators::eskf::{Eskf, EskfConfig};
+use navfuse_core::estimators::eskf::EskfConfig;
 use navfuse_core::types::{Estimator, Event, ImuSample};
 use navfuse_io::kfgins_yaml::KfGinsConfig;
 use std::path::Path;
@@ -42,16 +42,7 @@ pub fn likelihood_offset(
             .collect();
         let i0 = imu.partition_point(|s| s.t < cfg.starttime);
         let d = kf_gins_align::decide(yaml, cfg, &ecfg, &imu[i0..], gnss, profile, source)?;
-        let (mut eskf, start) = match &d.alignment {
-            Some(a) => (
-                Eskf::new(ecfg, a.nav, a.errors, &a.init_std),
-                imu[(i0 + a.k_start).min(imu.len() - 1)].t,
-            ),
-            None => (
-                Eskf::new(ecfg, cfg.init_nav(), cfg.init_errors(), &cfg.init_std()),
-                cfg.starttime,
-            ),
-        };
+        let (mut eskf, start) = d.start_filter(cfg, &ecfg, &imu, i0);
         // The event order of `crate::kf_gins::run_kf_gins`'s filter.
         let mut g = gnss.partition_point(|f| f.t <= start);
         let mut updates = Vec::new();

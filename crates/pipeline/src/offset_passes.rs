@@ -409,9 +409,10 @@ const POSITION_PROBE_FINE_MIN_S: f64 = 0.002;
 /// estimate ([`crate::time_offset::auto_estimate`]) finds an offset under
 /// some model variant but cannot settle it (the variants differ in sign or
 /// not all are significant): the filter's own GNSS-position likelihood
-/// decides ([`refine_by_likelihood`]: probes at 0 and ±h, h the largest
-/// significant variant's |τ| within [5, 100] ms, then again at the vertex
-/// ± its σ). Positions see τ through
+/// decides: the run repeated over a grid of 9 probes across ±h (h the
+/// largest significant variant's |τ| within [5, 100] ms), then
+/// [`refine_by_likelihood`] through the lowest probe and its neighbours
+/// and again over its vertex ± σ. Positions see τ through
 /// `∂p/∂τ = −v` with the filter's weights, and no course–heading model is
 /// assumed, so the variants' disagreement (antenna ahead of the
 /// zero-sideslip point or not) does not enter. Applied under the course

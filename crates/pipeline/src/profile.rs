@@ -99,6 +99,7 @@ pub struct Profile {
     /// its first outage, 120 s after the start, comes before the states
     /// have converged, and the NHC then holds the heading only to their σ).
     /// `None`: no prior for this platform (a car's is used when asked).
+    /// A run's resolved profile keeps it only when asked for.
     pub nhc_mount: Option<NhcMountStates>,
     /// Standstill detection and zero-velocity/-rate updates.
     pub zupt: Option<ZuptConfig>,

@@ -445,6 +445,23 @@ pub fn rts_smooth(records: &[SmootherRecord], p_last: &Cov, mut out: impl FnMut(
     }
 }
 
+/// `B = (I − AΦ) P⁺ (I − AΦ)ᵀ + A Q Aᵀ` of [`rts_smooth`] for the smoother
+/// gain `a`, the transition `phi` between two checkpoints and the
+/// covariances after the first (`post`) and before the second's updates
+/// (`prior`), with `Q` the diagonal of `P⁻ − Φ P⁺ Φᵀ` floored at 0 (see
+/// `maybe_record`). For the 21 states and the joint augmented ones.
+pub(super) fn smoother_base<const N: usize>(
+    a: &SMatrix<f64, N, N>,
+    phi: &SMatrix<f64, N, N>,
+    post: &SMatrix<f64, N, N>,
+    prior: &SMatrix<f64, N, N>,
+) -> SMatrix<f64, N, N> {
+    let q_full = prior - phi * post * phi.transpose();
+    let q = SMatrix::<f64, N, N>::from_diagonal(&q_full.diagonal().map(|x| x.max(0.0)));
+    let i_a = SMatrix::<f64, N, N>::identity() - a * phi;
+    i_a * post * i_a.transpose() + a * q * a.transpose()
+}
+
 /// `P ← Φ (P + Q_d/2) Φᵀ + Q_d/2`, `Φ = I + F dt` with `fs` already set to
 /// this interval's `F` (`q`: the velocity and angle blocks of `Q_d` and the
 /// bias PSDs). Shared by the filter's covariance and the sensitivity one.
@@ -1957,19 +1974,13 @@ impl Eskf {
                 (gain, None)
             }
             Some(a) => {
-                let full = if self.rec_have_prev {
-                    a.smoother_gain(&self.rec_p_post, &self.rec_phi_t, &p_prior)
+                // The joint A and B: B's augmented blocks carry what the
+                // smoother cannot average (e.g. a considered GNSS error b)
+                // into the smoothed covariance (`rts_smooth`).
+                let (full, base) = if self.rec_have_prev {
+                    a.smoother_gain_base(&self.rec_p_post, &self.rec_phi_t, &p_prior)
                 } else {
-                    None
-                }
-                .unwrap_or_else(SMatrix::zeros);
-                // The joint B: its augmented blocks carry what the smoother
-                // cannot average (e.g. a considered GNSS error b) into the
-                // smoothed covariance (`rts_smooth`).
-                let base = if self.rec_have_prev {
-                    a.smoother_base(&full, &self.rec_p_post, &self.rec_phi_t, &p_prior)
-                } else {
-                    aug::FullCov::zeros()
+                    (SMatrix::zeros(), SMatrix::zeros())
                 };
                 let rec = AugSmootherRecord {
                     dx_fed_back: a.rec_dx,
@@ -1993,16 +2004,17 @@ impl Eskf {
         // drive_0708: −3 % of the position variance), which would drive
         // smoothed variances below zero. The process noise added between
         // checkpoints is (per axis) white: keep the diagonal of Q, floored
-        // at 0, which makes B positive semi-definite. With augmented states
-        // the INS block's gain is used (their σ is not smoothed).
+        // at 0, which makes B positive semi-definite ([`smoother_base`]).
+        // With augmented states B is the joint one's INS block (above).
         let base = if let Some(b) = aug_base_xx {
             b
         } else if self.rec_have_prev {
-            let phi = self.rec_phi_t.transpose();
-            let q_full = p_prior - phi * self.rec_p_post * self.rec_phi_t;
-            let q = Cov::from_diagonal(&q_full.diagonal().map(|x| x.max(0.0)));
-            let i_a = Cov::identity() - gain * phi;
-            i_a * self.rec_p_post * i_a.transpose() + gain * q * gain.transpose()
+            smoother_base(
+                &gain,
+                &self.rec_phi_t.transpose(),
+                &self.rec_p_post,
+                &p_prior,
+            )
         } else {
             Cov::zeros()
         };

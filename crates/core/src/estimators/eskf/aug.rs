@@ -271,7 +271,7 @@ fn join(
     f
 }
 
-pub type FullCov = SMatrix<f64, NF, NF>;
+pub(super) type FullCov = SMatrix<f64, NF, NF>;
 
 /// The augmented part of the filter (see the module documentation).
 #[derive(Clone, Copy, Debug)]
@@ -493,13 +493,7 @@ impl Aug {
 
     /// The joint covariance with the filter's `p`.
     pub(super) fn full(&self, p: &SMatrix<f64, NX, NX>) -> FullCov {
-        let mut f = FullCov::zeros();
-        f.fixed_view_mut::<NX, NX>(0, 0).copy_from(p);
-        f.fixed_view_mut::<NX, NA>(0, NX).copy_from(&self.p_xa);
-        f.fixed_view_mut::<NA, NX>(NX, 0)
-            .copy_from(&self.p_xa.transpose());
-        f.fixed_view_mut::<NA, NA>(NX, NX).copy_from(&self.p_aa);
-        f
+        join(p, &self.p_xa, &self.p_xa.transpose(), &self.p_aa)
     }
 
     /// Split the joint covariance back (symmetrising the cross block).
@@ -531,71 +525,41 @@ impl Aug {
         }
     }
 
-    /// Smoother gain over the joint state, `A = P⁺ Φᵀ (P⁻)⁻¹`, from the
-    /// filter's blocks (`phi_t`: Φ_xᵀ accumulated since the last checkpoint).
-    /// Inactive states have zero variance and no correlation: a unit
-    /// variance in P⁻ makes P⁻ invertible without changing the other rows.
-    pub(super) fn smoother_gain(
+    /// Smoother gain over the joint state, `A = P⁺ Φᵀ (P⁻)⁻¹`, and the
+    /// joint `B` of [`super::rts_smooth`] ([`super::smoother_base`]), from
+    /// the filter's blocks (`phi_t_x`: Φ_xᵀ accumulated since the last
+    /// checkpoint). Inactive states have zero variance and no correlation:
+    /// a unit variance in P⁻ makes P⁻ invertible for the gain without
+    /// changing the other rows. A zero gain when P⁻ is not positive definite.
+    pub(super) fn smoother_gain_base(
         &self,
         p_post_x: &SMatrix<f64, NX, NX>,
         phi_t_x: &SMatrix<f64, NX, NX>,
         p_prior_x: &SMatrix<f64, NX, NX>,
-    ) -> Option<FullCov> {
-        let (xa, aa) = self.rec_p_post;
-        let mut post = FullCov::zeros();
-        post.fixed_view_mut::<NX, NX>(0, 0).copy_from(p_post_x);
-        post.fixed_view_mut::<NX, NA>(0, NX).copy_from(&xa);
-        post.fixed_view_mut::<NA, NX>(NX, 0)
-            .copy_from(&xa.transpose());
-        post.fixed_view_mut::<NA, NA>(NX, NX).copy_from(&aa);
-        let (pxa, paa) = self.rec_p_prior.unwrap_or((self.p_xa, self.p_aa));
-        let mut prior = FullCov::zeros();
-        prior.fixed_view_mut::<NX, NX>(0, 0).copy_from(p_prior_x);
-        prior.fixed_view_mut::<NX, NA>(0, NX).copy_from(&pxa);
-        prior
-            .fixed_view_mut::<NA, NX>(NX, 0)
-            .copy_from(&pxa.transpose());
-        prior.fixed_view_mut::<NA, NA>(NX, NX).copy_from(&paa);
-        for i in 0..NA {
-            if !self.active[i] {
-                prior[(NX + i, NX + i)] = 1.0;
-            }
-        }
-        // Φ P⁺ with Φ = blockdiag(Φ_x, diag(φ_a)).
-        let mut phi_t = FullCov::zeros();
-        phi_t.fixed_view_mut::<NX, NX>(0, 0).copy_from(phi_t_x);
-        for i in 0..NA {
-            phi_t[(NX + i, NX + i)] = self.rec_phi[i];
-        }
-        let b = phi_t.transpose() * post;
-        prior.cholesky().map(|ch| ch.solve(&b).transpose())
-    }
-
-    /// The joint `B = (I − AΦ) P⁺ (I − AΦ)ᵀ + A Q Aᵀ` of [`super::rts_smooth`]
-    /// for the full gain `a` (Q: the diagonal of `P⁻ − Φ P⁺ Φᵀ`, floored
-    /// at 0, as the filter's own block), from the same blocks as
-    /// [`Aug::smoother_gain`].
-    pub(super) fn smoother_base(
-        &self,
-        a: &FullCov,
-        p_post_x: &SMatrix<f64, NX, NX>,
-        phi_t_x: &SMatrix<f64, NX, NX>,
-        p_prior_x: &SMatrix<f64, NX, NX>,
-    ) -> FullCov {
+    ) -> (FullCov, FullCov) {
         let (xa, aa) = self.rec_p_post;
         let post = join(p_post_x, &xa, &xa.transpose(), &aa);
         let (pxa, paa) = self.rec_p_prior.unwrap_or((self.p_xa, self.p_aa));
         let prior = join(p_prior_x, &pxa, &pxa.transpose(), &paa);
+        // Φ = blockdiag(Φ_x, diag(φ_a)).
         let mut phi = FullCov::zeros();
         phi.fixed_view_mut::<NX, NX>(0, 0)
             .copy_from(&phi_t_x.transpose());
         for i in 0..NA {
             phi[(NX + i, NX + i)] = self.rec_phi[i];
         }
-        let q_full = prior - phi * post * phi.transpose();
-        let q = FullCov::from_diagonal(&q_full.diagonal().map(|x| x.max(0.0)));
-        let i_a = FullCov::identity() - a * phi;
-        i_a * post * i_a.transpose() + a * q * a.transpose()
+        let mut prior_inv = prior;
+        for i in 0..NA {
+            if !self.active[i] {
+                prior_inv[(NX + i, NX + i)] = 1.0;
+            }
+        }
+        let b = phi * post;
+        let gain = prior_inv
+            .cholesky()
+            .map_or_else(FullCov::zeros, |ch| ch.solve(&b).transpose());
+        let base = super::smoother_base(&gain, &phi, &post, &prior);
+        (gain, base)
     }
 
     /// Start a new smoother interval after a checkpoint.
