@@ -17,6 +17,7 @@
 pub mod aiding_cfg;
 pub mod align;
 pub mod allan;
+pub mod base_station;
 pub mod check;
 pub mod config;
 pub mod course_filter;
