@@ -20,7 +20,9 @@ pub struct GeneraliseArgs {
     #[arg(long, default_value_t = 600.0)]
     pub duration: f64,
     /// Cells to run: comma-separated `platform[:imu[:gnss[:offset]]]`
-    /// patterns (`*` = any), e.g. `car,uav:tactical:*:0.1`. Default: all 48.
+    /// patterns (`*` = any), e.g. `car,uav:tactical:*:0.1`. Default: the
+    /// 48 of the matrix; patterns also reach the platforms outside it
+    /// (`marine`: a small craft in waves).
     #[arg(long)]
     pub cells: Option<String>,
     /// True IMU time offsets [s] instead of the matrix's 0 and 0.1, comma
@@ -58,13 +60,11 @@ fn write_json<T: serde::Serialize>(path: &Path, v: &T) -> Result<(), String> {
 }
 
 pub fn generalise(a: GeneraliseArgs) -> Result<(), String> {
-    let all = match &a.offsets {
-        Some(o) => generalise::matrix_with(o),
-        None => generalise::matrix(),
-    };
+    let offsets = a.offsets.as_deref().unwrap_or(&generalise::OFFSETS_S);
     let cells = match &a.cells {
-        Some(p) => generalise::select_cells_in(all, p).map_err(|e| e.to_string())?,
-        None => all,
+        Some(p) => generalise::select_cells_in(generalise::all_platforms_with(offsets), p)
+            .map_err(|e| e.to_string())?,
+        None => generalise::matrix_with(offsets),
     };
     let opt = generalise::GeneraliseOptions {
         seeds: a.seeds,

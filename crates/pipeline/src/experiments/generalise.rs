@@ -77,8 +77,18 @@ pub fn matrix() -> Vec<Cell> {
 
 /// The matrix with other true time offsets [s] (e.g. the ±50/±200 ms check).
 pub fn matrix_with(offsets: &[f64]) -> Vec<Cell> {
+    cells_of(&Platform::MATRIX, offsets)
+}
+
+/// Every simulated platform's cells (the matrix's plus `marine`), for
+/// `--cells` to choose from.
+pub fn all_platforms_with(offsets: &[f64]) -> Vec<Cell> {
+    cells_of(&Platform::ALL, offsets)
+}
+
+fn cells_of(platforms: &[Platform], offsets: &[f64]) -> Vec<Cell> {
     let mut v = Vec::new();
-    for platform in Platform::ALL {
+    for &platform in platforms {
         for imu in ImuGrade::ALL {
             for gnss in GnssGrade::ALL {
                 for &offset_s in offsets {
@@ -95,11 +105,12 @@ pub fn matrix_with(offsets: &[f64]) -> Vec<Cell> {
     v
 }
 
-/// The cells of [`matrix`] matching any of the comma-separated patterns
+/// The cells of [`all_platforms_with`] (the matrix and `marine`) matching
+/// any of the comma-separated patterns
 /// `platform[:imu[:gnss[:offset]]]` (`*` or a missing part matches all), e.g.
 /// `car,uav:tactical:*:0.1`. Error when a pattern matches no cell.
 pub fn select_cells(patterns: &str) -> Result<Vec<Cell>, ExperimentError> {
-    select_cells_in(matrix(), patterns)
+    select_cells_in(all_platforms_with(&OFFSETS_S), patterns)
 }
 
 /// [`select_cells`] among `all`.

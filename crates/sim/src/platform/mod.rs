@@ -13,6 +13,7 @@
 //! ("seconds added to IMU stamps") sees consistent times.
 
 mod ground;
+mod marine;
 mod plan;
 mod uav;
 mod walker;
@@ -39,6 +40,9 @@ pub enum Platform {
     Robot,
     Pedestrian,
     Uav,
+    /// Small craft in waves ([`marine`]); not in the generalisation matrix
+    /// of issue 13 ([`Platform::MATRIX`]), run by name.
+    Marine,
 }
 
 /// IMU grade → simulator preset.
@@ -62,7 +66,16 @@ pub enum GnssGrade {
 }
 
 impl Platform {
-    pub const ALL: [Platform; 4] = [
+    /// Every simulated platform.
+    pub const ALL: [Platform; 5] = [
+        Platform::Car,
+        Platform::Robot,
+        Platform::Pedestrian,
+        Platform::Uav,
+        Platform::Marine,
+    ];
+    /// The platforms of issue 13's generalisation matrix.
+    pub const MATRIX: [Platform; 4] = [
         Platform::Car,
         Platform::Robot,
         Platform::Pedestrian,
@@ -74,6 +87,7 @@ impl Platform {
             Platform::Robot => "robot",
             Platform::Pedestrian => "pedestrian",
             Platform::Uav => "uav",
+            Platform::Marine => "marine",
         }
     }
 }
@@ -297,6 +311,7 @@ fn plan(p: Platform, seed: u64, opt: &PlatformOptions) -> Result<(Scenario, Plan
         Platform::Robot => ground::robot(&mut pl, &mut rng, opt.static_start),
         Platform::Pedestrian => walker::pedestrian(&mut pl, &mut rng, opt.static_start),
         Platform::Uav => uav::multirotor(&mut pl, &mut rng, opt.static_start),
+        Platform::Marine => marine::small_craft(&mut pl, &mut rng, opt.static_start),
     };
     let sc = Scenario {
         name: format!("platform-{p}-{seed}"),

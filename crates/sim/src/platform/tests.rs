@@ -302,6 +302,55 @@ fn uav_flies_sideways_inside_its_limits() {
     }
 }
 
+/// The small craft inside marine.rs's documented limits; crabbing (heading
+/// ≠ course) and never still (waves), moored or under way.
+#[test]
+fn small_craft_crabs_rolls_and_stays_inside_its_limits() {
+    for seed in 1..=4 {
+        for st in [true, false] {
+            let r = platform_run(Platform::Marine, seed, &opts(300.0, st)).unwrap();
+            let s = stats(&r.run.traj);
+            let e = &r.run.traj.truth;
+            // Speed ≤ 8 m/s (+ the heave rate ≤ 0.5 m · 2π/3 s).
+            assert!(max(&s.speed) <= 8.0 + 1.05 + 1e-6, "{}", max(&s.speed));
+            // Horizontal acceleration: 0.5 m/s² along, v·ROT across.
+            assert!(
+                max(&s.a_h) <= 0.5 + 8.0 * 6.0 * DEG + 1e-3,
+                "{}",
+                max(&s.a_h)
+            );
+            // Roll/pitch inside the wave amplitudes.
+            let roll = e.iter().map(|x| x.rpy.x.abs()).fold(0.0, f64::max);
+            let pitch = e.iter().map(|x| x.rpy.y.abs()).fold(0.0, f64::max);
+            assert!(roll <= 6.0 * DEG + 1e-9 && pitch <= 3.0 * DEG + 1e-9);
+            // Waves: the attitude moves within every second (moored too), and
+            // the roll rate is far from zero (no zero-rate detector sees rest).
+            let moving = e
+                .windows(101)
+                .step_by(100)
+                .all(|w| (w[100].rpy - w[0].rpy).norm() > 0.01 * DEG);
+            assert!(moving, "seed {seed}");
+            let roll_rate = e
+                .windows(2)
+                .take(2000)
+                .map(|w| (w[1].rpy.x - w[0].rpy.x).abs() / r.run.traj.imu_dt)
+                .fold(0.0, f64::max);
+            assert!(roll_rate > 0.1 * DEG, "seed {seed}: {}", roll_rate / DEG);
+            // Crab: |heading − course| ≤ 10° + the 2° yaw wave where under way,
+            // and not zero (a boat is not a car).
+            let crab: Vec<f64> = s
+                .yaw_minus_course
+                .iter()
+                .zip(&s.speed)
+                .filter(|(c, v)| c.is_finite() && **v > 1.0)
+                .map(|(c, _)| c.abs())
+                .collect();
+            assert!(max(&crab) <= 12.0 * DEG + 1e-6, "{}", max(&crab) / DEG);
+            assert!(median(crab.iter().cloned()) > 0.3 * DEG);
+        }
+    }
+}
+
 #[test]
 fn moving_start_has_no_zero_velocity_window() {
     for p in Platform::ALL {
@@ -321,10 +370,15 @@ fn moving_start_has_no_zero_velocity_window() {
             assert!(min60 >= lo, "{p} seed {seed}: min speed {min60}");
             assert!(r.init.v_n.norm() > lo);
         }
-        // Static start: ≥ 10 s at rest, exactly.
+        // Static start: ≥ 10 s at rest, exactly (a moored boat: no way on,
+        // but it heaves).
         let r = platform_run(p, 1, &opts(60.0, true)).unwrap();
         let e = &r.run.traj.truth;
-        assert!(e.iter().take(1001).all(|x| x.v_n.norm() < 1e-12), "{p}");
+        let still = |x: &TruthEpoch| match p {
+            Platform::Marine => x.v_n.xy().norm() < 1e-12,
+            _ => x.v_n.norm() < 1e-12,
+        };
+        assert!(e.iter().take(1001).all(still), "{p}");
     }
 }
 
