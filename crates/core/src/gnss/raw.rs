@@ -19,6 +19,7 @@
 //! than a [`crate::types::GnssFix`] (so `Event` does not grow) and the
 //! epoch ends at the record flagged `obs.last_in_epoch`.
 
+use super::orbit_gnss::OrbitKind;
 use super::{KeplerOrbit, C_LIGHT};
 #[allow(unused_imports)]
 use crate::prelude::*;
@@ -350,6 +351,29 @@ pub fn sat_state_from_kepler(orbit: &KeplerOrbit, t_rx: f64, pr: f64) -> SatStat
     }
 }
 
+/// [`SatState`] of a broadcast orbit of any Kepler system `kind` (GPS,
+/// Galileo, BeiDou MEO/IGSO/GEO; [`super::orbit_gnss`]) for a record
+/// received at `t_rx` with pseudorange `pr`: as [`sat_state_from_kepler`]
+/// (the same numbers for [`OrbitKind::Gps`]) with the system's constants;
+/// the clock carries the first-signal group delay `orbit.tgd`.
+pub fn sat_state_from_orbit(orbit: &KeplerOrbit, kind: OrbitKind, t_rx: f64, pr: f64) -> SatState {
+    use super::orbit_gnss::{clock_offset, position_ecef};
+    let t0 = t_rx - pr / C_LIGHT;
+    let t_tx = t0 - clock_offset(orbit, kind, t0);
+    let h = 5e-4;
+    let pos = |t: f64| position_ecef(orbit, kind, t);
+    let clk = |t: f64| clock_offset(orbit, kind, t);
+    SatState {
+        pos_e: pos(t_tx),
+        vel_e: (pos(t_tx + h) - pos(t_tx - h)) / (2.0 * h),
+        clock_m: (clk(t_tx) - orbit.tgd) * C_LIGHT,
+        clock_rate_mps: (clk(t_tx + h) - clk(t_tx - h)) / (2.0 * h) * C_LIGHT,
+        iono_m: 0.0,
+        var_m2: 0.0,
+        valid: orbit.health == 0,
+    }
+}
+
 /// Geometric range [m] from `rx_e` to a satellite at `sat_e` (ECEF of
 /// transmission), with the earth rotation during travel (Sagnac) to first
 /// order: `ρ = |r_s − r_r| + ω_e (x_s y_r − y_s x_r)/c` (RTKLIB `geodist`;
@@ -481,6 +505,7 @@ mod tests {
         let t = o.t_oe + 3000.0;
         let truth = super::super::sat_at_receive(&o, &rx, t);
         let s = sat_state_from_kepler(&o, t, truth.range);
+        assert_eq!(s, sat_state_from_orbit(&o, OrbitKind::Gps, t, truth.range));
         let (rho, los) = geometric_range(&s.pos_e, &rx);
         // First-order Sagnac against the exact rotation: ~1 cm.
         assert!((rho - truth.range).abs() < 0.02, "{}", rho - truth.range);
