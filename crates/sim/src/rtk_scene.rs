@@ -110,6 +110,7 @@ use navfuse_core::gnss::raw::{
 use navfuse_core::gnss::tropo::{day_of_year, niell_mapping, slant_delay};
 use navfuse_core::gnss::{KeplerOrbit, C_LIGHT, SECONDS_PER_WEEK};
 use navfuse_core::Vec3;
+use navfuse_io::rinex::{GnssObs, ObsValue, SatObs};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, StandardNormal};
@@ -142,6 +143,15 @@ impl SceneSat {
     /// [`crate::multi_gnss::constellations`] (as broadcast).
     pub fn multi(t_oe: f64, seed: u64) -> Vec<SceneSat> {
         let (gps, other) = crate::multi_gnss::constellations(t_oe, seed);
+        SceneSat::from_broadcast(&gps, &other)
+    }
+
+    /// The satellites of broadcast records: GPS `gps`, Galileo and BeiDou
+    /// of `other` (other systems skipped).
+    pub fn from_broadcast(
+        gps: &navfuse_io::rinex::NavData,
+        other: &[navfuse_io::rinex_nav3::GnssEph],
+    ) -> Vec<SceneSat> {
         let mut v = SceneSat::gps(&gps.orbits);
         for e in other {
             let system = match e.sys {
@@ -251,6 +261,71 @@ pub struct RtkScene {
     pub rover_pos_e: Vec<Vec3>,
     pub rover_vel_e: Vec<Vec3>,
     pub base_pos_e: Vec3,
+}
+
+impl RtkScene {
+    /// One receiver's epochs as RINEX 3 observations: the receiver time tags
+    /// and, per system G, E, C, the codes of [`Signal::rinex3_codes`] of
+    /// the first then the second signal (pseudorange [m], phase [cycles],
+    /// Doppler [Hz], C/N0 [dB-Hz]); the phase carries LLI bit 0 when the
+    /// record has the loss-of-lock flag.
+    pub fn gnss_obs(eps: &[RawTruthEpoch]) -> (Vec<f64>, GnssObs) {
+        let systems = [GnssSystem::Gps, GnssSystem::Galileo, GnssSystem::BeiDou];
+        let sys_codes = systems
+            .iter()
+            .map(|&sys| {
+                let mut c: Vec<String> = Vec::new();
+                for sig in [Some(Signal::first_of(sys)), Signal::second_of(sys)]
+                    .into_iter()
+                    .flatten()
+                {
+                    c.extend(sig.rinex3_codes().iter().map(|x| x.to_string()));
+                }
+                (sys.letter(), c)
+            })
+            .collect();
+        let mut tags = Vec::with_capacity(eps.len());
+        let mut epochs = Vec::with_capacity(eps.len());
+        for e in eps {
+            tags.push(e.epoch.t);
+            let mut sats: Vec<SatObs> = Vec::new();
+            for r in e.epoch.sats() {
+                let o = &r.obs;
+                let col = if o.signal.is_first() { 0 } else { 4 };
+                let letter = o.system.letter();
+                let i = match sats.iter().position(|x| x.0 == letter && x.1 == o.prn) {
+                    Some(i) => i,
+                    None => {
+                        sats.push((letter, o.prn, vec![None; 8]));
+                        sats.len() - 1
+                    }
+                };
+                let v = |x: f64, lli: u8| x.is_finite().then_some(ObsValue { value: x, lli });
+                let lli = u8::from(o.flags & FLAG_LOSS_OF_LOCK != 0);
+                let vals = &mut sats[i].2;
+                vals[col] = v(o.pseudorange_m, 0);
+                vals[col + 1] = v(o.carrier_m / o.wavelength_m(), lli);
+                vals[col + 2] = v(o.doppler_hz, 0);
+                vals[col + 3] = v(o.cn0_dbhz as f64, 0);
+            }
+            epochs.push(sats);
+        }
+        (tags, GnssObs { sys_codes, epochs })
+    }
+
+    /// RINEX 3.04 observation texts of the rover (header position: its
+    /// first true position) and the base (header position: its true
+    /// position, as a surveyed base's file carries it).
+    pub fn obs_texts(&self) -> (String, String) {
+        let (tr, gr) = RtkScene::gnss_obs(&self.rover);
+        let (tb, gb) = RtkScene::gnss_obs(&self.base);
+        let p = self.rover_pos_e.first().copied().unwrap_or_default();
+        let b = self.base_pos_e;
+        (
+            navfuse_io::rinex_write::obs3_text("SIMROVER", [p.x, p.y, p.z], &tr, &gr),
+            navfuse_io::rinex_write::obs3_text("SIMBASE", [b.x, b.y, b.z], &tb, &gb),
+        )
+    }
 }
 
 /// One receiver's state.
