@@ -383,3 +383,57 @@ fn rinex_files_round_trip() {
     assert_eq!(sc.rover[5].epoch.n, 0);
     assert!(sc.base[5].epoch.n > 0);
 }
+
+/// (f) The differential ionosphere grows with the baseline: static rover,
+/// 10 min, bases 1 km and 10 km east; RMS of the DD slant L1 ionosphere
+/// (truth, all systems, first signal, reference = the system's first
+/// record) within 10–40 mm at 10 km (1 ppm zenith × obliquity 1–3 × √2 for
+/// two satellites), and 8–12× the 1 km value (linear in the baseline).
+#[test]
+fn differential_ionosphere_scales_with_the_baseline() {
+    let p0 = start();
+    let rms = |east_m: f64| {
+        let base = offset_position(&p0, 0.0, east_m, 0.0);
+        let times: Vec<f64> = (0..600).map(|k| T0 + k as f64).collect();
+        let sc = simulate_rtk(
+            &RtkSceneConfig::default(),
+            &sats(),
+            &times,
+            |_| (p0, Vec3::zeros()),
+            base,
+        );
+        let (mut s2, mut n) = (0.0, 0.0);
+        for e in 0..sc.rover.len() {
+            let recs = sc.rover[e].epoch.sats();
+            for sys in [GnssSystem::Gps, GnssSystem::Galileo, GnssSystem::BeiDou] {
+                let sig = Signal::first_of(sys);
+                let mut keys = recs.iter().map(key).filter(|k| k.2 == sig);
+                let Some(refs) = keys.next() else { continue };
+                for k in keys {
+                    let i = |eps: &[RawTruthEpoch], trs: &[Vec<RecordTruth>], kk: Key| {
+                        find(&eps[e], &trs[e], kk).map(|x| x.1.iono_l1_m)
+                    };
+                    let (Some(a), Some(b), Some(c), Some(d)) = (
+                        i(&sc.rover, &sc.rover_truth, k),
+                        i(&sc.rover, &sc.rover_truth, refs),
+                        i(&sc.base, &sc.base_truth, k),
+                        i(&sc.base, &sc.base_truth, refs),
+                    ) else {
+                        continue;
+                    };
+                    s2 += ((a - b) - (c - d)).powi(2);
+                    n += 1.0;
+                }
+            }
+        }
+        (s2 / n).sqrt()
+    };
+    let (r1, r10) = (rms(1000.0), rms(10_000.0));
+    println!(
+        "DD ionosphere RMS: 1 km {:.2} mm, 10 km {:.2} mm",
+        r1 * 1e3,
+        r10 * 1e3
+    );
+    assert!((0.010..=0.040).contains(&r10), "{r10}");
+    assert!((8.0..=12.0).contains(&(r10 / r1)), "{}", r10 / r1);
+}
