@@ -260,6 +260,67 @@ fn mixed_observation_round_trip() {
     assert_eq!(o.other_count('C'), 6);
 }
 
+/// Dual-frequency observations (GPS L1 C/A + L2C, Galileo E1 + E5b, BeiDou
+/// B1I + B2I) with the codes of [`Signal::rinex3_codes`] written and read
+/// back: the same values and flags, every code maps back to its signal,
+/// and the GPS-only reader names L2C `C2 L2 D2 S2` (no `P2`).
+#[test]
+fn dual_frequency_observation_round_trip() {
+    use navfuse_core::gnss::raw::{GnssSystem, Signal};
+    let t0 = 2034.0 * SECONDS_PER_WEEK + 172_800.0;
+    let mut sys_codes = Vec::new();
+    for sys in [GnssSystem::Gps, GnssSystem::Galileo, GnssSystem::BeiDou] {
+        let mut c: Vec<String> = Vec::new();
+        for sig in [Signal::first_of(sys), Signal::second_of(sys).unwrap()] {
+            c.extend(sig.rinex3_codes().iter().map(|x| x.to_string()));
+        }
+        sys_codes.push((sys.letter(), c));
+    }
+    let v = |x: i64, lli: u8| {
+        Some(ObsValue {
+            value: x as f64 / 1000.0,
+            lli,
+        })
+    };
+    let vals = |k: i64| {
+        vec![
+            v(21_234_567_891 + k, 0),
+            v(-111_588_123_456, 1),
+            v(-1_234_567, 0),
+            v(45_125, 0),
+            v(21_234_570_001 + k, 0),
+            v(-86_951_000_111, 0),
+            None,
+            v(41_000, 0),
+        ]
+    };
+    let times: Vec<f64> = (0..2).map(|k| t0 + k as f64).collect();
+    let epochs = (0..2i64)
+        .map(|k| vec![('G', 7u8, vals(k)), ('E', 19, vals(k)), ('C', 30, vals(k))])
+        .collect();
+    let gnss = GnssObs { sys_codes, epochs };
+    let text = obs3_text(
+        "DUAL",
+        [-3_947_762.0, 3_364_399.0, 3_699_428.0],
+        &times,
+        &gnss,
+    );
+    let (o, g) = parse_obs_gnss(&text, "d.obs").unwrap();
+    assert_eq!(g, gnss);
+    for (sys, codes) in &g.sys_codes {
+        let sigs: Vec<Signal> = codes
+            .iter()
+            .map(|c| Signal::from_rinex3(*sys, c).unwrap())
+            .collect();
+        assert!(sigs[..4].iter().all(|s| s.is_first()), "{sys}");
+        assert!(sigs[4..].iter().all(|s| !s.is_first()), "{sys}");
+    }
+    assert_eq!(
+        o.types,
+        vec!["C1", "L1", "D1", "S1", "C2", "L2", "D2", "S2"]
+    );
+}
+
 #[test]
 fn fortran_fields() {
     assert_eq!(d19(-4.78835042158e-10), "-4.788350421580E-10");

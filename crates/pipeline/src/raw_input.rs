@@ -40,12 +40,12 @@ use crate::error::{PipelineError, Result};
 use crate::input::InputReport;
 use crate::spp::{by_prn, gps_ephemeris, other_system, solve_obs, SppNav, SppOptions, SppSummary};
 use navfuse_core::geodesy::{c_en, ecef_to_geodetic};
-use navfuse_core::gnss::orbit_gnss::{self, OrbitKind};
+use navfuse_core::gnss::orbit_gnss::OrbitKind;
 use navfuse_core::gnss::raw::{
     GnssSystem, RawObs, RawSat, SatState, Signal, FLAG_LOSS_OF_LOCK, MAX_RAW_SATS,
 };
 use navfuse_core::gnss::spp::{ura_nominal_m, SppSolution};
-use navfuse_core::gnss::{C_LIGHT, LAMBDA_L1, SECONDS_PER_WEEK};
+use navfuse_core::gnss::{LAMBDA_L1, SECONDS_PER_WEEK};
 use navfuse_core::types::GnssFix;
 use navfuse_core::Vec3;
 use navfuse_io::rinex::{GnssObs, ObsFile};
@@ -401,31 +401,18 @@ pub fn slow_error_dof(dof_sum: u64, epochs: usize, span_s: f64, tau_s: f64) -> f
 }
 
 /// [`SatState`] of a broadcast orbit of any Kepler system for a record
-/// received at `t_rx` with pseudorange `pr` (as
-/// [`navfuse_core::gnss::raw::sat_state_from_kepler`], with the system's
-/// constants, [`orbit_gnss`]): transmission time `t_rx − pr/c − δt_s`,
-/// velocity and clock rate by ±0.5 ms central differences, clock with
-/// relativity minus the group delay of the tracked signal.
+/// received at `t_rx` with pseudorange `pr`:
+/// [`navfuse_core::gnss::raw::sat_state_from_orbit`] (transmission time
+/// `t_rx − pr/c − δt_s`, velocity and clock rate by ±0.5 ms central
+/// differences, clock with relativity minus the group delay of the tracked
+/// signal; the simulator's scenes use the same function).
 pub fn sat_state(
     o: &navfuse_core::gnss::KeplerOrbit,
     kind: OrbitKind,
     t_rx: f64,
     pr: f64,
 ) -> SatState {
-    let t0 = t_rx - pr / C_LIGHT;
-    let t_tx = t0 - orbit_gnss::clock_offset(o, kind, t0);
-    let h = 5e-4;
-    let pos = |t: f64| orbit_gnss::position_ecef(o, kind, t);
-    let clk = |t: f64| orbit_gnss::clock_offset(o, kind, t);
-    SatState {
-        pos_e: pos(t_tx),
-        vel_e: (pos(t_tx + h) - pos(t_tx - h)) / (2.0 * h),
-        clock_m: (clk(t_tx) - o.tgd) * C_LIGHT,
-        clock_rate_mps: (clk(t_tx + h) - clk(t_tx - h)) / (2.0 * h) * C_LIGHT,
-        iono_m: 0.0,
-        var_m2: 0.0,
-        valid: o.health == 0,
-    }
+    navfuse_core::gnss::raw::sat_state_from_orbit(o, kind, t_rx, pr)
 }
 
 /// Broadcast ionosphere delay and the record's error variance (module

@@ -241,7 +241,7 @@ pub fn constellations(t_oe: f64, seed: u64) -> (NavData, Vec<GnssEph>) {
 
 /// Light-time solution at true receive time `t` for the antenna at `rx`:
 /// (satellite position in the ECEF frame of `t`, range, transmit time).
-fn light_time(o: &KeplerOrbit, kind: OrbitKind, rx: &Vec3, t: f64) -> (Vec3, f64, f64) {
+pub(crate) fn light_time(o: &KeplerOrbit, kind: OrbitKind, rx: &Vec3, t: f64) -> (Vec3, f64, f64) {
     let (_, we) = kind.constants();
     let mut tau = 0.075;
     let (mut p, mut range) = (Vec3::zeros(), 0.0);

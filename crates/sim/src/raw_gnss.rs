@@ -163,6 +163,63 @@ pub fn obliquity(el: f64) -> f64 {
     1.0 + 16.0 * (0.53 - e).max(0.0).powi(3)
 }
 
+/// One step of a first-order Gauss–Markov process of stationary σ `s`
+/// and correlation time `tau` over `dt`, driven by the N(0,1) draw `w`
+/// (exact discretisation, Brown & Hwang 4th ed. ch. 4).
+pub(crate) fn gauss_markov(x: f64, s: f64, tau: f64, dt: f64, w: f64) -> f64 {
+    let phi = (-dt / tau).exp();
+    phi * x + s * (1.0 - phi * phi).sqrt() * w
+}
+
+/// Exact two-state receiver clock step (Brown & Hwang eq. 9.3.9) of bias
+/// `b` [s] and drift `d` over `dt` with the oscillator of `cfg`, driven by
+/// the N(0,1) draws `w1`, `w2`.
+pub(crate) fn clock_step(cfg: &RawConfig, b: &mut f64, d: &mut f64, dt: f64, w1: f64, w2: f64) {
+    let (s_b, s_d) = (
+        0.5 * cfg.clock_h0,
+        2.0 * core::f64::consts::PI.powi(2) * cfg.clock_h_m2,
+    );
+    let q11 = s_b * dt + s_d * dt.powi(3) / 3.0;
+    let q12 = s_d * dt * dt / 2.0;
+    let q22 = s_d * dt;
+    let l11 = q11.sqrt();
+    let l21 = q12 / l11;
+    let l22 = (q22 - l21 * l21).max(0.0).sqrt();
+    *b += *d * dt + l11 * w1;
+    *d += l21 * w1 + l22 * w2;
+}
+
+/// The mask of the window containing true time `t` (full sky outside).
+pub(crate) fn window_mask(windows: &[MaskWindow], t: f64) -> SkyMask {
+    windows
+        .iter()
+        .find(|w| t >= w.start && t < w.end)
+        .map_or(SkyMask::Full, |w| w.mask)
+}
+
+/// Keep the satellites of `vis` (sorted by decreasing elevation; `el_az`
+/// gives a satellite's elevation and azimuth [rad]) that `mask` lets
+/// through for a course over ground `course` [rad].
+pub(crate) fn apply_mask<T>(
+    mask: SkyMask,
+    vis: &mut Vec<T>,
+    course: f64,
+    el_az: impl Fn(&T) -> (f64, f64),
+) {
+    match mask {
+        SkyMask::Full => {}
+        SkyMask::Highest(n) => vis.truncate(n),
+        SkyMask::Corridor {
+            half_width_rad,
+            min_el_rad,
+        } => vis.retain(|v| {
+            let (el, az) = el_az(v);
+            let da = navfuse_core::geodesy::wrap_pi(az - course).abs();
+            el >= min_el_rad || da <= half_width_rad || da >= core::f64::consts::PI - half_width_rad
+        }),
+    }
+}
+
 /// Simulate epochs at the true times `times` for the antenna whose ECEF
 /// position and velocity at true time `t` are `antenna(t)`.
 pub fn simulate_raw(
@@ -175,10 +232,6 @@ pub fn simulate_raw(
     let n01 = |r: &mut ChaCha8Rng| -> f64 { StandardNormal.sample(r) };
     let mut b = rng.gen_range(-1.0..1.0) * cfg.clock_bias0_max_s;
     let mut d = rng.gen_range(-1.0..1.0) * cfg.clock_drift0_max;
-    let (s_b, s_d) = (
-        0.5 * cfg.clock_h0,
-        2.0 * core::f64::consts::PI.powi(2) * cfg.clock_h_m2,
-    );
     // Per PRN: multipath, iono zenith, tropo zenith, satellite error, ambiguity, lock.
     let mut mp = [0.0f64; 64];
     let mut iono = [0.0f64; 64];
@@ -192,26 +245,15 @@ pub fn simulate_raw(
     }
     let mut amb = [0i64; 64];
     let mut lock = [-1.0f64; 64];
-    let gm = |x: f64, s: f64, tau: f64, dt: f64, w: f64| {
-        let phi = (-dt / tau).exp();
-        phi * x + s * (1.0 - phi * phi).sqrt() * w
-    };
+    let gm = gauss_markov;
     let mut out = Vec::with_capacity(times.len());
     let mut t_prev = f64::NAN;
     for &t in times {
         let dt = if t_prev.is_finite() { t - t_prev } else { 0.0 };
         t_prev = t;
         if dt > 0.0 {
-            // Exact two-state clock step (Brown & Hwang eq. 9.3.9), seconds.
-            let q11 = s_b * dt + s_d * dt.powi(3) / 3.0;
-            let q12 = s_d * dt * dt / 2.0;
-            let q22 = s_d * dt;
-            let l11 = q11.sqrt();
-            let l21 = q12 / l11;
-            let l22 = (q22 - l21 * l21).max(0.0).sqrt();
             let (w1, w2) = (n01(&mut rng), n01(&mut rng));
-            b += d * dt + l11 * w1;
-            d += l21 * w1 + l22 * w2;
+            clock_step(cfg, &mut b, &mut d, dt, w1, w2);
             for k in 0..64 {
                 mp[k] = gm(mp[k], 1.0, cfg.mp_tau_s, dt, n01(&mut rng));
                 iono[k] = gm(
@@ -240,11 +282,7 @@ pub fn simulate_raw(
             let v_n = cen * v_e;
             v_n.y.atan2(v_n.x)
         };
-        let mask = cfg
-            .windows
-            .iter()
-            .find(|w| t >= w.start && t < w.end)
-            .map_or(SkyMask::Full, |w| w.mask);
+        let mask = window_mask(&cfg.windows, t);
         // Tracked satellites: (el, az, orbit index, range, los_n).
         let mut vis: Vec<(f64, f64, usize, f64)> = Vec::new();
         for (i, o) in orbits.iter().enumerate() {
@@ -261,19 +299,7 @@ pub fn simulate_raw(
         }
         let n_tracked = vis.len();
         vis.sort_by(|a, b| b.0.total_cmp(&a.0));
-        match mask {
-            SkyMask::Full => {}
-            SkyMask::Highest(n) => vis.truncate(n),
-            SkyMask::Corridor {
-                half_width_rad,
-                min_el_rad,
-            } => vis.retain(|&(el, az, _, _)| {
-                let da = navfuse_core::geodesy::wrap_pi(az - course).abs();
-                el >= min_el_rad
-                    || da <= half_width_rad
-                    || da >= core::f64::consts::PI - half_width_rad
-            }),
-        }
+        apply_mask(mask, &mut vis, course, |v| (v.0, v.1));
         let stamp = t + b;
         let mut ep = RawEpoch::new(stamp);
         let present: Vec<u8> = vis.iter().map(|v| orbits[v.2].prn).collect();

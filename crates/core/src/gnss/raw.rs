@@ -19,6 +19,7 @@
 //! than a [`crate::types::GnssFix`] (so `Event` does not grow) and the
 //! epoch ends at the record flagged `obs.last_in_epoch`.
 
+use super::orbit_gnss::OrbitKind;
 use super::{KeplerOrbit, C_LIGHT};
 #[allow(unused_imports)]
 use crate::prelude::*;
@@ -66,10 +67,12 @@ impl GnssSystem {
     }
 }
 
-/// Signal of a record (the first civil signal of each system).
+/// Signal of a record: the first civil signal of each system (what the
+/// single-point and tightly coupled solutions use) and a second civil
+/// frequency of GPS, Galileo and BeiDou (dual-frequency RTK, issue 15).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
 pub enum Signal {
-    /// GPS L1 C/A, 1575.42 MHz (IS-GPS-200).
+    /// GPS L1 C/A, 1575.42 MHz (IS-GPS-200 §3.3.1.1).
     #[default]
     GpsL1Ca,
     /// Galileo E1, 1575.42 MHz (Galileo OS SIS ICD).
@@ -78,6 +81,14 @@ pub enum Signal {
     BdsB1I,
     /// GLONASS G1 FDMA: 1602 MHz + k · 0.5625 MHz (GLONASS ICD 5.1), k = `glo_fcn`.
     GloG1,
+    /// GPS L2C (CM + CL codes), 1227.60 MHz = 120 × 10.23 MHz
+    /// (IS-GPS-200 §3.3.1.1).
+    GpsL2C,
+    /// Galileo E5b, 1207.14 MHz = 118 × 10.23 MHz (Galileo OS SIS ICD 2.0
+    /// §2.3, Table 3).
+    GalE5b,
+    /// BeiDou B2I, 1207.14 MHz (BDS-SIS-ICD-B2I 1.0 §3.1).
+    BdsB2I,
 }
 
 impl Signal {
@@ -87,11 +98,80 @@ impl Signal {
             Signal::GpsL1Ca | Signal::GalE1 => 1575.42e6,
             Signal::BdsB1I => 1561.098e6,
             Signal::GloG1 => 1602.0e6 + glo_fcn as f64 * 0.5625e6,
+            Signal::GpsL2C => 1227.60e6,
+            Signal::GalE5b | Signal::BdsB2I => 1207.14e6,
         }
     }
     /// Carrier wavelength [m].
     pub fn wavelength_m(self, glo_fcn: i8) -> f64 {
         C_LIGHT / self.frequency_hz(glo_fcn)
+    }
+    /// The system that transmits the signal.
+    pub fn system(self) -> GnssSystem {
+        match self {
+            Signal::GpsL1Ca | Signal::GpsL2C => GnssSystem::Gps,
+            Signal::GalE1 | Signal::GalE5b => GnssSystem::Galileo,
+            Signal::BdsB1I | Signal::BdsB2I => GnssSystem::BeiDou,
+            Signal::GloG1 => GnssSystem::Glonass,
+        }
+    }
+    /// The system's first civil signal (the one single-frequency
+    /// solutions use).
+    pub fn first_of(system: GnssSystem) -> Signal {
+        match system {
+            GnssSystem::Gps => Signal::GpsL1Ca,
+            GnssSystem::Galileo => Signal::GalE1,
+            GnssSystem::BeiDou => Signal::BdsB1I,
+            GnssSystem::Glonass => Signal::GloG1,
+        }
+    }
+    /// The system's second civil frequency modelled here (none for GLONASS).
+    pub fn second_of(system: GnssSystem) -> Option<Signal> {
+        match system {
+            GnssSystem::Gps => Some(Signal::GpsL2C),
+            GnssSystem::Galileo => Some(Signal::GalE5b),
+            GnssSystem::BeiDou => Some(Signal::BdsB2I),
+            GnssSystem::Glonass => None,
+        }
+    }
+    /// True for the first civil signal of its system.
+    pub fn is_first(self) -> bool {
+        Signal::first_of(self.system()) == self
+    }
+    /// RINEX 3.04 observation codes (Table 4): pseudorange, carrier phase,
+    /// Doppler, C/N0. BeiDou B1I is band 2 (`C2I`, RINEX ≥ 3.02); E5b
+    /// band 7 pilot (`C7Q`); B2I band 7 (`C7I`); L2C the CL (pilot) code
+    /// (`C2L`), which receivers that track L2C in RINEX 3 mostly report.
+    pub fn rinex3_codes(self) -> [&'static str; 4] {
+        match self {
+            Signal::GpsL1Ca | Signal::GalE1 | Signal::GloG1 => ["C1C", "L1C", "D1C", "S1C"],
+            Signal::BdsB1I => ["C2I", "L2I", "D2I", "S2I"],
+            Signal::GpsL2C => ["C2L", "L2L", "D2L", "S2L"],
+            Signal::GalE5b => ["C7Q", "L7Q", "D7Q", "S7Q"],
+            Signal::BdsB2I => ["C7I", "L7I", "D7I", "S7I"],
+        }
+    }
+    /// The signal of a RINEX 3 observation code (`C1C`, `L2L`, `D7Q`, …)
+    /// of system letter `sys`; None for signals not modelled (P(Y), L5, E5a,
+    /// E6, B3, …). Attributes: GPS L1 `C`; L2C `S`/`L`/`X`; Galileo E1
+    /// `A B C X Z`; E5b `I Q X`; BeiDou B1I and B2I `I Q X`; GLONASS G1 `C`.
+    pub fn from_rinex3(sys: char, code: &str) -> Option<Signal> {
+        let b = code.as_bytes();
+        if b.len() != 3 || !b"CLDS".contains(&b[0]) {
+            return None;
+        }
+        let (band, attr) = (b[1], b[2]);
+        let s = match (sys, band) {
+            ('G', b'1') if attr == b'C' => Signal::GpsL1Ca,
+            ('G', b'2') if b"SLX".contains(&attr) => Signal::GpsL2C,
+            ('E', b'1') if b"ABCXZ".contains(&attr) => Signal::GalE1,
+            ('E', b'7') if b"IQX".contains(&attr) => Signal::GalE5b,
+            ('C', b'2') if b"IQX".contains(&attr) => Signal::BdsB1I,
+            ('C', b'7') if b"IQX".contains(&attr) => Signal::BdsB2I,
+            ('R', b'1') if attr == b'C' => Signal::GloG1,
+            _ => return None,
+        };
+        Some(s)
     }
 }
 
@@ -271,6 +351,29 @@ pub fn sat_state_from_kepler(orbit: &KeplerOrbit, t_rx: f64, pr: f64) -> SatStat
     }
 }
 
+/// [`SatState`] of a broadcast orbit of any Kepler system `kind` (GPS,
+/// Galileo, BeiDou MEO/IGSO/GEO; [`super::orbit_gnss`]) for a record
+/// received at `t_rx` with pseudorange `pr`: as [`sat_state_from_kepler`]
+/// (the same numbers for [`OrbitKind::Gps`]) with the system's constants;
+/// the clock carries the first-signal group delay `orbit.tgd`.
+pub fn sat_state_from_orbit(orbit: &KeplerOrbit, kind: OrbitKind, t_rx: f64, pr: f64) -> SatState {
+    use super::orbit_gnss::{clock_offset, position_ecef};
+    let t0 = t_rx - pr / C_LIGHT;
+    let t_tx = t0 - clock_offset(orbit, kind, t0);
+    let h = 5e-4;
+    let pos = |t: f64| position_ecef(orbit, kind, t);
+    let clk = |t: f64| clock_offset(orbit, kind, t);
+    SatState {
+        pos_e: pos(t_tx),
+        vel_e: (pos(t_tx + h) - pos(t_tx - h)) / (2.0 * h),
+        clock_m: (clk(t_tx) - orbit.tgd) * C_LIGHT,
+        clock_rate_mps: (clk(t_tx + h) - clk(t_tx - h)) / (2.0 * h) * C_LIGHT,
+        iono_m: 0.0,
+        var_m2: 0.0,
+        valid: orbit.health == 0,
+    }
+}
+
 /// Geometric range [m] from `rx_e` to a satellite at `sat_e` (ECEF of
 /// transmission), with the earth rotation during travel (Sagnac) to first
 /// order: `ρ = |r_s − r_r| + ω_e (x_s y_r − y_s x_r)/c` (RTKLIB `geodist`;
@@ -335,6 +438,46 @@ mod tests {
     fn wavelengths() {
         assert!((Signal::GpsL1Ca.wavelength_m(0) - 0.190293673).abs() < 1e-9);
         assert!((Signal::GloG1.frequency_hz(-7) - 1598.0625e6).abs() < 1.0);
+        // Second frequencies: 120 and 118 × 10.23 MHz.
+        assert_eq!(Signal::GpsL2C.frequency_hz(0), 120.0 * 10.23e6);
+        assert_eq!(Signal::GalE5b.frequency_hz(0), 118.0 * 10.23e6);
+        assert_eq!(Signal::BdsB2I.frequency_hz(0), 118.0 * 10.23e6);
+        assert!((Signal::GpsL2C.wavelength_m(0) - 0.244210213).abs() < 1e-9);
+        assert!((Signal::GalE5b.wavelength_m(0) - 0.248349369).abs() < 1e-9);
+    }
+
+    /// Every signal maps to its system, the first/second roles are
+    /// consistent, and the RINEX 3 codes map back to the signal.
+    #[test]
+    fn signal_roles_and_rinex_codes() {
+        let all = [
+            Signal::GpsL1Ca,
+            Signal::GalE1,
+            Signal::BdsB1I,
+            Signal::GloG1,
+            Signal::GpsL2C,
+            Signal::GalE5b,
+            Signal::BdsB2I,
+        ];
+        for s in all {
+            let sys = s.system();
+            assert_eq!(s.is_first(), Signal::first_of(sys) == s);
+            assert!(s.is_first() || Signal::second_of(sys) == Some(s));
+            for c in s.rinex3_codes() {
+                assert_eq!(Signal::from_rinex3(sys.letter(), c), Some(s), "{c}");
+            }
+        }
+        assert_eq!(all.iter().filter(|s| s.is_first()).count(), 4);
+        // Signals not modelled: GPS P(Y) and L5, Galileo E5a, BeiDou B3I.
+        for (sys, c) in [
+            ('G', "C2W"),
+            ('G', "L5Q"),
+            ('E', "C5Q"),
+            ('C', "C6I"),
+            ('G', "X1C"),
+        ] {
+            assert_eq!(Signal::from_rinex3(sys, c), None, "{sys}{c}");
+        }
     }
 
     /// Range from the Kepler state agrees with the light-time iteration of
@@ -362,6 +505,7 @@ mod tests {
         let t = o.t_oe + 3000.0;
         let truth = super::super::sat_at_receive(&o, &rx, t);
         let s = sat_state_from_kepler(&o, t, truth.range);
+        assert_eq!(s, sat_state_from_orbit(&o, OrbitKind::Gps, t, truth.range));
         let (rho, los) = geometric_range(&s.pos_e, &rx);
         // First-order Sagnac against the exact rotation: ~1 cm.
         assert!((rho - truth.range).abs() < 0.02, "{}", rho - truth.range);

@@ -311,6 +311,10 @@ pub struct TightStats {
     pub epochs_stale: u64,
     /// Records beyond an epoch's capacity.
     pub records_dropped: u64,
+    /// Records of a signal other than its system's first civil one (a
+    /// second frequency): the tight filter is single-frequency (one code
+    /// bias and one ionosphere per satellite), so they are skipped here.
+    pub records_other_signal: u64,
     /// Clock (re)initialisations (first epoch, receiver clock jumps).
     pub clock_inits: u64,
     /// Per system and PRN (index `system.index() * 64 + prn % 64`).
@@ -327,6 +331,7 @@ impl Default for TightStats {
             epochs: 0,
             epochs_stale: 0,
             records_dropped: 0,
+            records_other_signal: 0,
             clock_inits: 0,
             per_sat: [SatCounts::default(); 256],
             nis_pr: (0.0, 0),
@@ -469,7 +474,9 @@ impl Tight {
         if self.building.n == 0 {
             self.building = RawEpoch::new(r.obs.t);
         }
-        if !self.building.push(*r) {
+        if !r.obs.signal.is_first() {
+            self.stats.records_other_signal += 1;
+        } else if !self.building.push(*r) {
             self.stats.records_dropped += 1;
         }
         if r.obs.last_in_epoch {

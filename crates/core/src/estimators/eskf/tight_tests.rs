@@ -143,6 +143,70 @@ fn works_with_eight_three_two_and_one_satellites() {
     let _ = C_LIGHT;
 }
 
+/// Second-frequency records (GPS L2C here) do not enter the single-frequency
+/// tight filter: a run fed each epoch plus an L2C copy of every record
+/// (pseudorange off by 100 m, which would move the solution if used), one
+/// of them last in the epoch, ends in exactly the state of the run fed L1
+/// only, and the copies are counted.
+#[test]
+fn second_frequency_records_are_skipped_and_counted() {
+    let g = crate::earth::gravity(LAT, H);
+    let nav = NavState {
+        lat: LAT,
+        lon: LON,
+        h: H,
+        ..Default::default()
+    };
+    let std = InitStd {
+        pos: Vec3::repeat(3.0),
+        vel: Vec3::repeat(0.1),
+        att: Vec3::repeat(0.01),
+        bg: Vec3::zeros(),
+        ba: Vec3::zeros(),
+        sg: Vec3::zeros(),
+        sa: Vec3::zeros(),
+    };
+    let run = |dual: bool| {
+        let mut f = Eskf::new(EskfConfig::seed001(), nav, ImuErrors::default(), &std)
+            .with_tight_coupling(TightConfig::consumer())
+            .unwrap();
+        for k in 1..=2_000u32 {
+            let t = T0 + k as f64 * 0.01;
+            f.push(&Event::Imu(ImuSample {
+                t,
+                dt: 0.01,
+                dtheta_b: Vec3::zeros(),
+                dvel_b: Vec3::new(0.0, 0.0, -g * 0.01),
+            }));
+            if k % 100 == 0 {
+                let l1 = epoch(t, 6, 3.0e5, 0.0);
+                let mut ep = RawEpoch::new(t);
+                for s in l1.sats() {
+                    ep.push(*s);
+                    if dual {
+                        let mut s2 = *s;
+                        s2.obs.signal = Signal::GpsL2C;
+                        s2.obs.pseudorange_m += 100.0;
+                        ep.push(s2);
+                    }
+                }
+                for e in ep.events() {
+                    f.push(&e);
+                }
+            }
+        }
+        f
+    };
+    let (a, b) = (run(false), run(true));
+    assert_eq!(a.nav(), b.nav());
+    let (sa, sb) = (a.tight_stats().unwrap(), b.tight_stats().unwrap());
+    assert_eq!(sa.total(), sb.total());
+    assert_eq!(sa.epochs, sb.epochs);
+    assert!(sa.epochs >= 19, "{}", sa.epochs);
+    assert_eq!(sa.records_other_signal, 0);
+    assert_eq!(sb.records_other_signal, 6 * 20);
+}
+
 /// Cost of one tightly coupled epoch with 20 satellites (pseudorange +
 /// Doppler each, issue 14 must-show 4): the same 600 s at 100 Hz with and
 /// without the raw records, the two runs alternating 7 times; the median
