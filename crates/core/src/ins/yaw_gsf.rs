@@ -74,6 +74,20 @@ const WEIGHT_FLOOR: f64 = 1e-7;
 /// glitch, unmodelled shock) are skipped.
 const TILT_GATE: f64 = 13.815_510_557_964_274;
 
+/// Longest span [s] over which a GNSS velocity change counts as a seen
+/// horizontal acceleration ([`YawEstimate::horizontal_accel_seen`]). Why:
+/// yaw is observable from how the horizontal velocity *changed* while the
+/// specific force was integrated, not from how fast; a 1 s difference
+/// misses the slow manoeuvres of boats (≤ 0.5 m/s², 0 → 5 m/s in 10 s) and
+/// walkers under consumer GNSS (5σ of a 1 s difference with 0.1 m/s
+/// velocity noise is 0.7 m/s²). Over 10 s a consumer gyro's turn-on bias
+/// (0.5°/s) has turned the frame by 5°, still inside the members'
+/// small-angle region; longer spans would let the unestimated bias fake or
+/// hide the change.
+pub const ACCEL_SPAN_S: f64 = 10.0;
+/// Stored past velocities for [`ACCEL_SPAN_S`] (one per ≥ 1 s).
+const VEL_HISTORY: usize = 10;
+
 /// Largest |t_gnss − t_imu| [s] accepted: the GNSS velocity is extrapolated
 /// from the last IMU sample over this gap at most (events must come in time order).
 const MAX_GNSS_IMU_GAP: f64 = 0.2;
@@ -153,7 +167,9 @@ pub struct YawEstimate {
     /// `std < converged_std` and a significant horizontal acceleration was seen.
     pub converged: bool,
     /// Largest significant horizontal acceleration seen from GNSS [m/s²]
-    /// (0 while none exceeded `accel_significance` σ).
+    /// (0 while none exceeded `accel_significance` σ): from consecutive
+    /// velocities, or the mean over a velocity change within
+    /// [`ACCEL_SPAN_S`] that exceeded `accel_significance` σ.
     pub horizontal_accel_seen: f64,
 }
 
@@ -235,6 +251,9 @@ pub struct YawGsf {
     weights: [f64; GSF_MODELS],
     bank_started: bool,
     accel_seen: f64,
+    /// GNSS velocities of the last [`ACCEL_SPAN_S`], one per ≥ 1 s (ring).
+    vel_hist: [Option<GnssEpoch>; VEL_HISTORY],
+    vel_hist_next: usize,
 }
 
 impl YawGsf {
@@ -261,6 +280,8 @@ impl YawGsf {
             weights: [1.0 / GSF_MODELS as f64; GSF_MODELS],
             bank_started: false,
             accel_seen: 0.0,
+            vel_hist: [None; VEL_HISTORY],
+            vel_hist_next: 0,
         }
     }
 
@@ -443,6 +464,7 @@ impl YawGsf {
             if a_h > self.cfg.accel_significance * var_a.sqrt() {
                 self.accel_seen = self.accel_seen.max(a_h);
             }
+            self.velocity_change_seen(t, v_n, std_v_n);
             if self.acc_t > 0.0 {
                 let f_mean = self.acc_dv_a / self.acc_t;
                 let (s, c) = psi_mean.sin_cos();
@@ -473,12 +495,38 @@ impl YawGsf {
         } else {
             self.update_bank(v_n, &r, dt_x);
         }
-        self.last_gnss = Some(GnssEpoch {
+        let now = GnssEpoch {
             t,
             v_n: *v_n,
             std: *std_v_n,
-        });
+        };
+        self.last_gnss = Some(now);
+        let prev = (self.vel_hist_next + VEL_HISTORY - 1) % VEL_HISTORY;
+        if self.vel_hist[prev].is_none_or(|e| t - e.t >= 1.0 - 1e-6) {
+            self.vel_hist[self.vel_hist_next] = Some(now);
+            self.vel_hist_next = (self.vel_hist_next + 1) % VEL_HISTORY;
+        }
         Ok(())
+    }
+
+    /// The horizontal velocity change against each stored velocity of the
+    /// last [`ACCEL_SPAN_S`]: significant when it exceeds
+    /// `accel_significance` σ of the difference (per-axis variance
+    /// `(σ²_N,0 + σ²_E,0 + σ²_N,1 + σ²_E,1)/2`, as the 1 s test); counted as
+    /// its mean acceleration.
+    fn velocity_change_seen(&mut self, t: f64, v_n: &Vec3, std_v_n: &Vec3) {
+        for e in self.vel_hist.iter().flatten() {
+            let dt = t - e.t;
+            if dt <= 0.0 || dt > ACCEL_SPAN_S + 1e-6 {
+                continue;
+            }
+            let dv = (v_n - e.v_n).xy().norm();
+            let var =
+                (e.std.x.powi(2) + e.std.y.powi(2) + std_v_n.x.powi(2) + std_v_n.y.powi(2)) / 2.0;
+            if dv > self.cfg.accel_significance * var.sqrt() {
+                self.accel_seen = self.accel_seen.max(dv / dt);
+            }
+        }
     }
 
     /// EKF velocity update of every model and the Gaussian-sum weight update
