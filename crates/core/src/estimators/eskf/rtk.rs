@@ -150,8 +150,9 @@ pub struct RtkConfig {
     pub fix_and_hold: bool,
     /// GNSS-only kinematic mode: before each update the position and
     /// velocity lose their INS prediction (rows/columns zeroed, variance
-    /// `(gnss_only_sigma)²` per axis, m and m/s), as RTKLIB kinematic mode
-    /// re-initialises the position each epoch. For comparison runs.
+    /// `(gnss_only_sigma)²` per axis, m and m/s; the position restarts from
+    /// the last epoch's solution), as RTKLIB kinematic mode without
+    /// dynamics re-initialises the position each epoch. For comparison runs.
     pub gnss_only: bool,
     pub gnss_only_sigma: f64,
 }
@@ -475,6 +476,8 @@ pub(super) struct Rtk {
     p_aa: SMatrix<f64, NK, NK>,
     /// The clone holds a previous epoch's position error.
     clone_set: bool,
+    /// Posterior IMU position (lat, lon, h) of the last epoch.
+    last_pos: Option<(f64, f64, f64)>,
     slots: [Slot; NAMB],
     /// Reference PRN of each (system, signal) group last epoch.
     refs: [(Option<(GnssSystem, Signal)>, u8); NGROUP],
@@ -494,6 +497,7 @@ impl Rtk {
             p_xa: SMatrix::zeros(),
             p_aa: SMatrix::zeros(),
             clone_set: false,
+            last_pos: None,
             slots: [Slot::default(); NAMB],
             refs: [(None, 0); NGROUP],
             gate: kalman::chi2_quantile(1, cfg.gate_probability),
@@ -803,6 +807,15 @@ impl Eskf {
             .map(|r| r.cfg)
             .ok_or(RtkError::NotEnabled)?;
         if cfg.gnss_only {
+            // No INS prediction: the position restarts from the last
+            // epoch's (RTKLIB kinematic without dynamics restarts from the
+            // epoch's single-point position with σ 30 m, `udpos`).
+            if let Some((lat, lon, h)) = self.rtk.as_ref().and_then(|r| r.last_pos) {
+                self.nav.lat = lat;
+                self.nav.lon = lon;
+                self.nav.h = h;
+            }
+            self.recentre_on_code(rover, base, base_e, &cfg);
             let s2 = cfg.gnss_only_sigma * cfg.gnss_only_sigma;
             for k in I_POS..I_VEL + 3 {
                 for j in 0..NX {
@@ -1178,10 +1191,106 @@ impl Eskf {
             sl.prev_var = r.v_phi;
         }
         rt.set_clone(&self.p);
+        if n_code + n_phase > 0 {
+            rt.last_pos = Some((self.nav.lat, self.nav.lon, self.nav.h));
+        }
         sol.t = self.t;
         sol.n_code = n_code;
         sol.n_phase = n_phase;
         Ok(sol)
+    }
+
+    /// GNSS-only mode: move the position onto the code-DD least-squares
+    /// solution (unweighted, 4 Gauss–Newton steps; the relative-mode analogue
+    /// of RTKLIB's single-point prior), so a car that moved while the
+    /// satellites were gone does not start hundreds of metres off.
+    fn recentre_on_code(
+        &mut self,
+        rover: &RawEpoch,
+        base: &RawEpoch,
+        base_e: &Vec3,
+        cfg: &RtkConfig,
+    ) {
+        for _ in 0..4 {
+            let a = self.rtk_antenna();
+            let doy = day_of_year(rover.t);
+            let bg = crate::geodesy::ecef_to_geodetic(base_e);
+            // (group, el, u_n, code residual meas − pred) per record.
+            let mut rows = [(
+                (GnssSystem::Gps, Signal::GpsL1Ca),
+                0.0f64,
+                Vec3::zeros(),
+                0.0f64,
+            ); MAX_RAW_SATS];
+            let mut n = 0usize;
+            for s in rover.sats() {
+                let o = &s.obs;
+                if !s.sat.valid || !o.pseudorange_m.is_finite() || o.system == GnssSystem::Glonass {
+                    continue;
+                }
+                let Some(b) = base.sats().iter().find(|b| {
+                    b.obs.system == o.system
+                        && b.obs.prn == o.prn
+                        && b.obs.signal == o.signal
+                        && b.sat.valid
+                        && b.obs.pseudorange_m.is_finite()
+                }) else {
+                    continue;
+                };
+                let (rho_r, los) = geometric_range(&s.sat.pos_e, &a.r_e);
+                let u_n = a.c_en * los;
+                let el = (-u_n.z).clamp(-1.0, 1.0).asin();
+                if el < cfg.elevation_mask_rad {
+                    continue;
+                }
+                let (rho_b, _) = geometric_range(&b.sat.pos_e, base_e);
+                let t_r = slant_delay(el, a.lat, a.h, doy, cfg.humidity);
+                let t_b = slant_delay(el, bg.lat, bg.h, doy, cfg.humidity);
+                let pred = (rho_r - s.sat.clock_m + t_r) - (rho_b - b.sat.clock_m + t_b);
+                rows[n] = (
+                    (o.system, o.signal),
+                    el,
+                    u_n,
+                    (o.pseudorange_m - b.obs.pseudorange_m) - pred,
+                );
+                n += 1;
+            }
+            let mut nm = Mat3::zeros();
+            let mut rhs = Vec3::zeros();
+            let mut m = 0usize;
+            for i in 0..n {
+                // Reference of the group: its highest satellite.
+                let mut r = i;
+                for j in 0..n {
+                    if rows[j].0 == rows[i].0 && rows[j].1 > rows[r].1 {
+                        r = j;
+                    }
+                }
+                if r == i {
+                    continue;
+                }
+                let hrow = -(rows[i].2 - rows[r].2);
+                let dz = -(rows[i].3 - rows[r].3);
+                nm += hrow * hrow.transpose();
+                rhs += hrow * dz;
+                m += 1;
+            }
+            if m < 3 {
+                return;
+            }
+            let Some(inv) = nm.try_inverse() else { return };
+            let dr = inv * rhs;
+            if !dr.iter().all(|v| v.is_finite()) {
+                return;
+            }
+            let (rm, rn) = earth::radii(self.nav.lat);
+            self.nav.lat -= dr[0] / (rm + self.nav.h);
+            self.nav.lon -= dr[1] / ((rn + self.nav.h) * self.nav.lat.cos());
+            self.nav.h += dr[2];
+            if dr.norm() < 0.01 {
+                return;
+            }
+        }
     }
 
     /// LAMBDA with partial ambiguity resolution on the DD ambiguities of
