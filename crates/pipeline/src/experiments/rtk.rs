@@ -27,6 +27,7 @@
 //! Filters (both from the truth of the first IMU interval, car profile
 //! with its NHC, the IMU grade's noise; [`RtkConfig::consumer`]):
 //! - **with INS**: [`Eskf::with_rtk`];
+//! - **with INS, fix-and-hold**: the same with [`RtkConfig::fix_and_hold`];
 //! - **without INS**: the same with [`RtkConfig::gnss_only`]: before each
 //!   epoch the position and velocity lose their INS prediction (σ 30 m,
 //!   30 m/s, cross terms zeroed; RTKLIB kinematic re-initialises the
@@ -111,6 +112,10 @@ pub struct Options {
     /// Write the report as JSON to FILE.
     #[cfg_attr(feature = "clap", arg(long))]
     pub json: Option<PathBuf>,
+    /// Ablation only: the bootstrapped success-rate threshold (default
+    /// [`RtkConfig::rtklib`]'s 0.999; 0 turns the check off, ratio only).
+    #[cfg_attr(feature = "clap", arg(long))]
+    pub success_min: Option<f64>,
 }
 
 /// Scores of one filter (means over seeds unless said).
@@ -166,6 +171,8 @@ pub struct Scores {
 pub struct GradeReport {
     pub with_ins: Scores,
     pub without_ins: Scores,
+    /// With the INS and fix-and-hold ([`RtkConfig::fix_and_hold`]).
+    pub with_ins_hold: Scores,
 }
 
 /// The report (`--json`): the keys (consumer MEMS, means over
@@ -207,7 +214,7 @@ struct RunOut {
 }
 
 /// One seed and grade's outcome: with and without the INS.
-type Job = (u64, ImuGrade, Result<(RunOut, RunOut), String>);
+type Job = (u64, ImuGrade, Result<[RunOut; 3], String>);
 
 /// The car filter of `grade` at the truth of the first IMU interval
 /// ([`super::aiding::car_filter_at_truth`] with the grade's noise).
@@ -396,7 +403,8 @@ fn run_seed(
     grade: ImuGrade,
     duration: f64,
     orbits: &[KeplerOrbit],
-) -> Result<(RunOut, RunOut), String> {
+    rc: RtkConfig,
+) -> Result<[RunOut; 3], String> {
     let opts = PlatformOptions {
         duration_s: duration,
         static_start: true,
@@ -500,15 +508,25 @@ fn run_seed(
         slip_prn,
     };
     let with = car_filter(traj, d.lever, grade)?
-        .with_rtk(RtkConfig::consumer())
+        .with_rtk(rc)
         .map_err(|e| e.to_string())?;
     let without = car_filter(traj, d.lever, grade)?
         .with_rtk(RtkConfig {
             gnss_only: true,
-            ..RtkConfig::consumer()
+            ..rc
         })
         .map_err(|e| e.to_string())?;
-    Ok((run_filter(&d, with)?, run_filter(&d, without)?))
+    let hold = car_filter(traj, d.lever, grade)?
+        .with_rtk(RtkConfig {
+            fix_and_hold: true,
+            ..rc
+        })
+        .map_err(|e| e.to_string())?;
+    Ok([
+        run_filter(&d, with)?,
+        run_filter(&d, without)?,
+        run_filter(&d, hold)?,
+    ])
 }
 
 fn mean(v: &[f64]) -> Option<f64> {
@@ -577,6 +595,11 @@ pub fn run_rtk(o: &Options) -> Result<RtkReport, ExperimentError> {
         )));
     }
     let (orbits, orbit_name) = super::tight::load_orbits(o.almanac.as_ref());
+    let mut rc = RtkConfig::consumer();
+    if let Some(p) = o.success_min {
+        // 0 = off: any success rate passes.
+        rc.success_min = p.max(f64::MIN_POSITIVE);
+    }
     let ids: Vec<u64> = (o.seed0..o.seed0 + o.seeds).collect();
     let grades = [ImuGrade::Industrial, ImuGrade::Consumer];
     let jobs: Vec<(u64, ImuGrade)> = ids
@@ -585,21 +608,22 @@ pub fn run_rtk(o: &Options) -> Result<RtkReport, ExperimentError> {
         .collect();
     let res: Vec<Job> = super::on_worker_pool(|| {
         jobs.par_iter()
-            .map(|&(s, g)| (s, g, run_seed(s, g, o.duration, &orbits)))
+            .map(|&(s, g)| (s, g, run_seed(s, g, o.duration, &orbits, rc)))
             .collect()
     });
     let mut failed = Vec::new();
     let mut by_imu = BTreeMap::new();
     for g in grades {
-        let (mut w, mut wo) = (Vec::new(), Vec::new());
+        let (mut w, mut wo, mut wh) = (Vec::new(), Vec::new(), Vec::new());
         for (s, gg, r) in &res {
             if *gg != g {
                 continue;
             }
             match r {
-                Ok((a, b)) => {
+                Ok([a, b, c]) => {
                     w.push(a.clone());
                     wo.push(b.clone());
+                    wh.push(c.clone());
                 }
                 Err(e) => failed.push((*s, format!("{}: {e}", g.preset()))),
             }
@@ -609,6 +633,7 @@ pub fn run_rtk(o: &Options) -> Result<RtkReport, ExperimentError> {
             GradeReport {
                 with_ins: scores(&w),
                 without_ins: scores(&wo),
+                with_ins_hold: scores(&wh),
             },
         );
     }
@@ -661,7 +686,11 @@ pub fn run(o: Options) -> Result<(), ToolError> {
         "4-sat fix"
     );
     for (g, gr) in &r.by_imu {
-        for (name, s) in [("with", &gr.with_ins), ("without", &gr.without_ins)] {
+        for (name, s) in [
+            ("with", &gr.with_ins),
+            ("without", &gr.without_ins),
+            ("hold", &gr.with_ins_hold),
+        ] {
             println!(
                 "{:<12} {:<8} {:>9} {:>10} {:>10} {:>8.1} {:>8.2} {:>9} {:>11} {:>9.2}",
                 g,

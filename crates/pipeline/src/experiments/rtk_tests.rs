@@ -17,6 +17,7 @@ fn rtk_ins_fixes_right_and_refixes_faster_than_gnss_only() {
         duration: 500.0,
         almanac: None,
         json: None,
+        success_min: None,
     };
     let r = run_rtk(&o).unwrap();
     assert!(r.failed.is_empty(), "{:?}", r.failed);
