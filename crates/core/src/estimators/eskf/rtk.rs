@@ -44,8 +44,13 @@
 //! the receiver's code model ([`RtkConfig::code_model`]). SD variance
 //! `v_i = σ²_rover,i + σ²_base,i`; the exact DD covariance
 //! `C = diag(v_i) + v_r 1 1ᵀ` (correlated through the reference). Each DD is
-//! first χ²-gated on its own (one degree of freedom, marginal innovation
-//! variance; counted by satellite); the accepted ones are whitened with the
+//! first χ²-gated on its own (one degree of freedom, its innovation against
+//! the state updated by the groups processed before it, variance
+//! `h P hᵀ + C_ii`; counted by satellite). A phase DD beyond its gate
+//! re-initialises its ambiguity (in practice a slip the test missed),
+//! unless most DDs of its group fail, which blames the reference (its slot
+//! is re-initialised and the group's phase skipped this epoch,
+//! [`RtkSatCounts::ref_resets`]). The accepted ones are whitened with the
 //! Cholesky factor `C = L Lᵀ` (`z̃ = L⁻¹ z`, `H̃ = L⁻¹ H`) and processed as
 //! independent scalar updates, which equals the vector update
 //! (`rtk_tests::whitened_equals_vector_update`).
