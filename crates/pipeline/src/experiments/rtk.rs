@@ -142,6 +142,10 @@ pub struct Scores {
     /// window [m], and the fixed share of its epochs.
     pub partial_sky_h_m: Option<f64>,
     pub partial_sky_fixed_share: f64,
+    /// Share of epochs whose horizontal error is inside the 95 % ellipse
+    /// of the reported σ (χ²₂ = 5.991): fixed solutions, float solutions.
+    pub coverage95_fixed: f64,
+    pub coverage95_float: f64,
     /// Mean phase DDs used per epoch with satellites.
     pub mean_phase_dd: f64,
     /// Injected slips caught by the slip test / by the DD gate / missed.
@@ -209,6 +213,8 @@ struct RunOut {
     stats: Option<RtkStats>,
     max_dt: f64,
     n_phase: usize,
+    /// (inside, scored) of the 95 % coverage: fixed, float.
+    cover: [(usize, usize); 2],
     /// The injected slip: 0 detected, 1 gated, 2 missed.
     slip_outcome: Option<u8>,
 }
@@ -340,12 +346,21 @@ fn run_filter(d: &Drive, mut f: Eskf) -> Result<RunOut, String> {
         let (n, e) = super::h_error_ne(sol.pos.lat, sol.pos.lon, &tr);
         let h_err = n.hypot(e);
         let (fnn, fe) = super::h_error_ne(sol.float_pos.lat, sol.float_pos.lon, &tr);
+        let inside = |n: f64, e: f64, s: &Vec3| (n / s.x).powi(2) + (e / s.y).powi(2) <= 5.991;
         if re.epoch.n > 0 {
             out.epochs += 1;
             out.n_phase += sol.n_phase;
+            out.cover[1].1 += 1;
+            if inside(fnn, fe, &sol.float_std_ned) {
+                out.cover[1].0 += 1;
+            }
             out.float_h2.push(fnn * fnn + fe * fe);
         }
         if sol.fixed {
+            out.cover[0].1 += 1;
+            if inside(n, e, &sol.std_ned) {
+                out.cover[0].0 += 1;
+            }
             out.first_fix.get_or_insert(sol.t - t_first);
             out.fixed_h2.push(h_err * h_err);
             let up = sol.pos.h - tr.h;
@@ -556,6 +571,18 @@ fn scores(v: &[RunOut]) -> Scores {
         refix_censored: v.iter().filter(|r| r.refix_censored).count(),
         partial_sky_h_m: mean(&partial),
         partial_sky_fixed_share: pf.0 as f64 / pf.1.max(1) as f64,
+        coverage95_fixed: {
+            let c = v
+                .iter()
+                .fold((0, 0), |a, r| (a.0 + r.cover[0].0, a.1 + r.cover[0].1));
+            c.0 as f64 / c.1.max(1) as f64
+        },
+        coverage95_float: {
+            let c = v
+                .iter()
+                .fold((0, 0), |a, r| (a.0 + r.cover[1].0, a.1 + r.cover[1].1));
+            c.0 as f64 / c.1.max(1) as f64
+        },
         mean_phase_dd: v.iter().map(|r| r.n_phase).sum::<usize>() as f64
             / v.iter().map(|r| r.epochs).sum::<usize>().max(1) as f64,
         injected_slip_detected: v.iter().filter(|r| r.slip_outcome == Some(0)).count(),
@@ -705,8 +732,8 @@ pub fn run(o: Options) -> Result<(), ToolError> {
                 s.partial_sky_fixed_share
             );
             println!(
-                "{:<21} phase DD/epoch {:.1}; injected slip caught by test {} / gate {} / missed {}; slips {} lli {} phase gated {} code gated {} ref resets {}; fix: {} attempts, {} fixed ({} partial), rejected {} success rate / {} ratio / {} too few; NIS code {:.2} phase {:.2}; >5 cm fixed {:.2}; refix censored {}; never fixed {}",
-                "", s.mean_phase_dd, s.injected_slip_detected, s.injected_slip_gated, s.injected_slip_missed, s.slips, s.lli_resets, s.phase_gated, s.code_gated, s.ref_resets, s.fix_attempts, s.fixed, s.fixed_partial,
+                "{:<21} cov95 fixed {:.3} float {:.3}; phase DD/epoch {:.1}; injected slip caught by test {} / gate {} / missed {}; slips {} lli {} phase gated {} code gated {} ref resets {}; fix: {} attempts, {} fixed ({} partial), rejected {} success rate / {} ratio / {} too few; NIS code {:.2} phase {:.2}; >5 cm fixed {:.2}; refix censored {}; never fixed {}",
+                "", s.coverage95_fixed, s.coverage95_float, s.mean_phase_dd, s.injected_slip_detected, s.injected_slip_gated, s.injected_slip_missed, s.slips, s.lli_resets, s.phase_gated, s.code_gated, s.ref_resets, s.fix_attempts, s.fixed, s.fixed_partial,
                 s.rejected_success_rate, s.rejected_ratio, s.rejected_too_few, s.mean_nis_code, s.mean_nis_phase,
                 s.fixed_over_5cm, s.refix_censored, s.never_fixed
             );
