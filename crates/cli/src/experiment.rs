@@ -3,7 +3,7 @@
 //! of [`navfuse_pipeline::experiments`].
 
 use clap::{Args as ClapArgs, Subcommand};
-use navfuse_pipeline::experiments::{aiding, seed002, seed003, seed004, tight};
+use navfuse_pipeline::experiments::{aiding, rtk, seed002, seed003, seed004, tight};
 
 /// Reproduce a seed paper's experiment and print its table beside ours.
 #[derive(ClapArgs, Debug)]
@@ -28,6 +28,8 @@ pub enum Which {
     Aiding(aiding::Options),
     /// Issue 14: tightly vs loosely coupled under a 2/3-satellite sky (simulated car, consumer MEMS, raw GNSS).
     Tight(tight::Options),
+    /// Issue 15: RTK/INS against a simulated base (car, industrial and consumer MEMS): first fix, re-fix after an outage, wrong fixes.
+    Rtk(rtk::Options),
     /// Soak `navfuse live` against a looping replay server: memory, CPU, latency, reconnects.
     Soak(crate::live::soak::Args),
 }
@@ -41,6 +43,7 @@ pub fn run(args: Args) -> Result<(), String> {
         Which::Align(a) => crate::exp_platform::align(a),
         Which::Aiding(a) => Ok(aiding::run(a)?),
         Which::Tight(a) => Ok(tight::run(a)?),
+        Which::Rtk(a) => Ok(rtk::run(a)?),
         Which::Soak(a) => crate::live::soak::run(a),
     }
 }

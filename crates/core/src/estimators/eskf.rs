@@ -52,6 +52,7 @@ use nalgebra::{SMatrix, SVector};
 
 mod aiding;
 mod aug;
+mod rtk;
 mod sens;
 mod tight;
 pub use aiding::{AidingConfig, AidingStats, MAX_LAG_S};
@@ -59,6 +60,10 @@ use aug::{gated_update, Aug};
 pub use aug::{
     AugConfigError, AugSmootherRecord, AugmentedEstimate, AugmentedStates, GnssErrorStates,
     NhcMountStates, TimeOffsetState, IA_GNSS, IA_MNT, IA_ODO, IA_TAU, NA, NF,
+};
+pub use rtk::{
+    receiver_clock_bias_m, AmbKey, FixedDd, RtkConfig, RtkConfigError, RtkError, RtkSatCounts,
+    RtkSolution, RtkStats, NAMB,
 };
 use sens::Sens;
 pub use sens::SensitivityModel;
@@ -931,6 +936,8 @@ pub struct Eskf {
     sens_w: Option<Sens>,
     /// Tight coupling to raw GNSS (`None`: off, the plain filter).
     tight: Option<tight::Tight>,
+    /// RTK ambiguity block (`None`: off; module `rtk`).
+    rtk: Option<rtk::Rtk>,
 }
 
 /// The adaptive parts of the filter (all `None` by default).
@@ -1071,6 +1078,7 @@ impl Eskf {
             sens_s: None,
             sens_w: None,
             tight: None,
+            rtk: None,
             cfg,
         }
         .with_odometer_scale()
@@ -1184,7 +1192,7 @@ impl Eskf {
     /// smoothed σ change. Refused (`Err`) when the filter already models
     /// the GNSS error as Gauss–Markov states or `m` is invalid.
     pub fn start_sensitivity(&mut self, m: SensitivityModel) -> Result<(), AugConfigError> {
-        if self.tight.is_some() {
+        if self.tight.is_some() || self.rtk.is_some() {
             return Err(AugConfigError::TightCoupling);
         }
         let odo = self.cfg.aiding.odometer.as_ref();
@@ -1428,6 +1436,9 @@ impl Eskf {
         if let Some(tc) = &mut self.tight {
             tc.propagate(&self.f_sparse, dt);
         }
+        if let Some(r) = &mut self.rtk {
+            r.propagate(&self.f_sparse, dt);
+        }
     }
 
     /// `F` blocks at `s` (the state at the start of the interval), KF-GINS's
@@ -1632,10 +1643,13 @@ impl Eskf {
             // sensitivity covariance is not started then
             // ([`Eskf::start_sensitivity`]).
             None => match &mut self.tight {
-                None => {
-                    let k = want_k.then_some(&mut k_x);
-                    gated_update(&mut dx, &mut self.p, h, r, dz, g, fd, None, k)
-                }
+                None => match &mut self.rtk {
+                    None => {
+                        let k = want_k.then_some(&mut k_x);
+                        gated_update(&mut dx, &mut self.p, h, r, dz, g, fd, None, k)
+                    }
+                    Some(a) => a.joint_update(&mut dx, &mut self.p, h, r, dz, g, fd),
+                },
                 Some(t) => t.joint_update(&mut dx, &mut self.p, h, r, dz, g, fd),
             },
             Some(a) => {
@@ -2259,6 +2273,8 @@ mod adaptive_tests;
 mod aiding_tests;
 #[cfg(test)]
 mod aug_tests;
+#[cfg(test)]
+mod rtk_tests;
 #[cfg(test)]
 mod tight_tests;
 

@@ -23,6 +23,7 @@ pub mod generalise;
 #[cfg(test)]
 mod honesty_diag;
 pub mod paired;
+pub mod rtk;
 mod score;
 pub mod seed002;
 pub mod seed003;

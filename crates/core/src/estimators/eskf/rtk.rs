@@ -1,0 +1,1595 @@
+//! RTK/INS (issue 15): carrier-phase and code double differences (DD)
+//! between the rover and a static base station, in the ESKF, with float
+//! ambiguities, INS-predicted cycle-slip detection and LAMBDA fixing.
+//! Off by default; the plain filter and the tight path do not run any of
+//! this and stay bit-identical ([`Eskf::with_rtk`]).
+//!
+//! **Ambiguity states** ([`NAMB`] slots, kept outside the 21×21 covariance
+//! as the clock block of [`super::tight`]: `P = [[P_xx, P_xa], [P_xaᵀ,
+//! P_aa]]`): one *single-difference* (rover − base) ambiguity [cycles] per
+//! (system, PRN, signal). Single-difference states rather than DD states
+//! (RTKLIB `rtkpos.c` does the same): the DD ambiguity of satellite `i`
+//! against reference `r` is `a_i − a_r` for whatever reference the epoch
+//! picks, so a reference change needs no re-keying and no covariance
+//! transformation; the common part of all SD ambiguities of one system and
+//! signal (receiver clock and phase-bias difference) is unobservable from
+//! DDs and just stays at its prior. The ambiguities are constants (no process
+//! noise): propagation is `P_xa ← Φ_x P_xa` only (`Φ_x = I + F dt`, the
+//! filter's first-order transition), `P_aa` unchanged.
+//!
+//! Capacity [`NAMB`] = 32 = [`crate::lambda::MAX_N`]: more DD ambiguities
+//! than LAMBDA takes in one search cannot be fixed together anyway;
+//! single-frequency GPS + Galileo + BeiDou above a 15° mask is ~20–28
+//! satellites, dual-frequency GPS + Galileo ~32 signals. A record beyond
+//! the capacity is not used and counted ([`RtkSatCounts::capacity`]).
+//!
+//! **Measurements** (Teunissen & Montenbruck, *Springer Handbook of GNSS*
+//! 2017, ch. 26; RTKLIB `ddres`), per system and signal against its
+//! highest-elevation satellite `r`:
+//! `DDP_i = (ρ_r,i − ρ_b,i) − (ρ_r,r − ρ_b,r)` and
+//! `DDΦ_i = DDP_i + λ (a_i − a_r)`, with `ρ_r` predicted at the rover
+//! *antenna* `r + C_bn l` (lever arm `l`), `ρ_b` at the base, each from its
+//! own receiver's satellite state, earth rotation during travel
+//! ([`geometric_range`]), satellite clocks, and the troposphere modelled at
+//! both sites (Saastamoinen + Niell, [`crate::gnss::tropo`], as `navfuse
+//! baseline`). Receiver clocks and inter-system biases cancel, so there are
+//! no clock states. GLONASS (FDMA: DD ambiguities not integer without
+//! inter-frequency bias calibration) is not used ([`RtkSatCounts::bad`]).
+//! `H = [−Δuᵀ, 0, −Δuᵀ[l_n×], 0…, +λ (a_i), −λ (a_r)]`, `Δu = u_i − u_r`
+//! (NED lines of sight from the rover antenna).
+//!
+//! **Weights**: undifferenced phase `σ² = a² + b²/sin²el`, a = b = 3 mm
+//! (RTKLIB defaults `stats-errphase`, `stats-errphaseel`, manual 2.4.3
+//! Table F.4-1), code either the same × `stats-eratio1` = 100 (RTKLIB) or
+//! the receiver's code model ([`RtkConfig::code_model`]). SD variance
+//! `v_i = σ²_rover,i + σ²_base,i`; the exact DD covariance
+//! `C = diag(v_i) + v_r 1 1ᵀ` (correlated through the reference). Each DD is
+//! first χ²-gated on its own (one degree of freedom, its innovation against
+//! the state updated by the groups processed before it, variance
+//! `h P hᵀ + C_ii`; counted by satellite). A phase DD beyond its gate
+//! re-initialises its ambiguity (in practice a slip the test missed),
+//! unless most DDs of its group fail, which blames the reference (its slot
+//! is re-initialised and the group's phase skipped this epoch,
+//! [`RtkSatCounts::ref_resets`]). The accepted ones are whitened with the
+//! Cholesky factor `C = L Lᵀ` (`z̃ = L⁻¹ z`, `H̃ = L⁻¹ H`) and processed as
+//! independent scalar updates, which equals the vector update
+//! (`rtk_tests::whitened_equals_vector_update`).
+//!
+//! **Slots**: a satellite-signal common to both receivers above the mask
+//! gets a slot, initialised from code, `a = (SDΦ − SDP)/λ`, with σ =
+//! [`RtkConfig::amb_prior_m`]/λ and no correlation; a loss-of-lock flag
+//! (either receiver) or a detected slip re-initialises it; a slot whose
+//! satellite-signal is missing from an epoch is freed.
+//!
+//! **INS-predicted cycle slips**: per slot, the time-differenced SD phase
+//! minus the time-differenced SD range predicted at the INS antenna (the
+//! posterior at the previous epoch, the INS prediction now), minus the
+//! median of this over all records (the receivers' clock changes, common
+//! to every satellite and signal); tested against
+//! `σ² = 2 (v_i,now + v_i,prev) + uᵀ P_Δr u` (phase noise of the four
+//! phases; the covariance of the INS position change since the last epoch,
+//! `P_Δr = P_rr + P_cc − P_rc − P_cr`, from a clone `c` of the position
+//! error made after each epoch's update and propagated with the filter —
+//! stochastic cloning, Roumeliotis & Burdick, ICRA 2002 — so position
+//! uncertainty common to both epochs does not count) with the χ²₁ quantile
+//! of [`RtkConfig::slip_probability`]. Needs ≥ 3 records with a
+//! previous epoch (a median of two cannot tell which slipped).
+//!
+//! **Fixing** (Teunissen 1995 LAMBDA, [`crate::lambda`]): DD float
+//! ambiguities `â = D a`, `Q = D P_aa Dᵀ` of the phase DDs used this epoch;
+//! partial ambiguity resolution: the subset starts with all of them and
+//! drops the one with the largest variance until the bootstrapped success
+//! rate (Teunissen 1998, a lower bound of the ILS success rate) is
+//! ≥ [`RtkConfig::success_min`] and the ratio test `s₂/s₁ ≥`
+//! [`RtkConfig::ratio_min`] passes with ≥ [`RtkConfig::min_fix`]
+//! ambiguities. Fixed solution by the conditional update
+//! `x̌ = x̂ − P_x,â Q⁻¹ (â − ǎ)` (Teunissen 1995 eq. 7), reported beside the
+//! float ([`RtkSolution`]); the float filter is not changed unless
+//! fix-and-hold is on ([`RtkConfig::fix_and_hold`]: the fixed DDs fed back
+//! as pseudo-measurements with variance 0.001 cycle², RTKLIB `holdamb`'s
+//! `VAR_HOLDAMB`).
+//!
+//! Limits (honestly): the RTS smoother's records do not carry the
+//! ambiguity block; RTK refuses tight coupling, augmented states and the
+//! sensitivity covariance (their joint updates are not written); `with_rtk`
+//! must be the last configuration call.
+
+#![allow(clippy::needless_range_loop)] // index loops mirror the matrix equations
+
+use super::aug::gated_update;
+use super::tight::TightConfig;
+use super::{apply_correction, skew, Eskf, FSparse, UpdateReject, I_ATT, I_POS, I_VEL, NX};
+use crate::earth;
+use crate::geodesy::{c_en, geodetic_to_ecef, Geodetic};
+use crate::gnss::raw::{
+    geometric_range, GnssSystem, RawEpoch, RawSat, Signal, FLAG_LOSS_OF_LOCK, MAX_RAW_SATS,
+};
+use crate::gnss::tropo::{day_of_year, slant_delay};
+use crate::kalman;
+use crate::lambda;
+#[allow(unused_imports)]
+use crate::prelude::*;
+use crate::{Mat3, Vec3};
+use nalgebra::{SMatrix, SVector};
+
+/// Ambiguity slots (module documentation).
+pub const NAMB: usize = 32;
+/// Ambiguities + the clone of the previous epoch's position error.
+const NK: usize = NAMB + 3;
+/// Index (within the block) of the position clone.
+const ICL: usize = NAMB;
+/// Joint dimension (INS + block).
+const NJ: usize = NX + NK;
+/// Most (system, signal) groups of an epoch.
+const NGROUP: usize = 12;
+
+/// Configuration of the RTK updates.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct RtkConfig {
+    /// Undifferenced phase σ² = a² + b²/sin²el [m].
+    pub phase_a_m: f64,
+    pub phase_b_m: f64,
+    /// Code σ = `code_ratio` × phase σ (RTKLIB `stats-eratio1`), unless
+    /// `code_model` is given.
+    pub code_ratio: f64,
+    /// Code variance of the receiver ([`TightConfig::pr_var_white`]:
+    /// thermal noise by C/N0 and multipath by elevation, correlated
+    /// multipath as its white equivalent) instead of `code_ratio`.
+    pub code_model: Option<TightConfig>,
+    /// Elevation mask at the rover [rad].
+    pub elevation_mask_rad: f64,
+    /// Relative humidity of the troposphere model at both sites.
+    pub humidity: f64,
+    /// χ² gate probability of each DD (one degree of freedom).
+    pub gate_probability: f64,
+    /// Probability of the cycle-slip test (1 − false-alarm rate).
+    pub slip_probability: f64,
+    /// Prior σ of a new SD ambiguity [m] (divided by λ for cycles).
+    pub amb_prior_m: f64,
+    /// Ratio test threshold and bootstrapped success-rate threshold.
+    pub ratio_min: f64,
+    pub success_min: f64,
+    /// Fewest DD ambiguities a (partial) fix may have.
+    pub min_fix: usize,
+    /// Feed the fixed DDs back into the float filter.
+    pub fix_and_hold: bool,
+    /// GNSS-only kinematic mode: before each update the position and
+    /// velocity lose their INS prediction (rows/columns zeroed, variance
+    /// `(gnss_only_sigma)²` per axis, m and m/s; the position restarts from
+    /// the last epoch's solution), as RTKLIB kinematic mode without
+    /// dynamics re-initialises the position each epoch. For comparison runs.
+    pub gnss_only: bool,
+    pub gnss_only_sigma: f64,
+}
+
+impl RtkConfig {
+    /// RTKLIB's defaults (manual 2.4.3 Appendix F): phase a = b = 3 mm,
+    /// code ratio 100, elevation mask 15° (`pos1-elmask`), ratio 3
+    /// (`pos2-arthres`), hydrostatic troposphere only (relative mode,
+    /// as `navfuse baseline`);
+    /// - gate 0.9999 per DD (χ²₁ = 15.1, a 3.9σ test; the tight filter's);
+    /// - slip test 0.9999: a 1-cycle slip (19 cm at L1) is > 10σ once the
+    ///   INS velocity is known to 1–2 cm/s, while a false alarm (a reset)
+    ///   costs ~1e-4 per satellite and epoch;
+    /// - new ambiguity σ 30 m/λ (RTKLIB `stats-stdbias` 30): several times
+    ///   the SD code error of the init, so the init's code error, which is
+    ///   also a DD code measurement of that epoch, is not counted twice in
+    ///   any material way, and the prior does not constrain the estimate;
+    /// - success rate ≥ 0.999 of the bootstrapped estimator (Teunissen 1998,
+    ///   J. Geodesy 72:606; Verhagen 2005 "The GNSS integer ambiguities:
+    ///   estimation and validation" uses failure rates ≤ 0.001), with ≥ 4
+    ///   ambiguities (position + redundancy);
+    /// - fix-and-hold off (RTKLIB `pos2-armode` default continuous).
+    pub fn rtklib() -> Self {
+        RtkConfig {
+            phase_a_m: 0.003,
+            phase_b_m: 0.003,
+            code_ratio: 100.0,
+            code_model: None,
+            elevation_mask_rad: 15f64.to_radians(),
+            humidity: 0.0,
+            gate_probability: 0.9999,
+            slip_probability: 0.9999,
+            amb_prior_m: 30.0,
+            ratio_min: 3.0,
+            success_min: 0.999,
+            min_fix: 4,
+            fix_and_hold: false,
+            gnss_only: false,
+            gnss_only_sigma: 30.0,
+        }
+    }
+
+    /// A consumer receiver: [`RtkConfig::rtklib`] with the code variance of
+    /// [`TightConfig::consumer`] (DLL thermal noise by C/N0, multipath
+    /// 0.6 m / sin el) with its multipath correlated over 10 s at 1 Hz
+    /// (weighted as the white noise of the same low-frequency power; the
+    /// value `TightConfig` documents for a moving car), and the standard
+    /// atmosphere's humidity 0.7 (RTKLIB `REL_HUMI`) in the troposphere
+    /// model at both sites.
+    pub fn consumer() -> Self {
+        RtkConfig {
+            code_model: Some(TightConfig {
+                mp_tau_s: 10.0,
+                interval_s: 1.0,
+                ..TightConfig::consumer()
+            }),
+            humidity: super::tight::REL_HUMIDITY,
+            ..Self::rtklib()
+        }
+    }
+
+    fn is_valid(&self) -> bool {
+        let pos = |x: f64| x.is_finite() && x > 0.0;
+        pos(self.phase_a_m)
+            && self.phase_b_m.is_finite()
+            && self.phase_b_m >= 0.0
+            && pos(self.code_ratio)
+            && self.elevation_mask_rad.is_finite()
+            && (0.0..=1.0).contains(&self.humidity)
+            && self.gate_probability > 0.0
+            && self.gate_probability < 1.0
+            && self.slip_probability > 0.0
+            && self.slip_probability < 1.0
+            && pos(self.amb_prior_m)
+            && self.ratio_min >= 1.0
+            && self.success_min > 0.0
+            && self.success_min < 1.0
+            && self.min_fix >= 1
+            && self.min_fix <= NAMB
+            && pos(self.gnss_only_sigma)
+    }
+
+    /// Undifferenced phase variance [m²] at elevation `el`.
+    pub fn phase_var(&self, el: f64) -> f64 {
+        let s = el.sin().max(0.05);
+        self.phase_a_m * self.phase_a_m + self.phase_b_m * self.phase_b_m / (s * s)
+    }
+
+    /// Undifferenced code variance [m²] at elevation `el`, C/N0 `cn0`.
+    pub fn code_var(&self, el: f64, cn0: f64) -> f64 {
+        match &self.code_model {
+            Some(tc) => tc.pr_var_white(el, cn0),
+            None => self.phase_var(el) * self.code_ratio * self.code_ratio,
+        }
+    }
+}
+
+/// Why [`Eskf::with_rtk`] refused.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum RtkConfigError {
+    /// A σ or probability out of range.
+    Invalid,
+    /// Tight coupling, augmented states or the sensitivity covariance is
+    /// configured (their joint updates with the ambiguities are not written).
+    Incompatible,
+}
+
+impl core::fmt::Display for RtkConfigError {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        match self {
+            RtkConfigError::Invalid => write!(
+                f,
+                "rtk: need positive sigmas, probabilities in (0, 1), ratio >= 1, \
+                 1 <= min_fix <= {NAMB}"
+            ),
+            RtkConfigError::Incompatible => write!(
+                f,
+                "rtk cannot run with tight coupling, augmented states or the \
+                 sensitivity covariance"
+            ),
+        }
+    }
+}
+
+/// Why [`Eskf::rtk_update`] did nothing.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum RtkError {
+    /// RTK is not configured.
+    NotEnabled,
+    /// The filter has not started (no IMU sample yet).
+    NotStarted,
+    /// The base position is not finite.
+    BadBase,
+}
+
+impl core::fmt::Display for RtkError {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        match self {
+            RtkError::NotEnabled => write!(f, "rtk update without Eskf::with_rtk"),
+            RtkError::NotStarted => write!(f, "rtk update before the first IMU sample"),
+            RtkError::BadBase => write!(f, "rtk update: base position not finite"),
+        }
+    }
+}
+
+/// What happened to a satellite's records (all its signals), by reason.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct RtkSatCounts {
+    pub code_used: u32,
+    pub code_gated: u32,
+    pub phase_used: u32,
+    pub phase_gated: u32,
+    /// Below the elevation mask.
+    pub low_elevation: u32,
+    /// Not observed (with phase and code) by the base.
+    pub no_base: u32,
+    /// No ephemeris, non-finite observable, GLONASS.
+    pub bad: u32,
+    /// No free ambiguity slot.
+    pub capacity: u32,
+    /// Slot initialisations on rise/acquisition.
+    pub rises: u32,
+    /// Slots freed because the satellite-signal was missing.
+    pub sets: u32,
+    /// Re-initialisations on a loss-of-lock flag.
+    pub lli_resets: u32,
+    /// Re-initialisations on an INS-detected cycle slip.
+    pub slips: u32,
+    /// Re-initialisations because the reference's DDs failed their gates.
+    pub ref_resets: u32,
+}
+
+/// Counters of the RTK updates.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct RtkStats {
+    pub epochs: u64,
+    /// Per system and PRN (index `system.index() · 64 + prn % 64`).
+    pub per_sat: [RtkSatCounts; 256],
+    /// Epochs whose slip test had < 3 records with a previous epoch.
+    pub slip_untestable: u64,
+    /// Reference satellite changes (per system and signal).
+    pub reference_changes: u64,
+    /// Fix decisions: attempts (epochs with ≥ 1 DD ambiguity), fixed
+    /// (of which partial: fewer than all candidates), and the reason of the
+    /// epochs not fixed (the last subset tried): too few ambiguities,
+    /// success rate, ratio, LAMBDA failure.
+    pub fix_attempts: u64,
+    pub fixed: u64,
+    pub fixed_partial: u64,
+    pub rejected_too_few: u64,
+    pub rejected_success_rate: u64,
+    pub rejected_ratio: u64,
+    pub rejected_lambda: u64,
+    /// Fixed DDs fed back (fix-and-hold).
+    pub held: u64,
+    /// Σ NIS and count of the used code and phase DDs (whitened).
+    pub nis_code: (f64, u64),
+    pub nis_phase: (f64, u64),
+}
+
+impl Default for RtkStats {
+    fn default() -> Self {
+        RtkStats {
+            epochs: 0,
+            per_sat: [RtkSatCounts::default(); 256],
+            slip_untestable: 0,
+            reference_changes: 0,
+            fix_attempts: 0,
+            fixed: 0,
+            fixed_partial: 0,
+            rejected_too_few: 0,
+            rejected_success_rate: 0,
+            rejected_ratio: 0,
+            rejected_lambda: 0,
+            held: 0,
+            nis_code: (0.0, 0),
+            nis_phase: (0.0, 0),
+        }
+    }
+}
+
+impl RtkStats {
+    /// Counts of one satellite.
+    pub fn sat(&self, system: GnssSystem, prn: u8) -> &RtkSatCounts {
+        &self.per_sat[system.index() * 64 + prn as usize % 64]
+    }
+    /// Totals over all satellites.
+    pub fn total(&self) -> RtkSatCounts {
+        self.per_sat
+            .iter()
+            .fold(RtkSatCounts::default(), |a, s| RtkSatCounts {
+                code_used: a.code_used + s.code_used,
+                code_gated: a.code_gated + s.code_gated,
+                phase_used: a.phase_used + s.phase_used,
+                phase_gated: a.phase_gated + s.phase_gated,
+                low_elevation: a.low_elevation + s.low_elevation,
+                no_base: a.no_base + s.no_base,
+                bad: a.bad + s.bad,
+                capacity: a.capacity + s.capacity,
+                rises: a.rises + s.rises,
+                sets: a.sets + s.sets,
+                lli_resets: a.lli_resets + s.lli_resets,
+                slips: a.slips + s.slips,
+                ref_resets: a.ref_resets + s.ref_resets,
+            })
+    }
+}
+
+/// Key of an ambiguity: (system, PRN, signal).
+pub type AmbKey = (GnssSystem, u8, Signal);
+
+/// One fixed DD ambiguity `N_prn − N_ref` [cycles].
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+pub struct FixedDd {
+    pub system: GnssSystem,
+    pub signal: Signal,
+    pub prn: u8,
+    pub ref_prn: u8,
+    pub n: i64,
+}
+
+/// The result of one RTK epoch: float (the filter's state after the update)
+/// and, when the validation passed, the fixed solution beside it.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct RtkSolution {
+    pub t: f64,
+    /// DDs used (code, phase).
+    pub n_code: usize,
+    pub n_phase: usize,
+    /// DD ambiguities offered to LAMBDA and fixed.
+    pub n_candidates: usize,
+    pub n_fixed: usize,
+    pub fixed: bool,
+    /// Ratio and bootstrapped success rate of the subset finally tried.
+    pub ratio: f64,
+    pub success_rate: f64,
+    /// IMU position: float (the filter) and fixed (equal to the float when
+    /// not fixed), with their NED 1-σ [m].
+    pub float_pos: Geodetic,
+    pub float_std_ned: Vec3,
+    pub pos: Geodetic,
+    pub std_ned: Vec3,
+    /// The fixed DD integers (`[..n_fixed]`).
+    pub fixed_dd: [FixedDd; NAMB],
+}
+
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct Slot {
+    key: Option<AmbKey>,
+    lambda: f64,
+    /// Previous epoch: receiver time, SD phase [m], SD range predicted at
+    /// the posterior antenna [m] (NaN: none).
+    prev_t: f64,
+    prev_phi: f64,
+    prev_rho: f64,
+    prev_var: f64,
+    seen: bool,
+}
+
+impl Default for Slot {
+    fn default() -> Self {
+        Slot {
+            key: None,
+            lambda: 0.0,
+            prev_t: f64::NAN,
+            prev_phi: f64::NAN,
+            prev_rho: f64::NAN,
+            prev_var: 0.0,
+            seen: false,
+        }
+    }
+}
+
+/// The RTK block of the filter.
+#[derive(Clone, Debug)]
+pub(super) struct Rtk {
+    cfg: RtkConfig,
+    /// Ambiguities [cycles], then the clone (unused, 0).
+    x: SVector<f64, NK>,
+    p_xa: SMatrix<f64, NX, NK>,
+    p_aa: SMatrix<f64, NK, NK>,
+    /// The clone holds a previous epoch's position error.
+    clone_set: bool,
+    /// Posterior IMU position (lat, lon, h) of the last epoch.
+    last_pos: Option<(f64, f64, f64)>,
+    slots: [Slot; NAMB],
+    /// Reference PRN of each (system, signal) group last epoch.
+    refs: [(Option<(GnssSystem, Signal)>, u8); NGROUP],
+    gate: f64,
+    slip_gate: f64,
+    pub(super) stats: RtkStats,
+}
+
+impl Rtk {
+    pub(super) fn new(cfg: RtkConfig) -> Result<Self, RtkConfigError> {
+        if !cfg.is_valid() {
+            return Err(RtkConfigError::Invalid);
+        }
+        Ok(Rtk {
+            cfg,
+            x: SVector::zeros(),
+            p_xa: SMatrix::zeros(),
+            p_aa: SMatrix::zeros(),
+            clone_set: false,
+            last_pos: None,
+            slots: [Slot::default(); NAMB],
+            refs: [(None, 0); NGROUP],
+            gate: kalman::chi2_quantile(1, cfg.gate_probability),
+            slip_gate: kalman::chi2_quantile(1, cfg.slip_probability),
+            stats: RtkStats::default(),
+        })
+    }
+
+    /// `P_xa ← Φ_x P_xa` over `dt` with the filter's `F`.
+    pub(super) fn propagate(&mut self, fs: &FSparse, dt: f64) {
+        let fp = fs.f_times(&self.p_xa);
+        self.p_xa += fp * dt;
+    }
+
+    fn full(&self, p: &SMatrix<f64, NX, NX>) -> SMatrix<f64, NJ, NJ> {
+        let mut f = SMatrix::<f64, NJ, NJ>::zeros();
+        f.fixed_view_mut::<NX, NX>(0, 0).copy_from(p);
+        f.fixed_view_mut::<NX, NK>(0, NX).copy_from(&self.p_xa);
+        f.fixed_view_mut::<NK, NX>(NX, 0)
+            .copy_from(&self.p_xa.transpose());
+        f.fixed_view_mut::<NK, NK>(NX, NX).copy_from(&self.p_aa);
+        f
+    }
+
+    fn split(&mut self, f: &SMatrix<f64, NJ, NJ>, p: &mut SMatrix<f64, NX, NX>) {
+        let xx = f.fixed_view::<NX, NX>(0, 0);
+        p.copy_from(&((xx + xx.transpose()) * 0.5));
+        self.p_xa =
+            (f.fixed_view::<NX, NK>(0, NX) + f.fixed_view::<NK, NX>(NX, 0).transpose()) * 0.5;
+        let aa = f.fixed_view::<NK, NK>(NX, NX);
+        self.p_aa = (aa + aa.transpose()) * 0.5;
+    }
+
+    /// An INS-only update (position fix, NHC, ZUPT…) done jointly with the
+    /// ambiguity block so their correlation stays consistent.
+    #[allow(clippy::too_many_arguments)]
+    pub(super) fn joint_update<const M: usize>(
+        &mut self,
+        dx: &mut super::StateVec,
+        p: &mut SMatrix<f64, NX, NX>,
+        h: &SMatrix<f64, M, NX>,
+        r: &SMatrix<f64, M, M>,
+        dz: &SVector<f64, M>,
+        gate: Option<f64>,
+        deweight_factor: f64,
+    ) -> Result<(f64, bool), (UpdateReject, f64)> {
+        let mut pf = self.full(p);
+        let mut hf = SMatrix::<f64, M, NJ>::zeros();
+        hf.fixed_view_mut::<M, NX>(0, 0).copy_from(h);
+        let mut dxf = SVector::<f64, NJ>::zeros();
+        let res = gated_update(
+            &mut dxf,
+            &mut pf,
+            &hf,
+            r,
+            dz,
+            gate,
+            deweight_factor,
+            None,
+            None,
+        );
+        if res.is_ok() {
+            self.split(&pf, p);
+            dx.copy_from(&dxf.fixed_rows::<NX>(0));
+            self.x -= dxf.fixed_rows::<NK>(NX);
+        }
+        res
+    }
+
+    fn find(&self, key: AmbKey) -> Option<usize> {
+        self.slots.iter().position(|s| s.key == Some(key))
+    }
+
+    /// (Re)initialise slot `k` for `key` at `a0` cycles: no correlation,
+    /// prior σ `amb_prior_m / λ`.
+    fn init_slot(&mut self, k: usize, key: AmbKey, lambda: f64, a0: f64) {
+        self.clear_slot(k);
+        self.slots[k].key = Some(key);
+        self.slots[k].lambda = lambda;
+        self.x[k] = a0;
+        let s = self.cfg.amb_prior_m / lambda;
+        self.p_aa[(k, k)] = s * s;
+    }
+
+    fn clear_slot(&mut self, k: usize) {
+        self.slots[k] = Slot::default();
+        self.x[k] = 0.0;
+        for i in 0..NX {
+            self.p_xa[(i, k)] = 0.0;
+        }
+        for j in 0..NK {
+            self.p_aa[(k, j)] = 0.0;
+            self.p_aa[(j, k)] = 0.0;
+        }
+    }
+
+    /// Clone the current position error (stochastic cloning, Roumeliotis
+    /// & Burdick 2002): the block's last 3 states get the position's rows.
+    fn set_clone(&mut self, p: &SMatrix<f64, NX, NX>) {
+        for c in 0..3 {
+            for i in 0..NX {
+                self.p_xa[(i, ICL + c)] = p[(i, I_POS + c)];
+            }
+            for j in 0..NAMB {
+                let v = self.p_xa[(I_POS + c, j)];
+                self.p_aa[(ICL + c, j)] = v;
+                self.p_aa[(j, ICL + c)] = v;
+            }
+            for d in 0..3 {
+                self.p_aa[(ICL + c, ICL + d)] = p[(I_POS + c, I_POS + d)];
+            }
+            self.x[ICL + c] = 0.0;
+        }
+        self.clone_set = true;
+    }
+
+    /// Covariance [m²] (NED) of the position change since the clone:
+    /// `P_rr + P_cc − P_rc − P_cr`.
+    fn change_cov(&self, p: &SMatrix<f64, NX, NX>) -> Mat3 {
+        let mut m = Mat3::zeros();
+        for c in 0..3 {
+            for d in 0..3 {
+                m[(c, d)] = p[(I_POS + c, I_POS + d)] + self.p_aa[(ICL + c, ICL + d)]
+                    - self.p_xa[(I_POS + c, ICL + d)]
+                    - self.p_xa[(I_POS + d, ICL + c)];
+            }
+        }
+        m
+    }
+
+    /// Reference PRN of group `g` last epoch; records the new one and
+    /// counts a change.
+    fn set_ref(&mut self, g: (GnssSystem, Signal), prn: u8) {
+        match self.refs.iter().position(|r| r.0 == Some(g)) {
+            Some(i) => {
+                if self.refs[i].1 != prn {
+                    self.stats.reference_changes += 1;
+                    self.refs[i].1 = prn;
+                }
+            }
+            None => {
+                if let Some(i) = self.refs.iter().position(|r| r.0.is_none()) {
+                    self.refs[i] = (Some(g), prn);
+                }
+            }
+        }
+    }
+
+    /// Float ambiguities [cycles] and their covariance (for tests and
+    /// diagnostics): `(key, value, σ)` of slot `k`.
+    fn slot_estimate(&self, k: usize) -> Option<(AmbKey, f64, f64)> {
+        self.slots[k]
+            .key
+            .map(|key| (key, self.x[k], self.p_aa[(k, k)].max(0.0).sqrt()))
+    }
+}
+
+/// One matched record of an epoch.
+#[derive(Clone, Copy, Debug, Default)]
+struct Rec {
+    key_sys: GnssSystem,
+    key_prn: u8,
+    key_sig: Signal,
+    slot: usize,
+    el: f64,
+    lambda: f64,
+    /// SD phase and code [m], and the SD prediction without ambiguity [m]
+    /// for phase and code (troposphere, satellite clocks, ionosphere).
+    sd_phi: f64,
+    sd_code: f64,
+    pred_phi: f64,
+    pred_code: f64,
+    /// SD variances [m²].
+    v_phi: f64,
+    v_code: f64,
+    u_n: Vec3,
+    /// Usable this epoch for code / phase.
+    use_code: bool,
+    use_phase: bool,
+    reset: bool,
+}
+
+/// One DD row before whitening.
+#[derive(Clone, Copy)]
+struct DdRow {
+    h: SVector<f64, NJ>,
+    dz: f64,
+    /// Record index of the satellite (its variance `v_i`) and the reference.
+    rec: usize,
+}
+
+/// Rover antenna: ECEF position, c_en, lever arm in n, latitude, height.
+struct Ant {
+    r_e: Vec3,
+    c_en: Mat3,
+    l_n: Vec3,
+    lat: f64,
+    h: f64,
+}
+
+/// Median (sorted in place; NaN when empty).
+fn median(v: &mut [f64]) -> f64 {
+    v.sort_unstable_by(|a, b| a.partial_cmp(b).unwrap_or(core::cmp::Ordering::Equal));
+    let n = v.len();
+    if n == 0 {
+        f64::NAN
+    } else if n % 2 == 1 {
+        v[n / 2]
+    } else {
+        0.5 * (v[n / 2 - 1] + v[n / 2])
+    }
+}
+
+/// Receiver clock bias × c [m] of an epoch at the antenna position `r_e`:
+/// the median GPS (else any system) pseudorange residual after range,
+/// satellite clock and troposphere (standard atmosphere). A receiver
+/// epoch's true time is its stamp minus this / c (RTKLIB corrects the
+/// solution time with the single-point clock the same way).
+pub fn receiver_clock_bias_m(ep: &RawEpoch, r_e: &Vec3) -> Option<f64> {
+    let g = crate::geodesy::ecef_to_geodetic(r_e);
+    let cen = c_en(g.lat, g.lon);
+    let doy = day_of_year(ep.t);
+    let mut res = [[0.0f64; MAX_RAW_SATS]; 2];
+    let mut n = [0usize; 2];
+    for s in ep.sats() {
+        if !s.sat.valid || !s.obs.pseudorange_m.is_finite() {
+            continue;
+        }
+        let (rho, los) = geometric_range(&s.sat.pos_e, r_e);
+        let el = (-(cen * los).z).clamp(-1.0, 1.0).asin();
+        if el < 0.0 {
+            continue;
+        }
+        let trop = slant_delay(el, g.lat, g.h, doy, super::tight::REL_HUMIDITY);
+        let k = usize::from(s.obs.system != GnssSystem::Gps);
+        res[k][n[k]] = s.obs.pseudorange_m - (rho - s.sat.clock_m + trop + s.sat.iono_m as f64);
+        n[k] += 1;
+    }
+    let k = if n[0] > 0 { 0 } else { 1 };
+    (n[k] > 0).then(|| median(&mut res[k][..n[k]]))
+}
+
+impl Eskf {
+    /// Add the RTK block ([`rtk`](self)). Refused with tight coupling,
+    /// augmented states or the sensitivity covariance; call it last.
+    pub fn with_rtk(mut self, cfg: RtkConfig) -> Result<Self, RtkConfigError> {
+        if self.tight.is_some() || self.aug.is_some() || self.sens.is_some() {
+            return Err(RtkConfigError::Incompatible);
+        }
+        self.rtk = Some(Rtk::new(cfg)?);
+        Ok(self)
+    }
+
+    /// Counters of the RTK updates (`None`: off).
+    pub fn rtk_stats(&self) -> Option<&RtkStats> {
+        self.rtk.as_ref().map(|r| &r.stats)
+    }
+
+    /// The float SD ambiguity of `key` [cycles] with its σ (`None`: no slot).
+    pub fn rtk_ambiguity(&self, key: AmbKey) -> Option<(f64, f64)> {
+        let r = self.rtk.as_ref()?;
+        let k = r.find(key)?;
+        r.slot_estimate(k).map(|(_, a, s)| (a, s))
+    }
+
+    /// Slots in use.
+    pub fn rtk_slots_used(&self) -> usize {
+        self.rtk
+            .as_ref()
+            .map_or(0, |r| r.slots.iter().filter(|s| s.key.is_some()).count())
+    }
+
+    fn rtk_antenna(&self) -> Ant {
+        let (lat, lon, h) = self.antenna_position();
+        let c = self.nav.c_bn();
+        Ant {
+            r_e: geodetic_to_ecef(&Geodetic { lat, lon, h }),
+            c_en: c_en(lat, lon),
+            l_n: c * self.cfg.lever_arm_b,
+            lat,
+            h,
+        }
+    }
+
+    /// RTK update at the filter's current time with the rover epoch `rover`
+    /// (its true time = the filter time; see [`receiver_clock_bias_m`]), the
+    /// base epoch `base` matched to it, and the base antenna position
+    /// `base_e` (ECEF) (module documentation).
+    pub fn rtk_update(
+        &mut self,
+        rover: &RawEpoch,
+        base: &RawEpoch,
+        base_e: &Vec3,
+    ) -> Result<RtkSolution, RtkError> {
+        if self.rtk.is_none() {
+            return Err(RtkError::NotEnabled);
+        }
+        if !self.t.is_finite() {
+            return Err(RtkError::NotStarted);
+        }
+        if !(base_e.iter().all(|v| v.is_finite()) && base_e.norm() > 6.0e6) {
+            return Err(RtkError::BadBase);
+        }
+        let cfg = self
+            .rtk
+            .as_ref()
+            .map(|r| r.cfg)
+            .ok_or(RtkError::NotEnabled)?;
+        if cfg.gnss_only {
+            // No INS prediction: the position restarts from the last
+            // epoch's (RTKLIB kinematic without dynamics restarts from the
+            // epoch's single-point position with σ 30 m, `udpos`).
+            if let Some((lat, lon, h)) = self.rtk.as_ref().and_then(|r| r.last_pos) {
+                self.nav.lat = lat;
+                self.nav.lon = lon;
+                self.nav.h = h;
+            }
+            self.recentre_on_code(rover, base, base_e, &cfg);
+            let s2 = cfg.gnss_only_sigma * cfg.gnss_only_sigma;
+            for k in I_POS..I_VEL + 3 {
+                for j in 0..NX {
+                    self.p[(k, j)] = 0.0;
+                    self.p[(j, k)] = 0.0;
+                }
+                self.p[(k, k)] = s2;
+                if let Some(r) = &mut self.rtk {
+                    for j in 0..NK {
+                        r.p_xa[(k, j)] = 0.0;
+                    }
+                }
+            }
+        }
+        let bg = crate::geodesy::ecef_to_geodetic(base_e);
+        let cen_b = c_en(bg.lat, bg.lon);
+        let doy = day_of_year(rover.t);
+        let a = self.rtk_antenna();
+        let Some(rt) = &mut self.rtk else {
+            return Err(RtkError::NotEnabled);
+        };
+        // Covariance of the INS position change since the last epoch.
+        let p_dr = if rt.clone_set {
+            rt.change_cov(&self.p)
+        } else {
+            Mat3::identity() * 1e6
+        };
+        rt.stats.epochs += 1;
+        for s in rt.slots.iter_mut() {
+            s.seen = false;
+        }
+        // 1. Match rover and base records; predictions and variances.
+        let mut recs = [Rec::default(); MAX_RAW_SATS];
+        let mut nr = 0usize;
+        for s in rover.sats() {
+            let o = &s.obs;
+            let key = o.system.index() * 64 + o.prn as usize % 64;
+            let ok = |r: &RawSat| {
+                r.sat.valid && r.obs.pseudorange_m.is_finite() && r.obs.carrier_m.is_finite()
+            };
+            if !ok(s) || o.system == GnssSystem::Glonass {
+                rt.stats.per_sat[key].bad += 1;
+                continue;
+            }
+            let Some(b) = base.sats().iter().find(|b| {
+                b.obs.system == o.system && b.obs.prn == o.prn && b.obs.signal == o.signal && ok(b)
+            }) else {
+                rt.stats.per_sat[key].no_base += 1;
+                continue;
+            };
+            let (rho_r, los_r) = geometric_range(&s.sat.pos_e, &a.r_e);
+            let u_n = a.c_en * los_r;
+            let el = (-u_n.z).clamp(-1.0, 1.0).asin();
+            if el < cfg.elevation_mask_rad {
+                rt.stats.per_sat[key].low_elevation += 1;
+                continue;
+            }
+            let (rho_b, los_b) = geometric_range(&b.sat.pos_e, base_e);
+            let el_b = (-(cen_b * los_b).z).clamp(-1.0, 1.0).asin();
+            let t_r = slant_delay(el, a.lat, a.h, doy, cfg.humidity);
+            let t_b = slant_delay(el_b.max(0.0), bg.lat, bg.h, doy, cfg.humidity);
+            let geo = (rho_r - s.sat.clock_m + t_r) - (rho_b - b.sat.clock_m + t_b);
+            let iono = s.sat.iono_m as f64 - b.sat.iono_m as f64;
+            let (cn_r, cn_b) = (o.cn0_dbhz as f64, b.obs.cn0_dbhz as f64);
+            recs[nr] = Rec {
+                key_sys: o.system,
+                key_prn: o.prn,
+                key_sig: o.signal,
+                slot: usize::MAX,
+                el,
+                lambda: o.wavelength_m(),
+                sd_phi: o.carrier_m - b.obs.carrier_m,
+                sd_code: o.pseudorange_m - b.obs.pseudorange_m,
+                pred_phi: geo - iono,
+                pred_code: geo + iono,
+                v_phi: cfg.phase_var(el) + cfg.phase_var(el_b),
+                v_code: cfg.code_var(el, cn_r) + cfg.code_var(el_b, cn_b),
+                u_n,
+                use_code: true,
+                use_phase: true,
+                reset: (o.flags | b.obs.flags) & FLAG_LOSS_OF_LOCK != 0,
+            };
+            nr += 1;
+        }
+        // 2. Slots: find or allocate; loss of lock resets.
+        for i in 0..nr {
+            let r = &mut recs[i];
+            let key: AmbKey = (r.key_sys, r.key_prn, r.key_sig);
+            let sk = r.key_sys.index() * 64 + r.key_prn as usize % 64;
+            let a0 = (r.sd_phi - r.sd_code) / r.lambda;
+            match rt.find(key) {
+                Some(k) => {
+                    if r.reset {
+                        rt.init_slot(k, key, r.lambda, a0);
+                        rt.stats.per_sat[sk].lli_resets += 1;
+                    }
+                    r.slot = k;
+                }
+                None => match rt.slots.iter().position(|s| s.key.is_none()) {
+                    Some(k) => {
+                        rt.init_slot(k, key, r.lambda, a0);
+                        rt.stats.per_sat[sk].rises += 1;
+                        r.slot = k;
+                        r.reset = true;
+                    }
+                    None => {
+                        rt.stats.per_sat[sk].capacity += 1;
+                        r.use_phase = false;
+                        r.use_code = false;
+                        continue;
+                    }
+                },
+            }
+            rt.slots[r.slot].seen = true;
+        }
+        // Free the slots of satellite-signals not in this epoch.
+        for k in 0..NAMB {
+            if let Some((sys, prn, _)) = rt.slots[k].key {
+                if !rt.slots[k].seen {
+                    rt.stats.per_sat[sys.index() * 64 + prn as usize % 64].sets += 1;
+                    rt.clear_slot(k);
+                }
+            }
+        }
+        // 3. INS-predicted cycle-slip test.
+        {
+            let mut d = [0.0f64; MAX_RAW_SATS];
+            let mut dv = [0.0f64; MAX_RAW_SATS];
+            let mut nd = 0usize;
+            let mut idx = [0usize; MAX_RAW_SATS];
+            for i in 0..nr {
+                let r = &recs[i];
+                if r.slot == usize::MAX || r.reset {
+                    continue;
+                }
+                let sl = &rt.slots[r.slot];
+                if !sl.prev_t.is_finite() {
+                    continue;
+                }
+                d[nd] = (r.sd_phi - sl.prev_phi) - (r.pred_phi - sl.prev_rho);
+                idx[nd] = i;
+                nd += 1;
+            }
+            if nd >= 3 {
+                dv[..nd].copy_from_slice(&d[..nd]);
+                let common = median(&mut dv[..nd]);
+                for j in 0..nd {
+                    let i = idx[j];
+                    let r = recs[i];
+                    let sl = rt.slots[r.slot];
+                    let ins = (r.u_n.transpose() * p_dr * r.u_n)[(0, 0)].max(0.0);
+                    let var = 2.0 * (r.v_phi + sl.prev_var) + ins;
+                    let e = d[j] - common;
+                    if e * e > rt.slip_gate * var {
+                        let key = (r.key_sys, r.key_prn, r.key_sig);
+                        rt.init_slot(r.slot, key, r.lambda, (r.sd_phi - r.sd_code) / r.lambda);
+                        rt.slots[r.slot].seen = true;
+                        recs[i].reset = true;
+                        let sk = r.key_sys.index() * 64 + r.key_prn as usize % 64;
+                        rt.stats.per_sat[sk].slips += 1;
+                    }
+                }
+            } else if nd > 0 {
+                rt.stats.slip_untestable += 1;
+            }
+        }
+        // 4. Reference per (system, signal): highest elevation.
+        let mut groups: [Option<(GnssSystem, Signal)>; NGROUP] = [None; NGROUP];
+        let mut gref = [usize::MAX; NGROUP];
+        let mut ng = 0usize;
+        for i in 0..nr {
+            if recs[i].slot == usize::MAX {
+                continue;
+            }
+            let g = (recs[i].key_sys, recs[i].key_sig);
+            let gi = match groups[..ng].iter().position(|x| *x == Some(g)) {
+                Some(gi) => gi,
+                None if ng < NGROUP => {
+                    groups[ng] = Some(g);
+                    ng += 1;
+                    ng - 1
+                }
+                None => continue,
+            };
+            if gref[gi] == usize::MAX || recs[i].el > recs[gref[gi]].el {
+                gref[gi] = i;
+            }
+        }
+        for gi in 0..ng {
+            if let Some(g) = groups[gi] {
+                if gref[gi] != usize::MAX && ng > 0 {
+                    rt.set_ref(g, recs[gref[gi]].key_prn);
+                }
+            }
+        }
+        // 5. DDs: gate each, whiten the accepted ones, scalar updates.
+        let gate = rt.gate;
+        let mut pf = rt.full(&self.p);
+        let mut dxf = SVector::<f64, NJ>::zeros();
+        let xamb = rt.x;
+        let mut n_code = 0usize;
+        let mut n_phase = 0usize;
+        let mut nis = [(0.0f64, 0u64); 2];
+        let mut used_phase = [false; MAX_RAW_SATS];
+        for gi in 0..ng {
+            let ir = gref[gi];
+            if ir == usize::MAX {
+                continue;
+            }
+            let Some(g) = groups[gi] else { continue };
+            for phase in [false, true] {
+                let mut rows = [DdRow {
+                    h: SVector::zeros(),
+                    dz: 0.0,
+                    rec: 0,
+                }; MAX_RAW_SATS];
+                let mut nrow = 0usize;
+                let mut failed = [0usize; MAX_RAW_SATS];
+                let mut nfail = 0usize;
+                let rf = recs[ir];
+                for i in 0..nr {
+                    let r = recs[i];
+                    if i == ir || r.slot == usize::MAX || (r.key_sys, r.key_sig) != g {
+                        continue;
+                    }
+                    let du = r.u_n - rf.u_n;
+                    let mut h = SVector::<f64, NJ>::zeros();
+                    let ha = -(du.transpose() * skew(&a.l_n));
+                    for k in 0..3 {
+                        h[I_POS + k] = -du[k];
+                        h[I_ATT + k] = ha[(0, k)];
+                    }
+                    let (dz, var) = if phase {
+                        h[NX + r.slot] = r.lambda;
+                        h[NX + rf.slot] = -rf.lambda;
+                        let pred = (r.pred_phi + r.lambda * xamb[r.slot])
+                            - (rf.pred_phi + rf.lambda * xamb[rf.slot]);
+                        (pred - (r.sd_phi - rf.sd_phi), r.v_phi + rf.v_phi)
+                    } else {
+                        (
+                            (r.pred_code - rf.pred_code) - (r.sd_code - rf.sd_code),
+                            r.v_code + rf.v_code,
+                        )
+                    };
+                    // Marginal gate on this epoch's prior.
+                    let innov = dz - h.dot(&dxf);
+                    let ph = pf * h;
+                    let s = h.dot(&ph) + var;
+                    if !(innov.is_finite() && s > 0.0) || innov * innov > gate * s {
+                        failed[nfail] = i;
+                        nfail += 1;
+                        continue;
+                    }
+                    rows[nrow] = DdRow { h, dz, rec: i };
+                    nrow += 1;
+                }
+                let ntried = nrow + nfail;
+                let ref_suspect = phase && ntried >= 2 && 2 * nfail > ntried;
+                for &i in &failed[..nfail] {
+                    let r = recs[i];
+                    let c = &mut rt.stats.per_sat[r.key_sys.index() * 64 + r.key_prn as usize % 64];
+                    if phase {
+                        c.phase_gated += 1;
+                        recs[i].use_phase = false;
+                        // A phase DD beyond its gate is in practice a slip
+                        // the test missed: re-initialise (unless the
+                        // reference is to blame).
+                        if !ref_suspect {
+                            reset_joint(rt, &mut pf, &mut dxf, &recs[i]);
+                        }
+                    } else {
+                        c.code_gated += 1;
+                        recs[i].use_code = false;
+                    }
+                }
+                if ref_suspect {
+                    reset_joint(rt, &mut pf, &mut dxf, &rf);
+                    recs[ir].reset = true;
+                    let sk = rf.key_sys.index() * 64 + rf.key_prn as usize % 64;
+                    rt.stats.per_sat[sk].ref_resets += 1;
+                    continue;
+                }
+                if nrow == 0 {
+                    continue;
+                }
+                // Exact DD covariance C = diag(v_i) + v_ref 1 1ᵀ, whitened.
+                let vref = if phase { rf.v_phi } else { rf.v_code };
+                let mut c = SMatrix::<f64, MAX_RAW_SATS, MAX_RAW_SATS>::identity();
+                for p_ in 0..nrow {
+                    for q in 0..nrow {
+                        c[(p_, q)] = vref;
+                    }
+                    let ri = recs[rows[p_].rec];
+                    c[(p_, p_)] += if phase { ri.v_phi } else { ri.v_code };
+                }
+                let Some(l) = c.cholesky().map(|ch| ch.l()) else {
+                    continue;
+                };
+                whiten(&l, &mut rows[..nrow]);
+                for row in rows[..nrow].iter() {
+                    let innov = row.dz - row.h.dot(&dxf);
+                    let ph = pf * row.h;
+                    let s = row.h.dot(&ph) + 1.0;
+                    if !(s > 0.0 && innov.is_finite()) {
+                        continue;
+                    }
+                    dxf += ph * (innov / s);
+                    pf -= ph * ph.transpose() / s;
+                    let k = usize::from(phase);
+                    nis[k].0 += innov * innov / s;
+                    nis[k].1 += 1;
+                }
+                for row in rows[..nrow].iter() {
+                    let r = recs[row.rec];
+                    let sk = r.key_sys.index() * 64 + r.key_prn as usize % 64;
+                    if phase {
+                        rt.stats.per_sat[sk].phase_used += 1;
+                        used_phase[row.rec] = true;
+                        n_phase += 1;
+                    } else {
+                        rt.stats.per_sat[sk].code_used += 1;
+                        n_code += 1;
+                    }
+                }
+                if phase {
+                    used_phase[ir] = true;
+                }
+            }
+        }
+        rt.stats.nis_code.0 += nis[0].0;
+        rt.stats.nis_code.1 += nis[0].1;
+        rt.stats.nis_phase.0 += nis[1].0;
+        rt.stats.nis_phase.1 += nis[1].1;
+        // Apply the correction.
+        if n_code + n_phase > 0 {
+            let p_prior = self.p;
+            rt.split(&pf, &mut self.p);
+            rt.x -= dxf.fixed_rows::<NK>(NX);
+            let dx: super::StateVec = dxf.fixed_rows::<NX>(0).into();
+            if self.cfg.smoother_every > 0 && self.rec_p_prior.is_none() {
+                self.rec_p_prior = Some(p_prior);
+            }
+            apply_correction(&mut self.nav, &mut self.err, &dx);
+            self.rec_dx += dx;
+            self.rec_updated = true;
+        }
+        // 6. Fixing.
+        let mut sol = self.rtk_fix(&recs[..nr], &gref[..ng], &used_phase);
+        if sol.fixed && cfg.fix_and_hold {
+            self.rtk_hold(&sol, &recs[..nr], &gref[..ng]);
+        }
+        // 7. Remember this epoch for the slip test (posterior antenna).
+        let a2 = self.rtk_antenna();
+        let Some(rt) = &mut self.rtk else {
+            return Err(RtkError::NotEnabled);
+        };
+        for i in 0..nr {
+            let r = recs[i];
+            if r.slot == usize::MAX {
+                continue;
+            }
+            let Some(s) = rover.sats().iter().find(|s| {
+                s.obs.system == r.key_sys && s.obs.prn == r.key_prn && s.obs.signal == r.key_sig
+            }) else {
+                continue;
+            };
+            let (rho_r, _) = geometric_range(&s.sat.pos_e, &a2.r_e);
+            let (rho_r0, _) = geometric_range(&s.sat.pos_e, &a.r_e);
+            let sl = &mut rt.slots[r.slot];
+            sl.prev_t = rover.t;
+            sl.prev_phi = r.sd_phi;
+            sl.prev_rho = r.pred_phi + (rho_r - rho_r0);
+            sl.prev_var = r.v_phi;
+        }
+        rt.set_clone(&self.p);
+        if n_code + n_phase > 0 {
+            rt.last_pos = Some((self.nav.lat, self.nav.lon, self.nav.h));
+        }
+        sol.t = self.t;
+        sol.n_code = n_code;
+        sol.n_phase = n_phase;
+        Ok(sol)
+    }
+
+    /// GNSS-only mode: move the position onto the code-DD least-squares
+    /// solution (unweighted, 4 Gauss–Newton steps; the relative-mode analogue
+    /// of RTKLIB's single-point prior), so a car that moved while the
+    /// satellites were gone does not start hundreds of metres off.
+    fn recentre_on_code(
+        &mut self,
+        rover: &RawEpoch,
+        base: &RawEpoch,
+        base_e: &Vec3,
+        cfg: &RtkConfig,
+    ) {
+        for _ in 0..4 {
+            let a = self.rtk_antenna();
+            let doy = day_of_year(rover.t);
+            let bg = crate::geodesy::ecef_to_geodetic(base_e);
+            // (group, el, u_n, code residual meas − pred) per record.
+            let mut rows = [(
+                (GnssSystem::Gps, Signal::GpsL1Ca),
+                0.0f64,
+                Vec3::zeros(),
+                0.0f64,
+            ); MAX_RAW_SATS];
+            let mut n = 0usize;
+            for s in rover.sats() {
+                let o = &s.obs;
+                if !s.sat.valid || !o.pseudorange_m.is_finite() || o.system == GnssSystem::Glonass {
+                    continue;
+                }
+                let Some(b) = base.sats().iter().find(|b| {
+                    b.obs.system == o.system
+                        && b.obs.prn == o.prn
+                        && b.obs.signal == o.signal
+                        && b.sat.valid
+                        && b.obs.pseudorange_m.is_finite()
+                }) else {
+                    continue;
+                };
+                let (rho_r, los) = geometric_range(&s.sat.pos_e, &a.r_e);
+                let u_n = a.c_en * los;
+                let el = (-u_n.z).clamp(-1.0, 1.0).asin();
+                if el < cfg.elevation_mask_rad {
+                    continue;
+                }
+                let (rho_b, _) = geometric_range(&b.sat.pos_e, base_e);
+                let t_r = slant_delay(el, a.lat, a.h, doy, cfg.humidity);
+                let t_b = slant_delay(el, bg.lat, bg.h, doy, cfg.humidity);
+                let pred = (rho_r - s.sat.clock_m + t_r) - (rho_b - b.sat.clock_m + t_b);
+                rows[n] = (
+                    (o.system, o.signal),
+                    el,
+                    u_n,
+                    (o.pseudorange_m - b.obs.pseudorange_m) - pred,
+                );
+                n += 1;
+            }
+            let mut nm = Mat3::zeros();
+            let mut rhs = Vec3::zeros();
+            let mut m = 0usize;
+            for i in 0..n {
+                // Reference of the group: its highest satellite.
+                let mut r = i;
+                for j in 0..n {
+                    if rows[j].0 == rows[i].0 && rows[j].1 > rows[r].1 {
+                        r = j;
+                    }
+                }
+                if r == i {
+                    continue;
+                }
+                let hrow = -(rows[i].2 - rows[r].2);
+                let dz = -(rows[i].3 - rows[r].3);
+                nm += hrow * hrow.transpose();
+                rhs += hrow * dz;
+                m += 1;
+            }
+            if m < 3 {
+                return;
+            }
+            let Some(inv) = nm.try_inverse() else { return };
+            let dr = inv * rhs;
+            if !dr.iter().all(|v| v.is_finite()) {
+                return;
+            }
+            let (rm, rn) = earth::radii(self.nav.lat);
+            self.nav.lat -= dr[0] / (rm + self.nav.h);
+            self.nav.lon -= dr[1] / ((rn + self.nav.h) * self.nav.lat.cos());
+            self.nav.h += dr[2];
+            if dr.norm() < 0.01 {
+                return;
+            }
+        }
+    }
+
+    /// LAMBDA with partial ambiguity resolution on the DD ambiguities of
+    /// the phase DDs used this epoch (module documentation).
+    fn rtk_fix(&mut self, recs: &[Rec], gref: &[usize], used: &[bool]) -> RtkSolution {
+        let (lat, lon, h) = (self.nav.lat, self.nav.lon, self.nav.h);
+        let float_pos = Geodetic { lat, lon, h };
+        let std = |p: &SMatrix<f64, 3, 3>| {
+            Vec3::new(p[(0, 0)], p[(1, 1)], p[(2, 2)]).map(|v| v.max(0.0).sqrt())
+        };
+        let p_pos: SMatrix<f64, 3, 3> = self.p.fixed_view::<3, 3>(I_POS, I_POS).into_owned();
+        let mut sol = RtkSolution {
+            t: self.t,
+            n_code: 0,
+            n_phase: 0,
+            n_candidates: 0,
+            n_fixed: 0,
+            fixed: false,
+            ratio: 0.0,
+            success_rate: 0.0,
+            float_pos,
+            float_std_ned: std(&p_pos),
+            pos: float_pos,
+            std_ned: std(&p_pos),
+            fixed_dd: [FixedDd::default(); NAMB],
+        };
+        let Some(rt) = &mut self.rtk else { return sol };
+        // Candidates: (slot i, slot ref, record i, record ref).
+        let mut cand = [(0usize, 0usize, 0usize, 0usize); NAMB];
+        let mut nc = 0usize;
+        for &ir in gref {
+            if ir == usize::MAX || !used[ir] {
+                continue;
+            }
+            let rf = recs[ir];
+            for (i, r) in recs.iter().enumerate() {
+                if i == ir
+                    || !used[i]
+                    || r.slot == usize::MAX
+                    || (r.key_sys, r.key_sig) != (rf.key_sys, rf.key_sig)
+                    || nc >= NAMB
+                {
+                    continue;
+                }
+                cand[nc] = (r.slot, rf.slot, i, ir);
+                nc += 1;
+            }
+        }
+        sol.n_candidates = nc;
+        if nc == 0 {
+            return sol;
+        }
+        rt.stats.fix_attempts += 1;
+        let p_aa = rt.p_aa;
+        let qdd = |a: &(usize, usize, usize, usize), b: &(usize, usize, usize, usize)| {
+            let p = &p_aa;
+            p[(a.0, b.0)] - p[(a.0, b.1)] - p[(a.1, b.0)] + p[(a.1, b.1)]
+        };
+        // Order by variance, smallest first; drop from the end.
+        let mut order = [0usize; NAMB];
+        for k in 0..nc {
+            order[k] = k;
+        }
+        order[..nc].sort_by(|&i, &j| qdd(&cand[i], &cand[i]).total_cmp(&qdd(&cand[j], &cand[j])));
+        let mut n = nc.min(lambda::MAX_N);
+        let mut reason = 0u8; // 0 too few, 1 success, 2 ratio, 3 lambda
+        let mut a_hat = [0.0f64; NAMB];
+        let mut q = [0.0f64; NAMB * NAMB];
+        while n >= rt.cfg.min_fix {
+            for u in 0..n {
+                let cu = cand[order[u]];
+                a_hat[u] = rt.x[cu.0] - rt.x[cu.1];
+                for v in 0..n {
+                    q[u * n + v] = qdd(&cu, &cand[order[v]]);
+                }
+            }
+            let ps = lambda::bootstrap_success_rate(&q[..n * n], n).unwrap_or(0.0);
+            sol.success_rate = ps;
+            if ps < rt.cfg.success_min {
+                reason = 1;
+                n -= 1;
+                continue;
+            }
+            let res = match lambda::lambda(&a_hat[..n], &q[..n * n], n, 2) {
+                Ok(r) => r,
+                Err(_) => {
+                    reason = 3;
+                    n -= 1;
+                    continue;
+                }
+            };
+            sol.ratio = res.ratio();
+            if sol.ratio < rt.cfg.ratio_min {
+                reason = 2;
+                n -= 1;
+                continue;
+            }
+            // Fixed: conditional update of the position.
+            let mut qm = SMatrix::<f64, NAMB, NAMB>::identity();
+            let mut da = SVector::<f64, NAMB>::zeros();
+            let mut pxa = SMatrix::<f64, 3, NAMB>::zeros();
+            for u in 0..n {
+                let cu = cand[order[u]];
+                for v in 0..n {
+                    qm[(u, v)] = q[u * n + v];
+                }
+                da[u] = a_hat[u] - res.fixed[0][u];
+                for k in 0..3 {
+                    pxa[(k, u)] = rt.p_xa[(I_POS + k, cu.0)] - rt.p_xa[(I_POS + k, cu.1)];
+                }
+            }
+            let Some(ch) = qm.cholesky() else {
+                reason = 3;
+                n -= 1;
+                continue;
+            };
+            let w = ch.solve(&da);
+            let dpos = pxa * w;
+            let pq = ch.solve(&pxa.transpose());
+            let p_fix = p_pos - pxa * pq;
+            let (rm, rn) = earth::radii(lat);
+            sol.pos = Geodetic {
+                lat: lat - dpos[0] / (rm + h),
+                lon: lon - dpos[1] / ((rn + h) * lat.cos()),
+                h: h + dpos[2],
+            };
+            sol.std_ned = std(&p_fix);
+            sol.fixed = true;
+            sol.n_fixed = n;
+            for u in 0..n {
+                let cu = cand[order[u]];
+                let (ri, rr) = (recs[cu.2], recs[cu.3]);
+                sol.fixed_dd[u] = FixedDd {
+                    system: ri.key_sys,
+                    signal: ri.key_sig,
+                    prn: ri.key_prn,
+                    ref_prn: rr.key_prn,
+                    n: res.fixed[0][u] as i64,
+                };
+            }
+            rt.stats.fixed += 1;
+            if n < nc {
+                rt.stats.fixed_partial += 1;
+            }
+            return sol;
+        }
+        match reason {
+            1 => rt.stats.rejected_success_rate += 1,
+            2 => rt.stats.rejected_ratio += 1,
+            3 => rt.stats.rejected_lambda += 1,
+            _ => rt.stats.rejected_too_few += 1,
+        }
+        sol
+    }
+
+    /// Fix-and-hold: the fixed DDs as pseudo-measurements `a_i − a_r = ň`
+    /// with variance 0.001 cycle² (RTKLIB `VAR_HOLDAMB`).
+    fn rtk_hold(&mut self, sol: &RtkSolution, recs: &[Rec], _gref: &[usize]) {
+        let Some(rt) = &mut self.rtk else { return };
+        let mut pf = rt.full(&self.p);
+        let mut dxf = SVector::<f64, NJ>::zeros();
+        let mut held = 0u64;
+        for f in &sol.fixed_dd[..sol.n_fixed] {
+            let slot_of = |prn: u8| {
+                recs.iter()
+                    .find(|r| r.key_sys == f.system && r.key_sig == f.signal && r.key_prn == prn)
+                    .map(|r| r.slot)
+            };
+            let (Some(i), Some(j)) = (slot_of(f.prn), slot_of(f.ref_prn)) else {
+                continue;
+            };
+            if i == usize::MAX || j == usize::MAX {
+                continue;
+            }
+            let mut hv = SVector::<f64, NJ>::zeros();
+            hv[NX + i] = 1.0;
+            hv[NX + j] = -1.0;
+            let dz = (rt.x[i] - rt.x[j]) - f.n as f64;
+            let innov = dz - hv.dot(&dxf);
+            let ph = pf * hv;
+            let s = hv.dot(&ph) + 0.001;
+            dxf += ph * (innov / s);
+            pf -= ph * ph.transpose() / s;
+            held += 1;
+        }
+        if held == 0 {
+            return;
+        }
+        rt.stats.held += held;
+        rt.split(&pf, &mut self.p);
+        rt.x -= dxf.fixed_rows::<NK>(NX);
+        let dx: super::StateVec = dxf.fixed_rows::<NX>(0).into();
+        apply_correction(&mut self.nav, &mut self.err, &dx);
+        self.rec_dx += dx;
+        self.rec_updated = true;
+    }
+}
+
+/// Re-initialise the slot of record `r` inside an epoch's update: in the
+/// block (state, slot) and in the working joint covariance `pf` and
+/// correction `dxf`.
+fn reset_joint(rt: &mut Rtk, pf: &mut SMatrix<f64, NJ, NJ>, dxf: &mut SVector<f64, NJ>, r: &Rec) {
+    let k = r.slot;
+    rt.init_slot(
+        k,
+        (r.key_sys, r.key_prn, r.key_sig),
+        r.lambda,
+        (r.sd_phi - r.sd_code) / r.lambda,
+    );
+    rt.slots[k].seen = true;
+    for j in 0..NJ {
+        pf[(NX + k, j)] = 0.0;
+        pf[(j, NX + k)] = 0.0;
+    }
+    pf[(NX + k, NX + k)] = rt.p_aa[(k, k)];
+    dxf[NX + k] = 0.0;
+}
+
+/// Whiten DD rows with the lower Cholesky factor `l` of their covariance:
+/// forward substitution `L z̃ = z`, `L H̃ = H` (row by row).
+fn whiten(l: &SMatrix<f64, MAX_RAW_SATS, MAX_RAW_SATS>, rows: &mut [DdRow]) {
+    for j in 0..rows.len() {
+        let mut h = rows[j].h;
+        let mut dz = rows[j].dz;
+        for k in 0..j {
+            h -= rows[k].h * l[(j, k)];
+            dz -= rows[k].dz * l[(j, k)];
+        }
+        rows[j].h = h / l[(j, j)];
+        rows[j].dz = dz / l[(j, j)];
+    }
+}
+
+/// A correction and covariance of the joint state (tests).
+#[cfg(test)]
+pub(super) type JointUpdate = (SVector<f64, NJ>, SMatrix<f64, NJ, NJ>);
+
+/// The whitening and the vector update, for the tests: `(dx, P)` after
+/// processing DD rows `h` (`m` of them), innovations `dz` and SD variances
+/// `v` (reference `v_ref`) either whitened-sequentially or as one vector
+/// update.
+#[cfg(test)]
+pub(super) fn dd_update_both(
+    p0: &SMatrix<f64, NJ, NJ>,
+    h: &[SVector<f64, NJ>],
+    dz: &[f64],
+    v: &[f64],
+    v_ref: f64,
+) -> (JointUpdate, JointUpdate) {
+    let m = h.len();
+    let mut c = SMatrix::<f64, MAX_RAW_SATS, MAX_RAW_SATS>::identity();
+    for i in 0..m {
+        for j in 0..m {
+            c[(i, j)] = v_ref;
+        }
+        c[(i, i)] += v[i];
+    }
+    let l = c.cholesky().expect("pd").l();
+    let mut rows: [DdRow; MAX_RAW_SATS] = [DdRow {
+        h: SVector::zeros(),
+        dz: 0.0,
+        rec: 0,
+    }; MAX_RAW_SATS];
+    for i in 0..m {
+        rows[i] = DdRow {
+            h: h[i],
+            dz: dz[i],
+            rec: i,
+        };
+    }
+    whiten(&l, &mut rows[..m]);
+    let mut p = *p0;
+    let mut dx = SVector::<f64, NJ>::zeros();
+    for row in rows[..m].iter() {
+        let innov = row.dz - row.h.dot(&dx);
+        let ph = p * row.h;
+        let s = row.h.dot(&ph) + 1.0;
+        dx += ph * (innov / s);
+        p -= ph * ph.transpose() / s;
+    }
+    // Vector update (dynamic, test only).
+    let hm = nalgebra::DMatrix::<f64>::from_fn(m, NJ, |i, j| h[i][j]);
+    let cm = nalgebra::DMatrix::<f64>::from_fn(m, m, |i, j| c[(i, j)]);
+    let pm = nalgebra::DMatrix::<f64>::from_fn(NJ, NJ, |i, j| p0[(i, j)]);
+    let zm = nalgebra::DVector::<f64>::from_fn(m, |i, _| dz[i]);
+    let s = &hm * &pm * hm.transpose() + cm;
+    let k = &pm * hm.transpose() * s.try_inverse().expect("inv");
+    let dxv = &k * zm;
+    let pv = &pm - &k * &hm * &pm;
+    let dx2 = SVector::<f64, NJ>::from_fn(|i, _| dxv[i]);
+    let p2 = SMatrix::<f64, NJ, NJ>::from_fn(|i, j| pv[(i, j)]);
+    ((dx, p), (dx2, p2))
+}
+
+/// Joint dimension, for the tests.
+#[cfg(test)]
+pub(super) const NJ_TEST: usize = NJ;

@@ -1,0 +1,754 @@
+//! Issue 15, must-show 2 (first simulated measurements): RTK/INS on a
+//! simulated car against a static base (`navfuse experiment rtk`).
+//!
+//! Scenario (fixed before any run):
+//! - a simulated car ([`navfuse_sim::platform`], static start, 100 Hz IMU
+//!   of the grade under test: industrial "adis16465" and consumer "phone"),
+//!   raw GNSS at 1 Hz from the YUMA almanac of seed 003 (GPS L1 only: the
+//!   single-frequency simulator [`navfuse_sim::raw_gnss`] until the
+//!   dual-frequency scene lands), the sky moving with the seed as in
+//!   `experiment tight`;
+//! - a static base 3 km north and 2 km east of the car's start at its
+//!   height (a 3.6 km baseline), its own receiver (own seed: own clock,
+//!   code noise, multipath, carrier noise), position known exactly;
+//! - **short-baseline approximation**: the common-mode errors of the
+//!   simulator (satellite orbit/clock error, ionosphere and troposphere
+//!   residuals) are switched off in both receivers' configurations. The two
+//!   `simulate_raw` calls draw them independently, so left on they would
+//!   not cancel in the DD as the real ones (the same satellites' errors seen
+//!   3.6 km apart) do; off, the DD holds what remains of a short baseline:
+//!   each receiver's noise, multipath and clock;
+//! - an undetected 1-cycle slip (no loss-of-lock flag) injected into the
+//!   rover carrier of its third-highest satellite from 150 s on;
+//! - a full outage (no satellite) for 30 s from 240 s after the start and
+//!   a 60 s window from 420 s in which only the 4 highest satellites remain;
+//!   full sky otherwise. Needs ≥ 490 s.
+//!
+//! Filters (both from the truth of the first IMU interval, car profile
+//! with its NHC, the IMU grade's noise; [`RtkConfig::consumer`]):
+//! - **with INS**: [`Eskf::with_rtk`];
+//! - **with INS, fix-and-hold**: the same with [`RtkConfig::fix_and_hold`];
+//! - **without INS**: the same with [`RtkConfig::gnss_only`]: before each
+//!   epoch the position and velocity lose their INS prediction (σ 30 m,
+//!   30 m/s, cross terms zeroed; RTKLIB kinematic re-initialises the
+//!   position each epoch the same way), everything else equal.
+//!
+//! Each rover epoch is applied at its true time estimated as the stamp
+//! minus the receiver clock bias ([`receiver_clock_bias_m`] at the INS
+//! antenna, a median pseudorange residual: ~10 ns), i.e. after the IMU
+//! sample nearest to it.
+//!
+//! Scores:
+//! - time to first fix [s] from the first epoch;
+//! - horizontal RMS of the fixed epochs' IMU position against the truth
+//!   (pooled over seeds; target ≤ 2 cm);
+//! - wrong fixes: fixed epochs with any fixed DD integer different from the
+//!   simulated one (the truth SD integers are recovered exactly from the
+//!   simulated carrier: `(Φ − ρ − c δt_r + c δt_s − T)/λ` with the true
+//!   geometry, clock and troposphere, the 3 mm carrier noise ≪ λ/2);
+//!   target 0; the fixed epochs > 5 cm (3D) from the truth are counted too;
+//! - re-fix after the outage: the number of the first fixed epoch among the
+//!   epochs after the signals return (1 = fixed at the first epoch back;
+//!   the issue's target ≤ 2 with the INS), with and without the INS; an
+//!   epoch that never re-fixes before the 4-satellite window counts as the
+//!   number of epochs to it (reported as censored);
+//! - the injected slip: caught by the INS-predicted slip test of that
+//!   satellite, by its DD gate, or missed;
+//! - partial sky: the largest horizontal error of the reported solution
+//!   (fixed, else float) in the 4-satellite window (target: fix kept or
+//!   ≤ 0.3 m), and the fixed share there.
+
+use super::ExperimentError;
+use crate::profile::Platform as Profile;
+use crate::sensors::imu_noise_preset;
+use crate::ToolError;
+use navfuse_core::estimators::eskf::{
+    receiver_clock_bias_m, Eskf, EskfConfig, ImuErrors, InitStd, RtkConfig, RtkSolution, RtkStats,
+};
+use navfuse_core::geodesy::{c_en, ecef_to_geodetic, geodetic_to_ecef, Geodetic};
+use navfuse_core::gnss::tropo::{day_of_year, slant_delay};
+use navfuse_core::gnss::{sat_at_receive, KeplerOrbit, C_LIGHT};
+use navfuse_core::ins::mech::{q_bn_from_rpy, NavState};
+use navfuse_core::{Estimator, Event, Vec3};
+use navfuse_sim::platform::{platform_run, GnssGrade, ImuGrade, Platform, PlatformOptions};
+use navfuse_sim::raw_gnss::{simulate_raw, MaskWindow, RawConfig, RawTruthEpoch, SkyMask};
+use navfuse_sim::trajectory::Trajectory;
+use rayon::prelude::*;
+use serde::Serialize;
+use std::collections::{BTreeMap, HashMap};
+use std::path::PathBuf;
+
+/// Outage start and length, 4-satellite window start and length [s from t₀].
+pub const OUTAGE_START_S: f64 = 240.0;
+pub const OUTAGE_S: f64 = 30.0;
+pub const PARTIAL_START_S: f64 = 420.0;
+pub const PARTIAL_S: f64 = 60.0;
+/// Satellites left in the partial-sky window.
+pub const PARTIAL_SATS: usize = 4;
+/// An undetected 1-cycle slip is injected into the rover's carrier of its
+/// third-highest satellite from this time on [s from t₀] (no loss-of-lock
+/// flag: what the INS-predicted test has to catch).
+pub const SLIP_AT_S: f64 = 150.0;
+/// Base offset from the car's start, north and east [m].
+pub const BASE_NE_M: (f64, f64) = (3000.0, 2000.0);
+
+/// Options of `navfuse experiment rtk`.
+#[derive(Clone, Debug)]
+#[cfg_attr(feature = "clap", derive(clap::Args))]
+pub struct Options {
+    /// Number of seeds.
+    #[cfg_attr(feature = "clap", arg(long, default_value_t = 5))]
+    pub seeds: u64,
+    /// First seed.
+    #[cfg_attr(feature = "clap", arg(long, default_value_t = 1))]
+    pub seed0: u64,
+    /// Drive length [s] (≥ 490: the outage and the 4-satellite window).
+    #[cfg_attr(feature = "clap", arg(long, default_value_t = 600.0))]
+    pub duration: f64,
+    /// YUMA almanac (default: gnss/almanac/yuma_week1011.alm under the data
+    /// root; a synthetic 24-satellite constellation when absent).
+    #[cfg_attr(feature = "clap", arg(long))]
+    pub almanac: Option<PathBuf>,
+    /// Write the report as JSON to FILE.
+    #[cfg_attr(feature = "clap", arg(long))]
+    pub json: Option<PathBuf>,
+    /// Ablation only: the bootstrapped success-rate threshold (default
+    /// [`RtkConfig::rtklib`]'s 0.999; 0 turns the check off, ratio only).
+    #[cfg_attr(feature = "clap", arg(long))]
+    pub success_min: Option<f64>,
+}
+
+/// Scores of one filter (means over seeds unless said).
+#[derive(Clone, Debug, Default, Serialize)]
+pub struct Scores {
+    /// Mean time to first fix [s] (seeds that fixed) and seeds never fixed.
+    pub first_fix_s: Option<f64>,
+    pub never_fixed: usize,
+    /// Pooled horizontal RMS of the fixed epochs [m], and of all epochs'
+    /// float solution outside the outage [m].
+    pub fixed_h_rms_m: Option<f64>,
+    pub float_h_rms_m: Option<f64>,
+    /// Fixed epochs / epochs with satellites (pooled).
+    pub fixed_epochs: usize,
+    pub epochs: usize,
+    /// Mean per seed: fixed epochs with a wrong DD integer; fixed epochs
+    /// > 5 cm (3D) from the truth.
+    pub wrong_fixes: f64,
+    pub fixed_over_5cm: f64,
+    /// Mean epochs to re-fix after the outage; seeds censored.
+    pub refix_epochs: Option<f64>,
+    pub refix_censored: usize,
+    /// Mean over seeds of the largest horizontal error in the 4-satellite
+    /// window [m], and the fixed share of its epochs.
+    pub partial_sky_h_m: Option<f64>,
+    pub partial_sky_fixed_share: f64,
+    /// Share of epochs whose horizontal error is inside the 95 % ellipse
+    /// of the reported σ (χ²₂ = 5.991): fixed solutions, float solutions.
+    pub coverage95_fixed: f64,
+    pub coverage95_float: f64,
+    /// Mean phase DDs used per epoch with satellites.
+    pub mean_phase_dd: f64,
+    /// Injected slips caught by the slip test / by the DD gate / missed.
+    pub injected_slip_detected: usize,
+    pub injected_slip_gated: usize,
+    pub injected_slip_missed: usize,
+    /// Filter counters summed over seeds.
+    pub slips: u64,
+    pub lli_resets: u64,
+    pub phase_gated: u64,
+    pub code_gated: u64,
+    pub ref_resets: u64,
+    pub fix_attempts: u64,
+    pub fixed: u64,
+    pub fixed_partial: u64,
+    pub rejected_success_rate: u64,
+    pub rejected_ratio: u64,
+    pub rejected_too_few: u64,
+    pub mean_nis_code: f64,
+    pub mean_nis_phase: f64,
+    /// Largest |filter time − estimated true epoch time| [s].
+    pub max_time_error_s: f64,
+}
+
+/// One IMU grade: with and without the INS.
+#[derive(Clone, Debug, Default, Serialize)]
+pub struct GradeReport {
+    pub with_ins: Scores,
+    pub without_ins: Scores,
+    /// With the INS and fix-and-hold ([`RtkConfig::fix_and_hold`]).
+    pub with_ins_hold: Scores,
+}
+
+/// The report (`--json`): the issue's keys (consumer MEMS, means over
+/// seeds) first, then everything per grade.
+#[derive(Clone, Debug, Serialize)]
+pub struct RtkReport {
+    pub first_fix_s: Option<f64>,
+    pub refix_epochs: Option<f64>,
+    pub refix_epochs_without_ins: Option<f64>,
+    pub fixed_h_rms_m: Option<f64>,
+    pub wrong_fixes: f64,
+    pub partial_sky_h_m: Option<f64>,
+    pub by_imu: BTreeMap<String, GradeReport>,
+    pub seeds: Vec<u64>,
+    pub duration_s: f64,
+    pub orbits: String,
+    pub scenario: String,
+    pub failed: Vec<(u64, String)>,
+}
+
+/// What one run of one filter gave.
+#[derive(Clone, Debug, Default)]
+struct RunOut {
+    first_fix: Option<f64>,
+    fixed_h2: Vec<f64>,
+    float_h2: Vec<f64>,
+    epochs: usize,
+    wrong: usize,
+    over5: usize,
+    refix: Option<usize>,
+    refix_censored: bool,
+    partial_max: f64,
+    partial_fixed: (usize, usize),
+    stats: Option<RtkStats>,
+    max_dt: f64,
+    n_phase: usize,
+    /// (inside, scored) of the 95 % coverage: fixed, float.
+    cover: [(usize, usize); 2],
+    /// The injected slip: 0 detected, 1 gated, 2 missed.
+    slip_outcome: Option<u8>,
+}
+
+/// One seed and grade's outcome: with and without the INS.
+type Job = (u64, ImuGrade, Result<[RunOut; 3], String>);
+
+/// The car filter of `grade` at the truth of the first IMU interval
+/// ([`super::aiding::car_filter_at_truth`] with the grade's noise).
+fn car_filter(traj: &Trajectory, lever: Vec3, grade: ImuGrade) -> Result<Eskf, String> {
+    let sn = imu_noise_preset(grade.preset()).map_err(|e| e.to_string())?;
+    let base = EskfConfig {
+        noise: sn.noise,
+        lever_arm_b: lever,
+        scale_factors: true,
+        ..EskfConfig::seed001()
+    };
+    let cfg = Profile::Car.profile().apply(base);
+    let t = &traj.truth[1];
+    let nav = NavState {
+        lat: t.lat,
+        lon: t.lon,
+        h: t.h,
+        v_n: t.v_n,
+        q_bn: q_bn_from_rpy(&t.rpy),
+    };
+    let std = InitStd {
+        pos: Vec3::repeat(1.0),
+        vel: Vec3::repeat(0.1),
+        att: Vec3::new(0.5, 0.5, 2.0).map(f64::to_radians),
+        bg: Vec3::repeat(sn.init_bg_std),
+        ba: Vec3::repeat(sn.init_ba_std),
+        sg: Vec3::repeat(sn.init_sg_std),
+        sa: Vec3::repeat(sn.init_sa_std),
+    };
+    Ok(Eskf::new(cfg, nav, ImuErrors::default(), &std))
+}
+
+/// Truth antenna position and velocity (ECEF) of a drive at true time `t`.
+fn antenna_truth(traj: &Trajectory, lever: &Vec3, t: f64) -> (Vec3, Vec3) {
+    let s = traj.at(t);
+    let c_bn = q_bn_from_rpy(&s.rpy).to_rotation_matrix().into_inner();
+    let p = geodetic_to_ecef(&Geodetic {
+        lat: s.lat,
+        lon: s.lon,
+        h: s.h,
+    });
+    let cne = c_en(s.lat, s.lon).transpose();
+    let v_n = s.v_n + c_bn * s.w_ib_b.cross(lever);
+    (p + cne * (c_bn * lever), cne * v_n)
+}
+
+/// The simulated integer ambiguity of each PRN in one receiver's epoch
+/// (module documentation; common-mode errors off).
+fn truth_integers(
+    e: &RawTruthEpoch,
+    rx: &Vec3,
+    orbits: &[KeplerOrbit],
+    orbit_offset: f64,
+) -> HashMap<u8, i64> {
+    let g = ecef_to_geodetic(rx);
+    let cen = c_en(g.lat, g.lon);
+    let t_orb = e.t + orbit_offset;
+    let doy = day_of_year(t_orb);
+    let mut out = HashMap::new();
+    for s in e.epoch.sats() {
+        let Some(o) = orbits.iter().find(|o| o.prn == s.obs.prn) else {
+            continue;
+        };
+        let sr = sat_at_receive(o, rx, t_orb);
+        let u_n = cen * ((sr.pos_e - rx) / sr.range);
+        let el = (-u_n.z).clamp(-1.0, 1.0).asin();
+        let dts = (o.clock_offset(sr.t_tx) - o.tgd) * C_LIGHT;
+        let trop = slant_delay(el, g.lat, g.h, doy, 0.7);
+        let model = sr.range + e.clock_bias_s * C_LIGHT - dts + trop;
+        let lam = s.obs.wavelength_m();
+        out.insert(s.obs.prn, ((s.obs.carrier_m - model) / lam).round() as i64);
+    }
+    out
+}
+
+/// Everything of one seed and IMU grade that both filters share.
+struct Drive<'a> {
+    traj: &'a Trajectory,
+    imu: &'a [navfuse_core::ImuSample],
+    lever: Vec3,
+    rover: Vec<RawTruthEpoch>,
+    base: Vec<RawTruthEpoch>,
+    base_e: Vec3,
+    /// Truth DD reference: SD integers per epoch (rover − base) by PRN.
+    sd_truth: Vec<HashMap<u8, i64>>,
+    t0: f64,
+    /// PRN of the injected slip.
+    slip_prn: Option<u8>,
+}
+
+fn run_filter(d: &Drive, mut f: Eskf) -> Result<RunOut, String> {
+    let mut out = RunOut::default();
+    let mut i = 0usize;
+    let dt_imu = d.imu.get(1).map_or(0.01, |s| s.t - d.imu[0].t);
+    let mut bias_m = 0.0;
+    let t_first = d.rover.first().map_or(d.t0, |e| e.t);
+    let out_end = d.t0 + OUTAGE_START_S + OUTAGE_S;
+    let (p0, p1) = (d.t0 + PARTIAL_START_S, d.t0 + PARTIAL_START_S + PARTIAL_S);
+    let mut back = 0usize;
+    for (k, (re, be)) in d.rover.iter().zip(&d.base).enumerate() {
+        let nav = *f.nav();
+        let r_ins = geodetic_to_ecef(&Geodetic {
+            lat: nav.lat,
+            lon: nav.lon,
+            h: nav.h,
+        });
+        if let Some(b) = receiver_clock_bias_m(&re.epoch, &r_ins) {
+            bias_m = b;
+        }
+        let te = re.epoch.t - bias_m / C_LIGHT;
+        while i < d.imu.len() && d.imu[i].t <= te + 0.5 * dt_imu {
+            f.push(&Event::Imu(d.imu[i]));
+            i += 1;
+        }
+        if i >= d.imu.len() {
+            break;
+        }
+        out.max_dt = out.max_dt.max((f.time() - te).abs());
+        let sol: RtkSolution = f
+            .rtk_update(&re.epoch, &be.epoch, &d.base_e)
+            .map_err(|e| e.to_string())?;
+        let tr = d.traj.at(sol.t);
+        let (n, e) = super::h_error_ne(sol.pos.lat, sol.pos.lon, &tr);
+        let h_err = n.hypot(e);
+        let (fnn, fe) = super::h_error_ne(sol.float_pos.lat, sol.float_pos.lon, &tr);
+        let inside = |n: f64, e: f64, s: &Vec3| (n / s.x).powi(2) + (e / s.y).powi(2) <= 5.991;
+        if re.epoch.n > 0 {
+            out.epochs += 1;
+            out.n_phase += sol.n_phase;
+            out.cover[1].1 += 1;
+            if inside(fnn, fe, &sol.float_std_ned) {
+                out.cover[1].0 += 1;
+            }
+            out.float_h2.push(fnn * fnn + fe * fe);
+        }
+        if sol.fixed {
+            out.cover[0].1 += 1;
+            if inside(n, e, &sol.std_ned) {
+                out.cover[0].0 += 1;
+            }
+            out.first_fix.get_or_insert(sol.t - t_first);
+            out.fixed_h2.push(h_err * h_err);
+            let up = sol.pos.h - tr.h;
+            if (h_err * h_err + up * up).sqrt() > 0.05 {
+                out.over5 += 1;
+            }
+            let sd = &d.sd_truth[k];
+            let wrong = sol.fixed_dd[..sol.n_fixed].iter().any(|x| {
+                match (sd.get(&x.prn), sd.get(&x.ref_prn)) {
+                    (Some(a), Some(b)) => a - b != x.n,
+                    _ => true,
+                }
+            });
+            if wrong {
+                out.wrong += 1;
+            }
+        }
+        // Re-fix after the outage (epochs after the signals return).
+        if re.t >= out_end && re.t < p0 && out.refix.is_none() {
+            back += 1;
+            if sol.fixed {
+                out.refix = Some(back);
+            }
+        }
+        if re.t >= p0 && out.refix.is_none() && back > 0 {
+            out.refix = Some(back);
+            out.refix_censored = true;
+        }
+        if re.t >= p0 && re.t < p1 {
+            out.partial_max = out.partial_max.max(h_err);
+            out.partial_fixed.1 += 1;
+            if sol.fixed {
+                out.partial_fixed.0 += 1;
+            }
+        }
+    }
+    out.stats = f.rtk_stats().copied();
+    if let (Some(prn), Some(st)) = (d.slip_prn, &out.stats) {
+        let c = st.sat(navfuse_core::gnss::raw::GnssSystem::Gps, prn);
+        // Before the outage the satellite had no other reason to reset.
+        out.slip_outcome = Some(if c.slips > 0 {
+            0
+        } else if c.phase_gated > 0 {
+            1
+        } else {
+            2
+        });
+    }
+    Ok(out)
+}
+
+/// One seed and grade: the drive, both receivers, both filters.
+fn run_seed(
+    seed: u64,
+    grade: ImuGrade,
+    duration: f64,
+    orbits: &[KeplerOrbit],
+    rc: RtkConfig,
+) -> Result<[RunOut; 3], String> {
+    let opts = PlatformOptions {
+        duration_s: duration,
+        static_start: true,
+        imu: grade,
+        gnss: GnssGrade::Consumer,
+        ..Default::default()
+    };
+    let pr = platform_run(Platform::Car, seed, &opts).map_err(|e| e.to_string())?;
+    let run = &pr.run;
+    let traj = &run.traj;
+    let lever = Vec3::from(run.scenario.gnss.lever_arm_m);
+    let t0 = traj.truth[0].t;
+    let t_oa = orbits.first().map_or(0.0, |o| o.t_oe);
+    let orbit_offset = t_oa - t0 + 997.0 * seed as f64;
+    let short_baseline = RawConfig {
+        iono_zenith_m: 0.0,
+        tropo_zenith_m: 0.0,
+        sat_sigma_m: 0.0,
+        orbit_time_offset_s: orbit_offset,
+        ..Default::default()
+    };
+    let rover_cfg = RawConfig {
+        windows: vec![
+            MaskWindow {
+                start: t0 + OUTAGE_START_S,
+                end: t0 + OUTAGE_START_S + OUTAGE_S,
+                mask: SkyMask::Highest(0),
+            },
+            MaskWindow {
+                start: t0 + PARTIAL_START_S,
+                end: t0 + PARTIAL_START_S + PARTIAL_S,
+                mask: SkyMask::Highest(PARTIAL_SATS),
+            },
+        ],
+        seed: seed.wrapping_mul(7919).wrapping_add(17),
+        ..short_baseline.clone()
+    };
+    let mut rover = super::tight::simulate_drive_raw(run, orbits, &rover_cfg);
+    // The injected slip: the third-highest satellite at SLIP_AT_S.
+    let slip_prn = rover.iter().find(|e| e.t >= t0 + SLIP_AT_S).and_then(|e| {
+        let (ra, _) = antenna_truth(traj, &lever, e.t);
+        let g = ecef_to_geodetic(&ra);
+        let cen = c_en(g.lat, g.lon);
+        let mut v: Vec<(f64, u8)> = e
+            .epoch
+            .sats()
+            .iter()
+            .map(|s| {
+                let u = cen * (s.sat.pos_e - ra).normalize();
+                (-u.z, s.obs.prn)
+            })
+            .collect();
+        v.sort_by(|a, b| b.0.total_cmp(&a.0));
+        v.get(2).map(|x| x.1)
+    });
+    if let Some(prn) = slip_prn {
+        for e in rover.iter_mut().filter(|e| e.t >= t0 + SLIP_AT_S) {
+            let n = e.epoch.n;
+            for s in e.epoch.sats[..n].iter_mut() {
+                if s.obs.prn == prn {
+                    s.obs.carrier_m += s.obs.wavelength_m();
+                }
+            }
+        }
+    }
+    let s0 = &traj.truth[0];
+    let (rm, rn) = navfuse_core::earth::radii(s0.lat);
+    let base_geo = Geodetic {
+        lat: s0.lat + BASE_NE_M.0 / (rm + s0.h),
+        lon: s0.lon + BASE_NE_M.1 / ((rn + s0.h) * s0.lat.cos()),
+        h: s0.h,
+    };
+    let base_e = geodetic_to_ecef(&base_geo);
+    let base_cfg = RawConfig {
+        seed: seed.wrapping_mul(104_729).wrapping_add(3),
+        ..short_baseline
+    };
+    let times: Vec<f64> = rover.iter().map(|e| e.t).collect();
+    let base = simulate_raw(&base_cfg, orbits, &times, |_| (base_e, Vec3::zeros()));
+    let sd_truth: Vec<HashMap<u8, i64>> = rover
+        .iter()
+        .zip(&base)
+        .map(|(r, b)| {
+            let (ra, _) = antenna_truth(traj, &lever, r.t);
+            let nr = truth_integers(r, &ra, orbits, orbit_offset);
+            let nb = truth_integers(b, &base_e, orbits, orbit_offset);
+            nr.iter()
+                .filter_map(|(p, a)| nb.get(p).map(|b| (*p, a - b)))
+                .collect()
+        })
+        .collect();
+    let d = Drive {
+        traj,
+        imu: &run.imu,
+        lever,
+        rover,
+        base,
+        base_e,
+        sd_truth,
+        t0,
+        slip_prn,
+    };
+    let with = car_filter(traj, d.lever, grade)?
+        .with_rtk(rc)
+        .map_err(|e| e.to_string())?;
+    let without = car_filter(traj, d.lever, grade)?
+        .with_rtk(RtkConfig {
+            gnss_only: true,
+            ..rc
+        })
+        .map_err(|e| e.to_string())?;
+    let hold = car_filter(traj, d.lever, grade)?
+        .with_rtk(RtkConfig {
+            fix_and_hold: true,
+            ..rc
+        })
+        .map_err(|e| e.to_string())?;
+    Ok([
+        run_filter(&d, with)?,
+        run_filter(&d, without)?,
+        run_filter(&d, hold)?,
+    ])
+}
+
+fn mean(v: &[f64]) -> Option<f64> {
+    (!v.is_empty()).then(|| v.iter().sum::<f64>() / v.len() as f64)
+}
+
+fn scores(v: &[RunOut]) -> Scores {
+    let n = v.len().max(1) as f64;
+    let ff: Vec<f64> = v.iter().filter_map(|r| r.first_fix).collect();
+    let fixed: Vec<f64> = v.iter().flat_map(|r| r.fixed_h2.iter().copied()).collect();
+    let float: Vec<f64> = v.iter().flat_map(|r| r.float_h2.iter().copied()).collect();
+    let refix: Vec<f64> = v.iter().filter_map(|r| r.refix.map(|x| x as f64)).collect();
+    let partial: Vec<f64> = v.iter().map(|r| r.partial_max).collect();
+    let pf = v.iter().fold((0, 0), |a, r| {
+        (a.0 + r.partial_fixed.0, a.1 + r.partial_fixed.1)
+    });
+    let mut s = Scores {
+        first_fix_s: mean(&ff),
+        never_fixed: v.len() - ff.len(),
+        fixed_h_rms_m: mean(&fixed).map(f64::sqrt),
+        float_h_rms_m: mean(&float).map(f64::sqrt),
+        fixed_epochs: fixed.len(),
+        epochs: v.iter().map(|r| r.epochs).sum(),
+        wrong_fixes: v.iter().map(|r| r.wrong as f64).sum::<f64>() / n,
+        fixed_over_5cm: v.iter().map(|r| r.over5 as f64).sum::<f64>() / n,
+        refix_epochs: mean(&refix),
+        refix_censored: v.iter().filter(|r| r.refix_censored).count(),
+        partial_sky_h_m: mean(&partial),
+        partial_sky_fixed_share: pf.0 as f64 / pf.1.max(1) as f64,
+        coverage95_fixed: {
+            let c = v
+                .iter()
+                .fold((0, 0), |a, r| (a.0 + r.cover[0].0, a.1 + r.cover[0].1));
+            c.0 as f64 / c.1.max(1) as f64
+        },
+        coverage95_float: {
+            let c = v
+                .iter()
+                .fold((0, 0), |a, r| (a.0 + r.cover[1].0, a.1 + r.cover[1].1));
+            c.0 as f64 / c.1.max(1) as f64
+        },
+        mean_phase_dd: v.iter().map(|r| r.n_phase).sum::<usize>() as f64
+            / v.iter().map(|r| r.epochs).sum::<usize>().max(1) as f64,
+        injected_slip_detected: v.iter().filter(|r| r.slip_outcome == Some(0)).count(),
+        injected_slip_gated: v.iter().filter(|r| r.slip_outcome == Some(1)).count(),
+        injected_slip_missed: v.iter().filter(|r| r.slip_outcome == Some(2)).count(),
+        max_time_error_s: v.iter().map(|r| r.max_dt).fold(0.0, f64::max),
+        ..Default::default()
+    };
+    let (mut nc, mut np) = ((0.0, 0u64), (0.0, 0u64));
+    for st in v.iter().filter_map(|r| r.stats.as_ref()) {
+        let t = st.total();
+        s.slips += t.slips as u64;
+        s.lli_resets += t.lli_resets as u64;
+        s.phase_gated += t.phase_gated as u64;
+        s.code_gated += t.code_gated as u64;
+        s.ref_resets += t.ref_resets as u64;
+        s.fix_attempts += st.fix_attempts;
+        s.fixed += st.fixed;
+        s.fixed_partial += st.fixed_partial;
+        s.rejected_success_rate += st.rejected_success_rate;
+        s.rejected_ratio += st.rejected_ratio;
+        s.rejected_too_few += st.rejected_too_few;
+        nc = (nc.0 + st.nis_code.0, nc.1 + st.nis_code.1);
+        np = (np.0 + st.nis_phase.0, np.1 + st.nis_phase.1);
+    }
+    s.mean_nis_code = nc.0 / nc.1.max(1) as f64;
+    s.mean_nis_phase = np.0 / np.1.max(1) as f64;
+    s
+}
+
+/// Run the experiment over seeds `seed0 …` for both IMU grades.
+pub fn run_rtk(o: &Options) -> Result<RtkReport, ExperimentError> {
+    let min = PARTIAL_START_S + PARTIAL_S + 10.0;
+    if o.seeds == 0 || !(o.duration.is_finite() && o.duration >= min) {
+        return Err(ExperimentError::Options(format!(
+            "rtk: need --seeds >= 1 and --duration >= {min} s"
+        )));
+    }
+    let (orbits, orbit_name) = super::tight::load_orbits(o.almanac.as_ref());
+    let mut rc = RtkConfig::consumer();
+    if let Some(p) = o.success_min {
+        // 0 = off: any success rate passes.
+        rc.success_min = p.max(f64::MIN_POSITIVE);
+    }
+    let ids: Vec<u64> = (o.seed0..o.seed0 + o.seeds).collect();
+    let grades = [ImuGrade::Industrial, ImuGrade::Consumer];
+    let jobs: Vec<(u64, ImuGrade)> = ids
+        .iter()
+        .flat_map(|&s| grades.iter().map(move |&g| (s, g)))
+        .collect();
+    let res: Vec<Job> = super::on_worker_pool(|| {
+        jobs.par_iter()
+            .map(|&(s, g)| (s, g, run_seed(s, g, o.duration, &orbits, rc)))
+            .collect()
+    });
+    let mut failed = Vec::new();
+    let mut by_imu = BTreeMap::new();
+    for g in grades {
+        let (mut w, mut wo, mut wh) = (Vec::new(), Vec::new(), Vec::new());
+        for (s, gg, r) in &res {
+            if *gg != g {
+                continue;
+            }
+            match r {
+                Ok([a, b, c]) => {
+                    w.push(a.clone());
+                    wo.push(b.clone());
+                    wh.push(c.clone());
+                }
+                Err(e) => failed.push((*s, format!("{}: {e}", g.preset()))),
+            }
+        }
+        by_imu.insert(
+            g.preset().to_string(),
+            GradeReport {
+                with_ins: scores(&w),
+                without_ins: scores(&wo),
+                with_ins_hold: scores(&wh),
+            },
+        );
+    }
+    let c = &by_imu[ImuGrade::Consumer.preset()];
+    Ok(RtkReport {
+        first_fix_s: c.with_ins.first_fix_s,
+        refix_epochs: c.with_ins.refix_epochs,
+        refix_epochs_without_ins: c.without_ins.refix_epochs,
+        fixed_h_rms_m: c.with_ins.fixed_h_rms_m,
+        wrong_fixes: c.with_ins.wrong_fixes,
+        partial_sky_h_m: c.with_ins.partial_sky_h_m,
+        by_imu: by_imu.clone(),
+        seeds: ids,
+        duration_s: o.duration,
+        orbits: orbit_name,
+        scenario: format!(
+            "car, GPS L1 1 Hz rover + static base {:.1} km away, common-mode errors off \
+             (short-baseline approximation); full outage {OUTAGE_START_S}-{} s, \
+             {PARTIAL_SATS} satellites {PARTIAL_START_S}-{} s",
+            BASE_NE_M.0.hypot(BASE_NE_M.1) / 1000.0,
+            OUTAGE_START_S + OUTAGE_S,
+            PARTIAL_START_S + PARTIAL_S
+        ),
+        failed,
+    })
+}
+
+/// `navfuse experiment rtk`: print the table, optionally write JSON.
+pub fn run(o: Options) -> Result<(), ToolError> {
+    let r = run_rtk(&o).map_err(|e| e.to_string())?;
+    println!(
+        "RTK/INS: {} ({}), {} seeds x {} s",
+        r.scenario,
+        r.orbits,
+        r.seeds.len(),
+        r.duration_s
+    );
+    let f = |v: Option<f64>| v.map_or("-".to_string(), |x| format!("{x:.3}"));
+    println!(
+        "{:<12} {:<8} {:>9} {:>10} {:>10} {:>8} {:>8} {:>9} {:>11} {:>9}",
+        "imu",
+        "ins",
+        "TTFF s",
+        "fixed h m",
+        "float h m",
+        "fixed %",
+        "wrong",
+        "refix ep",
+        "4-sat max m",
+        "4-sat fix"
+    );
+    for (g, gr) in &r.by_imu {
+        for (name, s) in [
+            ("with", &gr.with_ins),
+            ("without", &gr.without_ins),
+            ("hold", &gr.with_ins_hold),
+        ] {
+            println!(
+                "{:<12} {:<8} {:>9} {:>10} {:>10} {:>8.1} {:>8.2} {:>9} {:>11} {:>9.2}",
+                g,
+                name,
+                f(s.first_fix_s),
+                f(s.fixed_h_rms_m),
+                f(s.float_h_rms_m),
+                100.0 * s.fixed_epochs as f64 / s.epochs.max(1) as f64,
+                s.wrong_fixes,
+                f(s.refix_epochs),
+                f(s.partial_sky_h_m),
+                s.partial_sky_fixed_share
+            );
+            println!(
+                "{:<21} cov95 fixed {:.3} float {:.3}; phase DD/epoch {:.1}; injected slip caught by test {} / gate {} / missed {}; slips {} lli {} phase gated {} code gated {} ref resets {}; fix: {} attempts, {} fixed ({} partial), rejected {} success rate / {} ratio / {} too few; NIS code {:.2} phase {:.2}; >5 cm fixed {:.2}; refix censored {}; never fixed {}",
+                "", s.coverage95_fixed, s.coverage95_float, s.mean_phase_dd, s.injected_slip_detected, s.injected_slip_gated, s.injected_slip_missed, s.slips, s.lli_resets, s.phase_gated, s.code_gated, s.ref_resets, s.fix_attempts, s.fixed, s.fixed_partial,
+                s.rejected_success_rate, s.rejected_ratio, s.rejected_too_few, s.mean_nis_code, s.mean_nis_phase,
+                s.fixed_over_5cm, s.refix_censored, s.never_fixed
+            );
+        }
+    }
+    for (seed, e) in &r.failed {
+        println!("seed {seed} failed: {e}");
+    }
+    if let Some(p) = &o.json {
+        let text = serde_json::to_string_pretty(&r).map_err(|e| e.to_string())?;
+        navfuse_io::atomic::write_atomic_named(p, text)?;
+    }
+    Ok(())
+}
+
+#[cfg(test)]
+#[path = "rtk_tests.rs"]
+mod tests;
