@@ -303,6 +303,7 @@ pub fn solve_obs(
                 orbit: nav.orbits[k],
                 kind: OrbitKind::Gps,
                 ura_m: ura_sigma_m(nav.ura_m.get(k).copied().unwrap_or(f64::NAN)),
+                glo: None,
             };
             n += 1;
         }
@@ -333,6 +334,7 @@ pub fn solve_obs(
                 orbit: e.orbit,
                 kind: e.kind,
                 ura_m: broadcast_sigma_m(*sys, e.accuracy_m),
+                glo: None,
             };
             n += 1;
             sum.other_systems_used += 1;
