@@ -891,3 +891,138 @@ fn ubx_glonass_gives_the_rinex_answer() {
     }
     let _ = std::fs::remove_dir_all(&d);
 }
+
+/// RINEX 2 end to end: the simulated log's GPS and GLONASS code and Doppler
+/// as a RINEX 2.11 mixed observation file (`C1 D1`), the GLONASS records
+/// as a RINEX 2.11 `.g` file and the GPS records from a RINEX 3 file
+/// without `R` records: the same solutions (< 1 mm, same satellites and
+/// GLONASS count) as the RINEX 3 observations restricted to GPS + GLONASS
+/// with the mixed navigation file.
+#[test]
+fn rinex2_obs_and_glonass_nav_give_the_rinex3_answer() {
+    use navfuse_io::time::{calendar_from_gps, TimeSystem};
+    use navfuse_sim::multi_gnss::{simulate_multi, MultiGnssConfig};
+    use std::fmt::Write as _;
+    let log = simulate_multi(&MultiGnssConfig {
+        n_epochs: 120,
+        glonass: true,
+        ..Default::default()
+    });
+    let d = tmp_dir("glo-rinex2");
+    // RINEX 2.11 observations, G and R only.
+    let ic = |s: char| log.gnss.sys_codes.iter().find(|x| x.0 == s).unwrap();
+    let idx = |s: char, c: &str| ic(s).1.iter().position(|x| x == c).unwrap();
+    let mut o2 = String::new();
+    let hdr = |s: &mut String, t: &str, l: &str| writeln!(s, "{t:<60}{l}").unwrap();
+    hdr(
+        &mut o2,
+        "     2.11           OBSERVATION DATA    M (MIXED)",
+        "RINEX VERSION / TYPE",
+    );
+    hdr(&mut o2, "SIM", "MARKER NAME");
+    hdr(&mut o2, "     2    C1    D1", "# / TYPES OF OBSERV");
+    hdr(&mut o2, "", "END OF HEADER");
+    for (tag, ep) in log.tags.iter().zip(&log.gnss.epochs) {
+        let sats: Vec<_> = ep.iter().filter(|x| x.0 == 'G' || x.0 == 'R').collect();
+        let c = calendar_from_gps(*tag, TimeSystem::Gpst, 7);
+        write!(
+            o2,
+            " {:02} {:2} {:2} {:2} {:2}{:11.7}  0{:3}",
+            c.year % 100,
+            c.month,
+            c.day,
+            c.hour,
+            c.minute,
+            c.second,
+            sats.len()
+        )
+        .unwrap();
+        for (k, s) in sats.iter().enumerate() {
+            if k > 0 && k % 12 == 0 {
+                o2.push('\n');
+                o2.push_str(&" ".repeat(32));
+            }
+            write!(o2, "{}{:2}", s.0, s.1).unwrap();
+        }
+        o2.push('\n');
+        for s in &sats {
+            for code in ["C1C", "D1C"] {
+                let v = s.2[idx(s.0, code)].unwrap().value;
+                write!(o2, "{v:14.3}  ").unwrap();
+            }
+            o2.push('\n');
+        }
+    }
+    // RINEX 2.11 GLONASS navigation: the RINEX 3 records re-laid out.
+    let mut g2 = String::new();
+    hdr(
+        &mut g2,
+        "     2.11           G: GLONASS NAV DATA",
+        "RINEX VERSION / TYPE",
+    );
+    hdr(&mut g2, "", "END OF HEADER");
+    for l in navfuse_io::rinex_write::glonass3_records(&log.nav_glonass).lines() {
+        if let Some(rest) = l.strip_prefix('R') {
+            let f: Vec<u32> = rest[..22]
+                .split_whitespace()
+                .map(|x| x.parse().unwrap())
+                .collect();
+            writeln!(
+                g2,
+                "{:2} {:02} {:2} {:2} {:2} {:2}{:5.1}{}",
+                f[0],
+                f[1] % 100,
+                f[2],
+                f[3],
+                f[4],
+                f[5],
+                f64::from(f[6]),
+                &rest[22..]
+            )
+            .unwrap();
+        } else {
+            writeln!(g2, "{}", &l[1..]).unwrap();
+        }
+    }
+    let n3 = navfuse_io::rinex_write::nav3_text(&log.nav_gps, &[]);
+    let (po2, pg2, pn3) = (d.join("sim.19o"), d.join("sim.19g"), d.join("gps.rnx"));
+    std::fs::write(&po2, o2).unwrap();
+    std::fs::write(&pg2, g2).unwrap();
+    std::fs::write(&pn3, n3).unwrap();
+    let (o, g, n) = load(&po2, &[pn3, pg2]).unwrap();
+    assert_eq!(n.glonass, log.nav_glonass);
+    let solve = |o: &ObsFile, g: &GnssObs, n: &SppNav| {
+        let mut v = Vec::new();
+        let s = solve_obs(o, g, n, &SppOptions::default(), |s| {
+            v.push(*s);
+            Ok(())
+        })
+        .unwrap();
+        (v, s)
+    };
+    let (a, sa) = solve(&o, &g, &n);
+    // The RINEX 3 path, Galileo and BeiDou left out.
+    let (o3, mut g3) = navfuse_io::rinex::parse_obs_gnss(&log.obs_text(), "sim.obs").unwrap();
+    for ep in &mut g3.epochs {
+        ep.retain(|x| x.0 == 'G' || x.0 == 'R');
+    }
+    let n3 = SppNav {
+        gps: log.nav_gps.clone(),
+        other: Vec::new(),
+        glonass: log.nav_glonass.clone(),
+    };
+    let (b, sb) = solve(&o3, &g3, &n3);
+    assert_eq!(a.len(), 120, "{}", sa.text());
+    assert_eq!(a.len(), b.len());
+    assert_eq!(sa.glonass_used, sb.glonass_used);
+    assert!(sa.glonass_used >= 120 * 4);
+    for (x, y) in a.iter().zip(&b) {
+        assert!(
+            (x.pos_e - y.pos_e).norm() < 1e-3,
+            "{}",
+            (x.pos_e - y.pos_e).norm()
+        );
+        assert_eq!(x.n_used, y.n_used);
+    }
+    let _ = std::fs::remove_dir_all(&d);
+}
