@@ -4,7 +4,15 @@
 //! epochs used and rejected, and of the satellites skipped, with reasons.
 //!
 //! Inputs: GPS L1 C/A code (`C1`, else `P1` when an epoch has no `C1`),
-//! Doppler `D1` when present. Ephemeris: per satellite the record whose
+//! Doppler `D1` when present; Galileo, BeiDou, QZSS (`other_system`) and
+//! GLONASS (clock group 3, `GLO_GROUP`) from RINEX 3 (GLONASS also from RINEX 2 mixed
+//! files) or UBX. GLONASS satellites are looked at only when GLONASS
+//! ephemerides were given (a file's GLONASS entries are otherwise counted
+//! among the non-GPS entries only, as before); then one without an
+//! ephemeris within ±15 min counts as "no ephemeris". GLONASS t_b is UTC
+//! in the navigation data; it becomes GPS time with the leap seconds of
+//! hifitime's IERS table at that epoch (`navfuse_io::time::gps_minus_utc`),
+//! not the file header's `LEAP SECONDS`. Ephemeris: per satellite the record whose
 //! t_oe is nearest the epoch, within ±2 h (half the 4 h curve-fit interval
 //! of IS-GPS-200 §20.3.4.4; RTKLIB `MAXDTOE`); its health is then checked
 //! by the solver. The output time is the receiver time tag corrected by the

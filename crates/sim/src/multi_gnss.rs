@@ -281,10 +281,10 @@ pub(crate) fn light_time(o: &KeplerOrbit, kind: OrbitKind, rx: &Vec3, t: f64) ->
 }
 
 /// The GLONASS records of the module documentation for a log covering
-/// true GPS times `t_first..=t_last`: per slot, t_b on UTC's :15/:45 from
-/// the last one at or before `t_first` − 15 min... to the first after
-/// `t_last` + 15 min (so every epoch has a record within ±15 min), as the
-/// navigation file holds them (written and read back).
+/// true GPS times `t_first..=t_last`: per slot, t_b on UTC's :15/:45 grid
+/// from at least 15 min before `t_first` to at least 15 min after `t_last`
+/// (so every epoch has a record within ±15 min), as the navigation file
+/// holds them (written and read back).
 pub fn glonass_records(t_first: f64, t_last: f64, seed: u64) -> Vec<GlonassEph> {
     let mut rng = ChaCha8Rng::seed_from_u64(seed ^ 0x676c_6f6e);
     let leap = navfuse_io::time::gps_minus_utc(t_first);
