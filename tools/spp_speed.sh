@@ -5,9 +5,12 @@
 #  - the GEONET hours 0759 and 3040 (GPS, RINEX 2, tools/rtklib_spp.conf);
 #  - the simulated 1 h, 1 Hz GPS + Galileo + BeiDou rover log (RINEX 3.04,
 #    written by `cargo run --release -p navfuse-sim --example multi_gnss_rinex`,
-#    tools/rtklib_spp_multi.conf with navsys GPS+GAL+BDS; GLONASS is not in it:
-#    navfuse spp does not use GLONASS), with an epoch-by-epoch comparison of
-#    the two solutions and of both against the simulator's truth.
+#    tools/rtklib_spp_multi.conf with navsys GPS+GAL+BDS), with an
+#    epoch-by-epoch comparison of the two solutions and of both against the
+#    simulator's truth;
+#  - the same hour with the simulated GLONASS constellation added
+#    (`multi_gnss_rinex OUT 1 --glonass`, tools/rtklib_spp_multi_glo.conf,
+#    navsys GPS+GLO+GAL+BDS), compared the same way.
 # Usage: NAVFUSE_DATA=../shared/data tools/spp_speed.sh [NAVFUSE_BIN] [N] [SIM_EXAMPLE_BIN]
 set -eu
 here=$(cd "$(dirname "$0")" && pwd)
@@ -45,3 +48,10 @@ python3 "$here/spp_multi_compare.py" "$tmp/n.pos" "$tmp/r.pos" "$tmp/sim/truth.c
 rnx2rtkp -k "$tmp/stat.conf" -o "$tmp/rs.pos" "$tmp/sim/sim.obs" "$tmp/sim/sim.nav" >/dev/null 2>&1
 awk -F, '/^\$SAT/{n[substr($4,1,1)]++; if (!($3 in e)) {e[$3]=1; ne++}}
     END{printf "rnx2rtkp satellites used per epoch: G %.2f, E %.2f, C %.2f (%d epochs)\n", n["G"]/ne, n["E"]/ne, n["C"]/ne, ne}' "$tmp/rs.pos.stat"
+"$simbin" "$tmp/simr" 1 --glonass
+time_pair "sim 1 h G+E+C+R" "$tmp/simr/sim.obs" "$tmp/simr/sim.nav" "$here/rtklib_spp_multi_glo.conf"
+python3 "$here/spp_multi_compare.py" "$tmp/n.pos" "$tmp/r.pos" "$tmp/simr/truth.csv"
+{ cat "$here/rtklib_spp_multi_glo.conf"; echo "out-outstat        =residual"; } > "$tmp/statr.conf"
+rnx2rtkp -k "$tmp/statr.conf" -o "$tmp/rsr.pos" "$tmp/simr/sim.obs" "$tmp/simr/sim.nav" >/dev/null 2>&1
+awk -F, '/^\$SAT/{n[substr($4,1,1)]++; if (!($3 in e)) {e[$3]=1; ne++}}
+    END{printf "rnx2rtkp satellites used per epoch: G %.2f, R %.2f, E %.2f, C %.2f (%d epochs)\n", n["G"]/ne, n["R"]/ne, n["E"]/ne, n["C"]/ne, ne}' "$tmp/rsr.pos.stat"

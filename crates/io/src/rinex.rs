@@ -835,6 +835,7 @@ fn parse_obs_impl(
             prns.push((cur_ln, p.to_string()));
         }
         let mut sats = Vec::with_capacity(nsat);
+        let mut glo: Vec<SatObs> = Vec::new();
         for (pln, p) in prns {
             let sys = p.chars().next().unwrap_or(' ');
             let num_s = p.get(1..).unwrap_or("").trim();
@@ -857,6 +858,11 @@ fn parse_obs_impl(
             i += lines_per_sat;
             if sys != 'G' && sys != ' ' {
                 f.count_other(sys);
+                if sys == 'R' && keep.is_some() {
+                    if let Ok(slot) = num_s.parse::<u8>() {
+                        glo.push(('R', slot, vals));
+                    }
+                }
                 continue;
             }
             let prn: u8 = num_s.parse().map_err(|_| {
@@ -869,9 +875,37 @@ fn parse_obs_impl(
             })?;
             sats.push((prn, vals));
         }
+        // RINEX 2 GLONASS entries (counted as skipped in `f` as before) kept
+        // with RINEX 3 codes, epochs parallel to `f.epochs` from the first
+        // GLONASS entry on (a GPS-only file keeps an empty GnssObs).
+        if let Some(g) = keep.as_deref_mut() {
+            if !glo.is_empty() || !g.epochs.is_empty() {
+                if g.sys_codes.is_empty() {
+                    g.sys_codes = vec![('R', f.types.iter().map(|t| v2_glonass_code(t)).collect())];
+                }
+                g.epochs.resize(f.epochs.len(), Vec::new());
+                g.epochs.push(glo);
+            }
+        }
         f.epochs.push(ObsEpoch { t, flag, sats });
     }
     Ok(f)
+}
+
+/// RINEX 3 code of a RINEX 2 GLONASS observable (RINEX 2.11 §5.1 and 3.04
+/// Table 5): `C1` is the C/A code `C1C`, `P1` the P code `C1P`, `L1`/`D1`/
+/// `S1` the C/A tracking's `L1C`/`D1C`/`S1C`; others keep their RINEX 2
+/// name (not used by the single-frequency solvers).
+fn v2_glonass_code(t: &str) -> String {
+    match t {
+        "C1" => "C1C",
+        "P1" => "C1P",
+        "L1" => "L1C",
+        "D1" => "D1C",
+        "S1" => "S1C",
+        _ => t,
+    }
+    .to_string()
 }
 
 /// RINEX 3.0x observation records (RINEX 3.04 §5.2, Table A3): an epoch line
@@ -1202,9 +1236,28 @@ an event with one header line                               COMMENT
         assert!(g.epochs[0]
             .iter()
             .any(|(s, p, v)| *s == 'E' && *p == 11 && v[i].is_some()));
-        // RINEX 2: nothing beyond the ObsFile.
-        let (_, g2) = parse_obs_gnss(OBS2, "t.o").unwrap();
-        assert!(g2.epochs.is_empty());
+        // RINEX 2: GLONASS entries kept with RINEX 3 codes (C1 → C1C),
+        // epochs parallel to the ObsFile's (R03 in the first epoch, none in
+        // the second, R03 and R04 in the last); nothing else.
+        let (f2, g2) = parse_obs_gnss(OBS2, "t.o").unwrap();
+        assert_eq!(g2.epochs.len(), f2.epochs.len());
+        assert_eq!(g2.epochs[0].len(), 1);
+        assert_eq!(
+            g2.epochs[0][0].2[g2.index('R', "C1C").unwrap()]
+                .unwrap()
+                .value,
+            21000000.5
+        );
+        assert!(g2.epochs[1].is_empty());
+        let last = g2.epochs.last().unwrap();
+        assert_eq!(
+            last.iter().map(|x| (x.0, x.1)).collect::<Vec<_>>(),
+            [('R', 3), ('R', 4)]
+        );
+        let i = g2.index('R', "C1C").unwrap();
+        assert_eq!(last[0].2[i].unwrap().value, 21002000.5);
+        assert_eq!(g2.index('R', "D1C"), f2.index("D1"));
+        assert_eq!(f2, parse_obs(OBS2, "t.o").unwrap());
     }
 
     #[test]

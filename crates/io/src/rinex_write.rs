@@ -19,6 +19,7 @@
 use crate::rinex::{GnssObs, NavData, ObsValue};
 use crate::rinex_nav3::{GnssEph, BDT_WEEK_OFFSET};
 use crate::time::{calendar_from_gps, TimeSystem};
+use navfuse_core::gnss::glonass::GlonassEph;
 use navfuse_core::gnss::orbit_gnss::BDT_MINUS_GPST;
 use navfuse_core::gnss::SECONDS_PER_WEEK;
 use std::fmt::Write as _;
@@ -264,6 +265,43 @@ pub fn nav3_text(gps: &NavData, other: &[GnssEph]) -> String {
             [o.af0, o.af1, o.af2],
             &rows,
         );
+    }
+    s
+}
+
+/// GLONASS records of a RINEX 3.04 navigation file (Table A10), to be
+/// appended after [`nav3_text`]'s records: epoch t_b in UTC (GPS − leap
+/// seconds of [`crate::time::gps_minus_utc`]), −τ_n, +γ_n, message frame
+/// time (t_b's UTC second of week); X, Ẋ, Ẍ, health; Y, Ẏ, Ÿ, frequency
+/// number; Z, Ż, Z̈, age — km, km/s, km/s². Read back by
+/// [`crate::rinex_glonass`].
+pub fn glonass3_records(ephs: &[GlonassEph]) -> String {
+    let mut s = String::with_capacity(330 * ephs.len());
+    for e in ephs {
+        let t_utc = e.t_b - crate::time::gps_minus_utc(e.t_b);
+        let tk = t_utc.rem_euclid(SECONDS_PER_WEEK);
+        let (p, v, a) = (e.pos_m / 1e3, e.vel_mps / 1e3, e.acc_mps2 / 1e3);
+        let c = calendar_from_gps(t_utc, TimeSystem::Gpst, 0);
+        let _ = write!(
+            s,
+            "R{:02} {:4} {:02} {:02} {:02} {:02} {:02}",
+            e.slot, c.year, c.month, c.day, c.hour, c.minute, c.second as u32
+        );
+        for x in [-e.tau_n, e.gamma_n, tk] {
+            s.push_str(&d19(x));
+        }
+        s.push('\n');
+        for r in [
+            [p.x, v.x, a.x, f64::from(e.health)],
+            [p.y, v.y, a.y, f64::from(e.freq_ch)],
+            [p.z, v.z, a.z, f64::from(e.age_days)],
+        ] {
+            s.push_str("    ");
+            for x in r {
+                s.push_str(&d19(x));
+            }
+            s.push('\n');
+        }
     }
     s
 }

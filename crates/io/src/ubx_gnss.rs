@@ -47,6 +47,8 @@ const SIG_L1CA: u8 = 0;
 /// code, phase, Doppler, C/N0 per signal.
 const GAL_CODES: [&str; 8] = ["C1C", "L1C", "D1C", "S1C", "C1B", "L1B", "D1B", "S1B"];
 const BDS_CODES: [&str; 4] = ["C2I", "L2I", "D2I", "S2I"];
+/// GLONASS L1OF (u-blox sigId 0, C/A code) as RINEX 3 codes.
+const GLO_CODES: [&str; 4] = ["C1C", "L1C", "D1C", "S1C"];
 
 /// What a log held besides what was used.
 #[derive(Clone, Debug, Default, PartialEq, serde::Serialize)]
@@ -58,6 +60,9 @@ pub struct UbxGnssReport {
     /// Galileo E1 and BeiDou B1I measurements read into [`UbxGnss::gnss`].
     pub galileo_meas: u64,
     pub beidou_meas: u64,
+    /// GLONASS L1OF measurements kept (slots 1–24; the frequency channel
+    /// comes from the satellite's ephemeris).
+    pub glonass_meas: u64,
     /// GPS subframes that failed parity/preamble (counted, not used).
     pub subframes_bad: u64,
     /// Galileo page pairs failing the even/odd order or CRC, or of the
@@ -132,6 +137,7 @@ pub fn read_ubx_gnss<R: Read>(rdr: R, name: &str) -> Result<UbxGnss, ReadError> 
             sys_codes: vec![
                 ('C', BDS_CODES.iter().map(|c| c.to_string()).collect()),
                 ('E', GAL_CODES.iter().map(|c| c.to_string()).collect()),
+                ('R', GLO_CODES.iter().map(|c| c.to_string()).collect()),
             ],
             epochs: Vec::new(),
         },
@@ -181,6 +187,11 @@ pub fn read_ubx_gnss<R: Read>(rdr: R, name: &str) -> Result<UbxGnss, ReadError> 
                         (GNSS_BDS, 0 | 1) if (1..=bds::MAX_PRN).contains(&m.sv_id) => {
                             out.report.beidou_meas += 1;
                             ('C', BDS_CODES.len(), 0)
+                        }
+                        // svId 255: slot unknown (not used).
+                        (GNSS_GLO, 0) if (1..=24).contains(&m.sv_id) => {
+                            out.report.glonass_meas += 1;
+                            ('R', GLO_CODES.len(), 0)
                         }
                         _ => {
                             out.report.other_signal_meas += 1;
@@ -307,12 +318,13 @@ fn rawx_meas(gnss_id: u8, sv_id: u8, sig_id: u8, q: [Option<ObsValue>; 4]) -> Ra
 
 /// RINEX 3 code quadruples written as RAWX signals: (system, `gnssId`,
 /// `sigId` (BeiDou GEO: +1, D2), code, phase, Doppler, C/N0).
-const SIGNALS: [(char, u8, u8, [&str; 4]); 5] = [
+const SIGNALS: [(char, u8, u8, [&str; 4]); 6] = [
     ('E', GNSS_GAL, 0, ["C1C", "L1C", "D1C", "S1C"]),
     ('E', GNSS_GAL, 0, ["C1X", "L1X", "D1X", "S1X"]),
     ('E', GNSS_GAL, 1, ["C1B", "L1B", "D1B", "S1B"]),
     ('C', GNSS_BDS, 0, ["C2I", "L2I", "D2I", "S2I"]),
     ('C', GNSS_BDS, 0, ["C1I", "L1I", "D1I", "S1I"]),
+    ('R', GNSS_GLO, 0, GLO_CODES),
 ];
 
 /// [`write_ubx_gnss`] with Galileo and BeiDou: the observations of

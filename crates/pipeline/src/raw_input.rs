@@ -40,6 +40,7 @@ use crate::error::{PipelineError, Result};
 use crate::input::InputReport;
 use crate::spp::{by_prn, gps_ephemeris, other_system, solve_obs, SppNav, SppOptions, SppSummary};
 use navfuse_core::geodesy::{c_en, ecef_to_geodetic};
+use navfuse_core::gnss::glonass::SIGMA_EPH_M;
 use navfuse_core::gnss::orbit_gnss::OrbitKind;
 use navfuse_core::gnss::raw::{
     GnssSystem, RawObs, RawSat, SatState, Signal, FLAG_LOSS_OF_LOCK, MAX_RAW_SATS,
@@ -254,12 +255,50 @@ pub fn raw_from_obs(
             }
             observations += 1;
             let id = sat_id(*sys, *prn);
+            if *sys == 'R' {
+                // GLONASS: the SPP's codes and ephemeris choice
+                // (crate::spp::GLO_CODES, ±15 min), the satellite's FDMA
+                // channel for its wavelength (Doppler, ionosphere scale).
+                let get = |c: &[&str]| g.first_value('R', c, vals);
+                let Some(pr) = get(crate::spp::GLO_CODES) else {
+                    bump(id, &|c| c.no_code += 1);
+                    continue;
+                };
+                let Some(e) = n.glonass_ephemeris(*prn, ep.t) else {
+                    bump(id, &|c| c.no_ephemeris += 1);
+                    continue;
+                };
+                if e.health != 0 {
+                    bump(id, &|c| c.unhealthy += 1);
+                    continue;
+                }
+                let mut r = RawSat {
+                    obs: RawObs {
+                        t: ep.t,
+                        pseudorange_m: pr,
+                        doppler_hz: get(crate::spp::GLO_DOPPLERS).unwrap_or(f64::NAN),
+                        cn0_dbhz: get(&["S1C", "S1P"]).map_or(0.0, |v| v as f32),
+                        system: GnssSystem::Glonass,
+                        prn: *prn,
+                        signal: Signal::GloG1,
+                        glo_fcn: e.freq_ch,
+                        ..RawObs::default()
+                    },
+                    sat: e.sat_state(ep.t, pr),
+                };
+                let f2 = (r.obs.wavelength_m() / LAMBDA_L1).powi(2);
+                atmosphere(&mut r, rx, iono.as_ref(), SIGMA_EPH_M, f2, scale);
+                if !push(r, &mut records) {
+                    bump(id, &|c| c.over_capacity += 1);
+                }
+                continue;
+            }
             let (system, signal) = match sys {
                 'E' => (GnssSystem::Galileo, Signal::GalE1),
                 'C' => (GnssSystem::BeiDou, Signal::BdsB1I),
-                // QZSS (and GLONASS, SBAS, NavIC): the tight filter's
+                // QZSS (and SBAS, NavIC): the tight filter's
                 // per-satellite slots are GPS/Galileo/BeiDou/GLONASS PRN
-                // 1–63, and GLONASS has no orbit model here yet.
+                // 1–63.
                 _ => {
                     bump(id, &|c| c.unsupported_system += 1);
                     continue;

@@ -80,6 +80,7 @@ fn every_observation_is_a_record_or_counted() {
             }),
         },
         other: Vec::new(),
+        glonass: Vec::new(),
     };
     let r = raw_from_obs(
         &obs,
@@ -161,4 +162,55 @@ fn geonet_rinex_raw_input_accounts_for_every_observation() {
     );
     assert_eq!(r.sat_var_scale, want);
     assert!(r.records.iter().all(|x| x.sat.iono_m > 0.0));
+}
+
+/// GLONASS records of the simulated multi-GNSS log: system R, signal G1
+/// on the ephemeris' frequency channel (the Doppler's wavelength), a valid
+/// satellite state whose range model (geometric range with Sagnac,
+/// receiver clock, the simulated +60 m inter-system bias, satellite clock)
+/// explains the pseudorange to the atmosphere and noise (< 40 m; a wrong
+/// transmission time or frame would be km), and the GLONASS broadcast σ
+/// (5 m) in the record's variance.
+#[test]
+fn glonass_records_from_the_simulated_log() {
+    use navfuse_core::gnss::raw::geometric_range;
+    use navfuse_core::gnss::C_LIGHT;
+    use navfuse_sim::multi_gnss::{simulate_multi, MultiGnssConfig};
+    let log = simulate_multi(&MultiGnssConfig {
+        n_epochs: 60,
+        glonass: true,
+        ..Default::default()
+    });
+    let (o, g) = navfuse_io::rinex::parse_obs_gnss(&log.obs_text(), "sim.obs").unwrap();
+    let nav = SppNav {
+        gps: log.nav_gps.clone(),
+        other: log.nav_other.clone(),
+        glonass: log.nav_glonass.clone(),
+    };
+    let r = raw_from_obs(&o, &g, &nav, Path::new("mem"), "rinex-obs").unwrap();
+    let glo: Vec<&RawSat> = r
+        .records
+        .iter()
+        .filter(|x| x.obs.system == GnssSystem::Glonass)
+        .collect();
+    assert!(glo.len() >= 60 * 4, "{}", glo.len());
+    assert!(
+        r.rejected.keys().all(|k| !k.starts_with('R')),
+        "{:?}",
+        r.rejected
+    );
+    for x in glo {
+        let e = nav.glonass_ephemeris(x.obs.prn, x.obs.t).unwrap();
+        assert_eq!(x.obs.signal, Signal::GloG1);
+        assert_eq!(x.obs.glo_fcn, e.freq_ch);
+        let lam = C_LIGHT / navfuse_core::gnss::glonass::l1_frequency_hz(e.freq_ch);
+        assert!((x.obs.wavelength_m() - lam).abs() < 1e-12);
+        assert!(x.sat.valid && x.obs.doppler_hz.is_finite());
+        assert!(f64::from(x.sat.var_m2) >= 25.0 * r.sat_var_scale * 0.999);
+        let k = log.tags.iter().position(|t| *t == x.obs.t).unwrap();
+        let (rho, _) = geometric_range(&x.sat.pos_e, &log.truth_e[k]);
+        let model = rho + log.clock_bias_s[k] * C_LIGHT + 60.0 - x.sat.clock_m;
+        let d = x.obs.pseudorange_m - model;
+        assert!(d.abs() < 40.0, "R{:02}: {d} m", x.obs.prn);
+    }
 }

@@ -4,7 +4,15 @@
 //! epochs used and rejected, and of the satellites skipped, with reasons.
 //!
 //! Inputs: GPS L1 C/A code (`C1`, else `P1` when an epoch has no `C1`),
-//! Doppler `D1` when present. Ephemeris: per satellite the record whose
+//! Doppler `D1` when present; Galileo, BeiDou, QZSS (`other_system`) and
+//! GLONASS (clock group 3, `GLO_GROUP`) from RINEX 3 (GLONASS also from RINEX 2 mixed
+//! files) or UBX. GLONASS satellites are looked at only when GLONASS
+//! ephemerides were given (a file's GLONASS entries are otherwise counted
+//! among the non-GPS entries only, as before); then one without an
+//! ephemeris within ±15 min counts as "no ephemeris". GLONASS t_b is UTC
+//! in the navigation data; it becomes GPS time with the leap seconds of
+//! hifitime's IERS table at that epoch (`navfuse_io::time::gps_minus_utc`),
+//! not the file header's `LEAP SECONDS`. Ephemeris: per satellite the record whose
 //! t_oe is nearest the epoch, within ±2 h (half the 4 h curve-fit interval
 //! of IS-GPS-200 §20.3.4.4; RTKLIB `MAXDTOE`); its health is then checked
 //! by the solver. The output time is the receiver time tag corrected by the
@@ -12,6 +20,7 @@
 
 use crate::error::{PipelineError, Result};
 use navfuse_core::geodesy::{c_en, ecef_to_geodetic};
+use navfuse_core::gnss::glonass::{self, GlonassEph};
 use navfuse_core::gnss::orbit_gnss::OrbitKind;
 use navfuse_core::gnss::spp::{
     ura_sigma_m, SkipCounts, Spp, SppConfig, SppObs, SppReject, SppSolution, MAX_SATS,
@@ -27,12 +36,14 @@ use std::path::{Path, PathBuf};
 /// Half the IS-GPS-200 4 h curve-fit interval [s].
 pub const MAX_EPH_AGE_S: f64 = 7200.0;
 
-/// Navigation data: GPS records with the header ionosphere, and the
-/// Galileo, BeiDou and QZSS records of RINEX 3 files.
+/// Navigation data: GPS records with the header ionosphere, the
+/// Galileo, BeiDou and QZSS records of RINEX 3 files, and GLONASS records
+/// (RINEX 2 `.g`/`.??g`, the `R` records of RINEX 3, UBX strings 1–4).
 #[derive(Clone, Debug, PartialEq, Default)]
 pub struct SppNav {
     pub gps: NavData,
     pub other: Vec<GnssEph>,
+    pub glonass: Vec<GlonassEph>,
 }
 
 impl SppNav {
@@ -51,7 +62,26 @@ impl SppNav {
             .filter(|e| (e.orbit.t_oe - t).abs() <= max_age_s)
             .min_by(|a, b| nearer_toe(t, a.orbit.t_oe, b.orbit.t_oe))
     }
+
+    /// The GLONASS record of slot `slot` whose t_b is nearest `t` [s],
+    /// within ±[`glonass::MAX_AGE_S`] (healthy or not: the caller counts).
+    pub(crate) fn glonass_ephemeris(&self, slot: u8, t: f64) -> Option<&GlonassEph> {
+        self.glonass
+            .iter()
+            .filter(|e| e.slot == slot && (e.t_b - t).abs() <= glonass::MAX_AGE_S)
+            .min_by(|a, b| nearer_toe(t, a.t_b, b.t_b))
+    }
 }
+
+/// GLONASS in the SPP: clock group 3 (its own receiver clock, the
+/// inter-system bias to GPS an unknown), FDMA L1 code `C1C` (C/A; else
+/// `C1P`) and Doppler `D1C`/`D1P`; the wavelength is the satellite's, from
+/// the frequency channel of its ephemeris (1602 MHz + k · 562.5 kHz, ICD
+/// 5.1 §3.3.1.1); the broadcast σ is [`glonass::SIGMA_EPH_M`] (no accuracy
+/// index in RINEX), the receiver noise σ × [`navfuse_core::gnss::spp::GLO_NOISE_FACTOR`].
+pub(crate) const GLO_GROUP: u8 = 3;
+pub(crate) const GLO_CODES: &[&str] = &["C1C", "C1P"];
+pub(crate) const GLO_DOPPLERS: &[&str] = &["D1C", "D1P"];
 
 /// The broadcast σ [m] of a record's accuracy field: Galileo SISA is a σ
 /// in metres already; the others carry a URA ([`ura_sigma_m`]).
@@ -144,6 +174,8 @@ pub struct SppSummary {
     pub raim_by_sat: Vec<(String, u32)>,
     /// Satellite-epochs of Galileo/BeiDou/QZSS given to the solver.
     pub other_systems_used: u64,
+    /// Satellite-epochs of GLONASS given to the solver.
+    pub glonass_used: u64,
     /// Non-GPS satellite entries the reader skipped, event records skipped.
     pub non_gps_skipped: usize,
     pub events_skipped: usize,
@@ -209,6 +241,9 @@ impl SppSummary {
             "\nnon-GPS entries in the file {} (Galileo/BeiDou/QZSS satellite-epochs used {}), event records skipped {}, epochs with Doppler velocity {}",
             self.non_gps_skipped, self.other_systems_used, self.events_skipped, self.with_velocity
         );
+        if self.glonass_used > 0 {
+            s += &format!("\nGLONASS satellite-epochs used {}", self.glonass_used);
+        }
         s
     }
 }
@@ -303,6 +338,7 @@ pub fn solve_obs(
                 orbit: nav.orbits[k],
                 kind: OrbitKind::Gps,
                 ura_m: ura_sigma_m(nav.ura_m.get(k).copied().unwrap_or(f64::NAN)),
+                glo: None,
             };
             n += 1;
         }
@@ -333,9 +369,43 @@ pub fn solve_obs(
                 orbit: e.orbit,
                 kind: e.kind,
                 ura_m: broadcast_sigma_m(*sys, e.accuracy_m),
+                glo: None,
             };
             n += 1;
             sum.other_systems_used += 1;
+        }
+        // GLONASS (RINEX 3 or UBX observations with GLONASS ephemerides).
+        if !navs.glonass.is_empty() {
+            for (sys, slot, vals) in gnss.epochs.get(k_ep).into_iter().flatten() {
+                if *sys != 'R' {
+                    continue;
+                }
+                let get = |c: &[&str]| gnss.first_value('R', c, vals);
+                let Some(pr) = get(GLO_CODES) else {
+                    sum.sat_no_code += 1;
+                    continue;
+                };
+                let Some(e) = navs.glonass_ephemeris(*slot, ep.t) else {
+                    sum.sat_no_ephemeris += 1;
+                    continue;
+                };
+                if n == MAX_SATS {
+                    sum.sat_over_capacity += 1;
+                    continue;
+                }
+                buf[n] = SppObs {
+                    sys: GLO_GROUP,
+                    prn: *slot,
+                    pr_m: pr,
+                    doppler_hz: get(GLO_DOPPLERS).unwrap_or(f64::NAN),
+                    lambda_m: C_LIGHT / glonass::l1_frequency_hz(e.freq_ch),
+                    ura_m: glonass::SIGMA_EPH_M,
+                    glo: Some(*e),
+                    ..SppObs::default()
+                };
+                n += 1;
+                sum.glonass_used += 1;
+            }
         }
         let res = spp.solve(ep.t, &buf[..n], prior);
         add_skips(&mut sum, &spp.skips());
@@ -352,6 +422,7 @@ pub fn solve_obs(
                     let letter = match (sol.excluded_sys[j], sol.excluded_prn[j]) {
                         (1, _) => 'E',
                         (2, _) => 'C',
+                        (GLO_GROUP, _) => 'R',
                         (_, p) if p > 32 => 'J',
                         _ => 'G',
                     };
@@ -441,11 +512,23 @@ pub fn load(obs: &Path, nav: &[PathBuf]) -> Result<(ObsFile, GnssObs, SppNav)> {
             .map_err(|e| PipelineError::Input(e.to_string()))?;
         n.gps = u.nav;
         n.other = u.other;
+        n.glonass = u.glonass;
         (u.obs, u.gnss)
     } else {
         read_obs_gnss(obs).map_err(|e| PipelineError::Input(e.to_string()))?
     };
     for p in nav {
+        let (version, kind) = nav_version_type(p)?;
+        if version >= 3.0 || kind == 'G' {
+            n.glonass.extend(
+                navfuse_io::rinex_glonass::read_nav_glonass(p)
+                    .map_err(|e| PipelineError::Input(e.to_string()))?,
+            );
+        }
+        if version < 3.0 && kind == 'G' {
+            // A RINEX 2 GLONASS navigation file holds nothing else.
+            continue;
+        }
         n.gps
             .merge(read_nav_data(p).map_err(|e| PipelineError::Input(e.to_string()))?);
         match read_nav_gnss(p) {
@@ -457,9 +540,9 @@ pub fn load(obs: &Path, nav: &[PathBuf]) -> Result<(ObsFile, GnssObs, SppNav)> {
             Err(e) => return Err(PipelineError::Input(e.to_string())),
         }
     }
-    if n.gps.orbits.is_empty() && n.other.is_empty() {
+    if n.gps.orbits.is_empty() && n.other.is_empty() && n.glonass.is_empty() {
         return Err(PipelineError::Input(format!(
-            "{}: no GPS, Galileo, BeiDou or QZSS ephemeris in the navigation file(s)",
+            "{}: no GPS, Galileo, BeiDou, QZSS or GLONASS ephemeris in the navigation file(s)",
             nav.iter()
                 .chain(is_ubx(obs).then_some(&obs.to_path_buf()))
                 .map(|p| p.display().to_string())
@@ -468,6 +551,27 @@ pub fn load(obs: &Path, nav: &[PathBuf]) -> Result<(ObsFile, GnssObs, SppNav)> {
         )));
     }
     Ok((o, g, n))
+}
+
+/// RINEX version and file type letter of a navigation file's
+/// `RINEX VERSION / TYPE` line (2.0 and ' ' when absent: the readers
+/// report the problem).
+fn nav_version_type(p: &Path) -> Result<(f64, char)> {
+    use std::io::BufRead;
+    let f = std::fs::File::open(p).map_err(PipelineError::io(p, "cannot open: "))?;
+    for l in std::io::BufReader::new(f).lines().take(200) {
+        let Ok(l) = l else { break };
+        let label = l.get(60..).unwrap_or("");
+        if label.starts_with("RINEX VERSION") {
+            let v = l.get(..9).unwrap_or("").trim().parse().unwrap_or(2.0);
+            let k = l.get(20..21).and_then(|s| s.chars().next()).unwrap_or(' ');
+            return Ok((v, k));
+        }
+        if label.starts_with("END OF HEADER") {
+            break;
+        }
+    }
+    Ok((2.0, ' '))
 }
 
 /// `navfuse spp`: solve `obs` with `nav` and write `out` (`.pos`), atomically.

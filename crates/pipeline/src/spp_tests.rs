@@ -225,6 +225,7 @@ fn spp_nav(ephs: &[navfuse_io::rinex_nav3::GnssEph], ura_m: f64) -> SppNav {
             iono: None,
         },
         other: ephs.iter().filter(|e| e.sys != 'G').copied().collect(),
+        glonass: Vec::new(),
     }
 }
 
@@ -740,5 +741,288 @@ fn simulated_multi_gnss_files_are_solved_with_three_systems() {
     // by the summary, GPS by difference).
     assert!(sum.other_systems_used >= 600 * 8, "{}", sum.text());
     assert!(sols.iter().all(|s| s.n_used >= 12));
+    let _ = std::fs::remove_dir_all(&d);
+}
+
+/// The simulated log with GLONASS (RINEX 3 files, `R` records in the mixed
+/// navigation file): GLONASS enters every epoch with its own receiver
+/// clock, whose offset to GPS's is the simulated +60 m inter-system bias
+/// (within 4 m, as the Galileo/BeiDou biases above); the solution error
+/// stays at the three-system level (< 5 m RMS).
+#[test]
+fn simulated_glonass_is_used_with_its_own_clock() {
+    use navfuse_sim::multi_gnss::{simulate_multi, MultiGnssConfig};
+    let log = simulate_multi(&MultiGnssConfig {
+        n_epochs: 600,
+        glonass: true,
+        ..Default::default()
+    });
+    let d = tmp_dir("glo-sim");
+    let (obs, nav) = (d.join("sim.obs"), d.join("sim.nav"));
+    std::fs::write(&obs, log.obs_text()).unwrap();
+    std::fs::write(&nav, log.nav_text()).unwrap();
+    let (o, g, n) = load(&obs, &[nav]).unwrap();
+    assert_eq!(n.glonass, log.nav_glonass);
+    assert_eq!(n.other.len(), 24 + 27);
+    let mut sols = Vec::new();
+    let sum = solve_obs(&o, &g, &n, &SppOptions::default(), |s| {
+        sols.push(*s);
+        Ok(())
+    })
+    .unwrap();
+    assert_eq!(sols.len(), 600, "{}", sum.text());
+    let (mut sq, mut isb) = (0.0, 0.0);
+    for (s, truth) in sols.iter().zip(&log.truth_e) {
+        sq += (s.pos_e - truth).norm_squared();
+        isb += (s.clk_m[3] - s.clk_m[0]) / 600.0;
+    }
+    let rms = (sq / 600.0).sqrt();
+    eprintln!(
+        "simulated G+E+C+R: 3D RMS {rms:.2} m, ISB R {isb:.2} m, GLONASS satellite-epochs {}",
+        sum.glonass_used
+    );
+    assert!(rms < 5.0, "{rms}");
+    assert!((isb - 60.0).abs() < 4.0, "{isb}");
+    assert!(sum.glonass_used >= 600 * 4, "{}", sum.text());
+    assert!(sols.iter().all(|s| s.clk_m[3].is_finite()));
+    let _ = std::fs::remove_dir_all(&d);
+}
+
+/// A RINEX 2 GLONASS navigation file (`G` type) next to a GPS one: its
+/// records are GLONASS ephemerides (t_b from UTC + leap seconds), the GPS
+/// file still read, and a RINEX 2 GLONASS file alone is enough to load.
+#[test]
+fn rinex2_glonass_navigation_file_is_read() {
+    use navfuse_io::rinex::ObsValue;
+    let d = tmp_dir("glo-nav2");
+    let g = d.join("brdc.12g");
+    std::fs::write(
+        &g,
+        "     2.11           G: GLONASS NAV DATA                     RINEX VERSION / TYPE
+                                                            END OF HEADER
+ 1 12  9  7  0 15  0.0-1.200000000000D-04 1.000000000000D-12 0.000000000000D+00
+    7.003008789000D+03 7.835417000000D-01 0.000000000000D+00 0.000000000000D+00
+   -1.220662695300D+04 2.804253000000D+00 1.700000000000D-09 1.000000000000D+00
+    2.128076562500D+04 1.352515000000D+00-5.410000000000D-09 0.000000000000D+00
+",
+    )
+    .unwrap();
+    let obs = d.join("x.12o");
+    let text = navfuse_io::rinex_write::obs3_text(
+        "X",
+        [0.0; 3],
+        &[1.0e9],
+        &navfuse_io::rinex::GnssObs {
+            sys_codes: vec![('G', vec!["C1C".into()])],
+            epochs: vec![vec![(
+                'G',
+                1,
+                vec![Some(ObsValue {
+                    value: 2.1e7,
+                    lli: 0,
+                })],
+            )]],
+        },
+    );
+    std::fs::write(&obs, text).unwrap();
+    let (_, _, n) = load(&obs, std::slice::from_ref(&g)).unwrap();
+    assert_eq!(n.glonass.len(), 1);
+    assert_eq!(n.glonass[0].freq_ch, 1);
+    // 2012-09-07 00:15:00 UTC + 16 s.
+    let t_b = navfuse_io::rinex::gps_seconds(2012, 9, 7, 0, 15, 0.0) + 16.0;
+    assert_eq!(n.glonass[0].t_b, t_b);
+    assert!(n.gps.orbits.is_empty());
+    assert!(n.glonass_ephemeris(1, t_b + 899.0).is_some());
+    assert!(n.glonass_ephemeris(1, t_b + 901.0).is_none());
+    let _ = std::fs::remove_dir_all(&d);
+}
+
+/// UBX: the simulated log's GLONASS as RAWX L1OF measurements and
+/// SFRBX strings 1–4 (GLONASS ephemerides only: some of the simulator's
+/// Kepler elements, M₀ = −π, do not fit the LNAV/I/NAV fields, so the
+/// other systems have no ephemeris here and the epochs are GLONASS-only). The decoded ephemerides equal the RINEX ones to the
+/// strings' resolution (coordinates 2⁻¹¹ km: ≤ 0.25 m per axis; t_b,
+/// channel exact); with those ephemerides the UBX observations give the
+/// RINEX observations' solution (< 1 mm per epoch, same satellites).
+#[test]
+fn ubx_glonass_gives_the_rinex_answer() {
+    use navfuse_sim::multi_gnss::{simulate_multi, MultiGnssConfig};
+    let log = simulate_multi(&MultiGnssConfig {
+        n_epochs: 120,
+        glonass: true,
+        ..Default::default()
+    });
+    let (o, g) = navfuse_io::rinex::parse_obs_gnss(&log.obs_text(), "sim.obs").unwrap();
+    let bytes =
+        navfuse_io::ubx_gnss::write_ubx_multi(&o, &g, &NavData::default(), &[], &log.nav_glonass)
+            .unwrap();
+    let d = tmp_dir("glo-ubx");
+    let p = d.join("sim.ubx");
+    std::fs::write(&p, bytes).unwrap();
+    let (ou, gu, nu) = load(&p, &[]).unwrap();
+    assert_eq!(nu.glonass.len(), log.nav_glonass.len());
+    for (a, b) in nu.glonass.iter().zip(&log.nav_glonass) {
+        assert_eq!((a.slot, a.freq_ch, a.t_b), (b.slot, b.freq_ch, b.t_b));
+        assert!((a.pos_m - b.pos_m).amax() <= 0.25 + 1e-6, "{a:?} {b:?}");
+    }
+    let rinex_nav = SppNav {
+        gps: nu.gps.clone(),
+        other: nu.other.clone(),
+        glonass: nu.glonass.clone(),
+    };
+    let solve = |o: &ObsFile, g: &GnssObs| {
+        let mut v = Vec::new();
+        let s = solve_obs(o, g, &rinex_nav, &SppOptions::default(), |s| {
+            v.push(*s);
+            Ok(())
+        })
+        .unwrap();
+        (v, s)
+    };
+    let (a, sa) = solve(&o, &g);
+    let (b, sb) = solve(&ou, &gu);
+    assert!(a.len() >= 60, "{}", sa.text());
+    assert_eq!(a.len(), b.len());
+    assert_eq!(sa.glonass_used, sb.glonass_used);
+    assert!(sa.glonass_used >= 120 * 4);
+    for (x, y) in a.iter().zip(&b) {
+        assert!((x.pos_e - y.pos_e).norm() < 1e-3);
+        assert_eq!(x.n_used, y.n_used);
+    }
+    let _ = std::fs::remove_dir_all(&d);
+}
+
+/// RINEX 2 end to end: the simulated log's GPS and GLONASS code and Doppler
+/// as a RINEX 2.11 mixed observation file (`C1 D1`), the GLONASS records
+/// as a RINEX 2.11 `.g` file and the GPS records from a RINEX 3 file
+/// without `R` records: the same solutions (< 1 mm, same satellites and
+/// GLONASS count) as the RINEX 3 observations restricted to GPS + GLONASS
+/// with the mixed navigation file.
+#[test]
+fn rinex2_obs_and_glonass_nav_give_the_rinex3_answer() {
+    use navfuse_io::time::{calendar_from_gps, TimeSystem};
+    use navfuse_sim::multi_gnss::{simulate_multi, MultiGnssConfig};
+    use std::fmt::Write as _;
+    let log = simulate_multi(&MultiGnssConfig {
+        n_epochs: 120,
+        glonass: true,
+        ..Default::default()
+    });
+    let d = tmp_dir("glo-rinex2");
+    // RINEX 2.11 observations, G and R only.
+    let ic = |s: char| log.gnss.sys_codes.iter().find(|x| x.0 == s).unwrap();
+    let idx = |s: char, c: &str| ic(s).1.iter().position(|x| x == c).unwrap();
+    let mut o2 = String::new();
+    let hdr = |s: &mut String, t: &str, l: &str| writeln!(s, "{t:<60}{l}").unwrap();
+    hdr(
+        &mut o2,
+        "     2.11           OBSERVATION DATA    M (MIXED)",
+        "RINEX VERSION / TYPE",
+    );
+    hdr(&mut o2, "SIM", "MARKER NAME");
+    hdr(&mut o2, "     2    C1    D1", "# / TYPES OF OBSERV");
+    hdr(&mut o2, "", "END OF HEADER");
+    for (tag, ep) in log.tags.iter().zip(&log.gnss.epochs) {
+        let sats: Vec<_> = ep.iter().filter(|x| x.0 == 'G' || x.0 == 'R').collect();
+        let c = calendar_from_gps(*tag, TimeSystem::Gpst, 7);
+        write!(
+            o2,
+            " {:02} {:2} {:2} {:2} {:2}{:11.7}  0{:3}",
+            c.year % 100,
+            c.month,
+            c.day,
+            c.hour,
+            c.minute,
+            c.second,
+            sats.len()
+        )
+        .unwrap();
+        for (k, s) in sats.iter().enumerate() {
+            if k > 0 && k % 12 == 0 {
+                o2.push('\n');
+                o2.push_str(&" ".repeat(32));
+            }
+            write!(o2, "{}{:2}", s.0, s.1).unwrap();
+        }
+        o2.push('\n');
+        for s in &sats {
+            for code in ["C1C", "D1C"] {
+                let v = s.2[idx(s.0, code)].unwrap().value;
+                write!(o2, "{v:14.3}  ").unwrap();
+            }
+            o2.push('\n');
+        }
+    }
+    // RINEX 2.11 GLONASS navigation: the RINEX 3 records re-laid out.
+    let mut g2 = String::new();
+    hdr(
+        &mut g2,
+        "     2.11           G: GLONASS NAV DATA",
+        "RINEX VERSION / TYPE",
+    );
+    hdr(&mut g2, "", "END OF HEADER");
+    for l in navfuse_io::rinex_write::glonass3_records(&log.nav_glonass).lines() {
+        if let Some(rest) = l.strip_prefix('R') {
+            let f: Vec<u32> = rest[..22]
+                .split_whitespace()
+                .map(|x| x.parse().unwrap())
+                .collect();
+            writeln!(
+                g2,
+                "{:2} {:02} {:2} {:2} {:2} {:2}{:5.1}{}",
+                f[0],
+                f[1] % 100,
+                f[2],
+                f[3],
+                f[4],
+                f[5],
+                f64::from(f[6]),
+                &rest[22..]
+            )
+            .unwrap();
+        } else {
+            writeln!(g2, "{}", &l[1..]).unwrap();
+        }
+    }
+    let n3 = navfuse_io::rinex_write::nav3_text(&log.nav_gps, &[]);
+    let (po2, pg2, pn3) = (d.join("sim.19o"), d.join("sim.19g"), d.join("gps.rnx"));
+    std::fs::write(&po2, o2).unwrap();
+    std::fs::write(&pg2, g2).unwrap();
+    std::fs::write(&pn3, n3).unwrap();
+    let (o, g, n) = load(&po2, &[pn3, pg2]).unwrap();
+    assert_eq!(n.glonass, log.nav_glonass);
+    let solve = |o: &ObsFile, g: &GnssObs, n: &SppNav| {
+        let mut v = Vec::new();
+        let s = solve_obs(o, g, n, &SppOptions::default(), |s| {
+            v.push(*s);
+            Ok(())
+        })
+        .unwrap();
+        (v, s)
+    };
+    let (a, sa) = solve(&o, &g, &n);
+    // The RINEX 3 path, Galileo and BeiDou left out.
+    let (o3, mut g3) = navfuse_io::rinex::parse_obs_gnss(&log.obs_text(), "sim.obs").unwrap();
+    for ep in &mut g3.epochs {
+        ep.retain(|x| x.0 == 'G' || x.0 == 'R');
+    }
+    let n3 = SppNav {
+        gps: log.nav_gps.clone(),
+        other: Vec::new(),
+        glonass: log.nav_glonass.clone(),
+    };
+    let (b, sb) = solve(&o3, &g3, &n3);
+    assert_eq!(a.len(), 120, "{}", sa.text());
+    assert_eq!(a.len(), b.len());
+    assert_eq!(sa.glonass_used, sb.glonass_used);
+    assert!(sa.glonass_used >= 120 * 4);
+    for (x, y) in a.iter().zip(&b) {
+        assert!(
+            (x.pos_e - y.pos_e).norm() < 1e-3,
+            "{}",
+            (x.pos_e - y.pos_e).norm()
+        );
+        assert_eq!(x.n_used, y.n_used);
+    }
     let _ = std::fs::remove_dir_all(&d);
 }

@@ -110,6 +110,7 @@ fn median_hdop(d: &Drive) -> f64 {
     let sn = crate::spp::SppNav {
         gps: d.nav.clone(),
         other: Vec::new(),
+        glonass: Vec::new(),
     };
     crate::spp::solve_obs(&d.obs, &Default::default(), &sn, &Default::default(), |s| {
         hdops.push(s.dop.hdop);

@@ -2,7 +2,8 @@
 //! [`navfuse_sim::multi_gnss`] as RINEX 3.04 files: `OUT/sim.obs`,
 //! `OUT/sim.nav` and the truth `OUT/truth.csv` (receiver tag [GPS s],
 //! ECEF x, y, z [m], receiver clock bias [s]).
-//! Usage: cargo run --release -p navfuse-sim --example multi_gnss_rinex -- OUT [SEED]
+//! With `--glonass` (after SEED) the GLONASS constellation is added.
+//! Usage: cargo run --release -p navfuse-sim --example multi_gnss_rinex -- OUT [SEED] [--glonass]
 
 use navfuse_sim::multi_gnss::{simulate_multi, MultiGnssConfig};
 use std::fmt::Write as _;
@@ -21,9 +22,11 @@ fn main() {
             std::process::exit(2);
         }
     };
+    let glonass = args.next().is_some_and(|a| a == "--glonass");
     let dir = std::path::Path::new(&out);
     let log = simulate_multi(&MultiGnssConfig {
         seed,
+        glonass,
         ..Default::default()
     });
     let mut truth = String::from("tag_s,x_m,y_m,z_m,clock_bias_s\n");
@@ -51,13 +54,14 @@ fn main() {
             / log.gnss.epochs.len() as f64
     };
     println!(
-        "{}: {} epochs, {:.1} satellites per epoch (G {:.1}, E {:.1}, C {:.1}), max {}",
+        "{}: {} epochs, {:.1} satellites per epoch (G {:.1}, E {:.1}, C {:.1}, R {:.1}), max {}",
         dir.display(),
         log.tags.len(),
         n as f64 / log.tags.len() as f64,
         count('G'),
         count('E'),
         count('C'),
+        count('R'),
         log.gnss.epochs.iter().map(Vec::len).max().unwrap_or(0)
     );
 }

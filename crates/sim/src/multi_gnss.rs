@@ -3,8 +3,17 @@
 //! of a rover driving a circle, 1 Hz, with the broadcast ephemerides that
 //! generated them, written by [`navfuse_io::rinex_write`] so that other
 //! programs (RTKLIB `rnx2rtkp`) read the same data as `navfuse spp`.
-//! GLONASS is not simulated: `navfuse spp` decodes GLONASS ephemerides but
-//! does not use GLONASS in its solution.
+//! GLONASS (opt-in, [`MultiGnssConfig::glonass`]): the nominal 24-slot
+//! constellation of [`navfuse_core::gnss::glonass::nominal_eph`] (3 planes
+//! × 8, i = 64.8°, period 11 h 15 min 44 s), FDMA L1 C/A on each slot's
+//! channel, a broadcast record every 30 min (t_b on UTC's :15/:45) chained
+//! by the same RK4 integration (each record's state is the previous one
+//! integrated 30 min; zero lunisolar terms), clocks τ_n uniform ±100 µs,
+//! γ_n ±2e-12, continuous across records; the receiver's GLONASS
+//! inter-system bias +60 m (200 ns). Truth evaluates the record nearest the
+//! transmission time, as read back from the written text. No
+//! inter-frequency code biases are simulated. Off by default, so the
+//! three-system log is unchanged.
 //!
 //! Constellations (nominal geometry, [`constellations`]): GPS 24 satellites
 //! (6 planes × 4, i = 55°, a = 26,560 km; the carrier-phase scene's
@@ -40,6 +49,7 @@
 //! [`MAX_CHANNELS`] per epoch, the highest first.
 
 use navfuse_core::geodesy::{c_e_enu, ecef_to_geodetic, geodetic_to_ecef, Geodetic};
+use navfuse_core::gnss::glonass::{self, GlonassEph};
 use navfuse_core::gnss::iono::Klobuchar;
 use navfuse_core::gnss::orbit_gnss::{clock_offset, position_ecef, OrbitKind};
 use navfuse_core::gnss::tropo::{day_of_year, slant_delay};
@@ -80,6 +90,8 @@ pub struct MultiGnssConfig {
     /// Tracking mask [rad].
     pub track_mask_rad: f64,
     pub seed: u64,
+    /// Add the GLONASS constellation (module documentation).
+    pub glonass: bool,
 }
 
 impl Default for MultiGnssConfig {
@@ -99,6 +111,7 @@ impl Default for MultiGnssConfig {
             speed_mps: 10.0,
             track_mask_rad: 10f64.to_radians(),
             seed: 1,
+            glonass: false,
         }
     }
 }
@@ -114,6 +127,8 @@ pub struct MultiGnssLog {
     pub nav_gps: NavData,
     /// Galileo and BeiDou records.
     pub nav_other: Vec<GnssEph>,
+    /// GLONASS records (empty unless [`MultiGnssConfig::glonass`]).
+    pub nav_glonass: Vec<GlonassEph>,
     /// True antenna position (ECEF [m]) at each epoch's true time.
     pub truth_e: Vec<Vec3>,
     /// Receiver clock bias [s] at each epoch.
@@ -130,6 +145,7 @@ impl MultiGnssLog {
     /// The RINEX 3.04 navigation text.
     pub fn nav_text(&self) -> String {
         navfuse_io::rinex_write::nav3_text(&self.nav_gps, &self.nav_other)
+            + &navfuse_io::rinex_write::glonass3_records(&self.nav_glonass)
     }
 }
 
@@ -264,6 +280,78 @@ pub(crate) fn light_time(o: &KeplerOrbit, kind: OrbitKind, rx: &Vec3, t: f64) ->
     (p, range, t - tau)
 }
 
+/// The GLONASS records of the module documentation for a log covering
+/// true GPS times `t_first..=t_last`: per slot, t_b on UTC's :15/:45 grid
+/// from at least 15 min before `t_first` to at least 15 min after `t_last`
+/// (so every epoch has a record within ±15 min), as the navigation file
+/// holds them (written and read back).
+pub fn glonass_records(t_first: f64, t_last: f64, seed: u64) -> Vec<GlonassEph> {
+    let mut rng = ChaCha8Rng::seed_from_u64(seed ^ 0x676c_6f6e);
+    let leap = navfuse_io::time::gps_minus_utc(t_first);
+    // t_b (GPS s) with UTC at hh:15 / hh:45.
+    let first_utc = ((t_first - leap - 900.0 - 900.0) / 1800.0).floor() * 1800.0 + 900.0;
+    let mut out = Vec::new();
+    for slot in 1..=24u8 {
+        let mut e = glonass::nominal_eph(slot, first_utc + leap);
+        e.tau_n = rng.gen_range(-1e-4..1e-4);
+        e.gamma_n = rng.gen_range(-2e-12..2e-12);
+        while e.t_b <= t_last + 900.0 + 1800.0 {
+            out.push(e);
+            let t_next = e.t_b + 1800.0;
+            let (p, v) = e.state_at(t_next);
+            e = GlonassEph {
+                t_b: t_next,
+                pos_m: p,
+                vel_mps: v,
+                tau_n: e.tau_n - e.gamma_n * 1800.0,
+                ..e
+            };
+        }
+    }
+    let text = navfuse_io::rinex_write::nav3_text(&NavData::default(), &[])
+        + &navfuse_io::rinex_write::glonass3_records(&out);
+    navfuse_io::rinex_glonass::parse_nav_glonass(&text, "sim").expect("own GLONASS text")
+}
+
+/// [`light_time`] for a GLONASS satellite: the record of `slot` (indices
+/// `recs` into `ephs`) nearest the transmission time.
+fn light_time_glo(
+    ephs: &[GlonassEph],
+    recs: &[usize],
+    rx: &Vec3,
+    t: f64,
+) -> (Vec3, f64, f64, usize) {
+    let we = glonass::OMEGA_E_PZ90;
+    let mut tau = 0.075;
+    let (mut p, mut range, mut used) = (Vec3::zeros(), 0.0, recs[0]);
+    for _ in 0..8 {
+        let tt = t - tau;
+        used = *recs
+            .iter()
+            .min_by(|&&a, &&b| {
+                (ephs[a].t_b - tt)
+                    .abs()
+                    .total_cmp(&(ephs[b].t_b - tt).abs())
+            })
+            .expect("records");
+        let q = ephs[used].position_ecef(tt);
+        let th = we * tau;
+        p = Vec3::new(
+            th.cos() * q.x + th.sin() * q.y,
+            -th.sin() * q.x + th.cos() * q.y,
+            q.z,
+        );
+        let r = (p - rx).norm();
+        let done = (r - range).abs() < 1e-6;
+        range = r;
+        tau = range / C_LIGHT;
+        if done {
+            break;
+        }
+    }
+    (p, range, t - tau, used)
+}
+
 /// Simulate the log of `cfg` (deterministic from `cfg.seed`).
 pub fn simulate_multi(cfg: &MultiGnssConfig) -> MultiGnssLog {
     // t_oe on the 16 s / 60 s grids of the three messages (BeiDou + 14 s),
@@ -279,11 +367,28 @@ pub fn simulate_multi(cfg: &MultiGnssConfig) -> MultiGnssLog {
         .map(|o| ('G', OrbitKind::Gps, *o))
         .chain(nav_other.iter().map(|e| (e.sys, e.kind, e.orbit)))
         .collect();
+    let nav_glonass = if cfg.glonass {
+        let t_last = cfg.t0 + cfg.n_epochs as f64 * cfg.dt;
+        glonass_records(cfg.t0, t_last, cfg.seed)
+    } else {
+        Vec::new()
+    };
+    // GLONASS satellites after the Kepler ones: (slot, record indices).
+    let glo_sats: Vec<(u8, Vec<usize>)> = (1..=24u8)
+        .map(|s| {
+            let r: Vec<usize> = (0..nav_glonass.len())
+                .filter(|&i| nav_glonass[i].slot == s)
+                .collect();
+            (s, r)
+        })
+        .filter(|(_, r)| !r.is_empty())
+        .collect();
+    let n_kepler = sats.len();
     let mut rng = ChaCha8Rng::seed_from_u64(cfg.seed);
     let n01 = |r: &mut ChaCha8Rng| -> f64 { StandardNormal.sample(r) };
     let b0 = rng.gen_range(-1.0..1.0) * 0.5e-3;
     let d0 = rng.gen_range(-1.0..1.0) * 0.5e-6;
-    let ns = sats.len();
+    let ns = n_kepler + glo_sats.len();
     let mut mp: Vec<f64> = (0..ns).map(|_| n01(&mut rng)).collect();
     let mut iono: Vec<f64> = (0..ns).map(|_| n01(&mut rng)).collect();
     let mut sat_e: Vec<f64> = (0..ns).map(|_| n01(&mut rng)).collect();
@@ -306,6 +411,7 @@ pub fn simulate_multi(cfg: &MultiGnssConfig) -> MultiGnssLog {
     let isb = |sys: char| match sys {
         'E' => 25.0,
         'C' => -40.0,
+        'R' => 60.0,
         _ => 0.0,
     };
     let lambda = |sys: char| match sys {
@@ -320,11 +426,18 @@ pub fn simulate_multi(cfg: &MultiGnssConfig) -> MultiGnssLog {
                 ('G', codes(&["C1C", "L1C", "D1C", "S1C"])),
                 ('E', codes(&["C1C", "L1C", "D1C", "S1C"])),
                 ('C', codes(&["C2I", "L2I", "D2I", "S2I"])),
-            ],
+            ]
+            .into_iter()
+            .chain(
+                cfg.glonass
+                    .then(|| ('R', codes(&["C1C", "L1C", "D1C", "S1C"]))),
+            )
+            .collect(),
             epochs: Vec::with_capacity(cfg.n_epochs),
         },
         nav_gps,
         nav_other,
+        nav_glonass: nav_glonass.clone(),
         ..Default::default()
     };
     // Division by the exact power of ten: the double nearest the decimal,
@@ -349,8 +462,15 @@ pub fn simulate_multi(cfg: &MultiGnssConfig) -> MultiGnssLog {
         let doy = day_of_year(t);
         let tow = t.rem_euclid(SECONDS_PER_WEEK);
         let mut vis: Vec<(f64, f64, usize, f64, f64)> = Vec::new();
-        for (i, (_, kind, o)) in sats.iter().enumerate() {
-            let (p, range, t_tx) = light_time(o, *kind, &r_e, t);
+        for i in 0..ns {
+            let (p, range, t_tx) = if i < n_kepler {
+                let (_, kind, o) = &sats[i];
+                light_time(o, *kind, &r_e, t)
+            } else {
+                let (p, r, tt, _) =
+                    light_time_glo(&nav_glonass, &glo_sats[i - n_kepler].1, &r_e, t);
+                (p, r, tt)
+            };
             let u = c_n * ((p - r_e) / range);
             let el = u.z.clamp(-1.0, 1.0).asin();
             if el >= cfg.track_mask_rad {
@@ -363,15 +483,28 @@ pub fn simulate_multi(cfg: &MultiGnssConfig) -> MultiGnssLog {
         let mut ep = Vec::with_capacity(vis.len());
         for &(el, az, i, range, t_tx) in &vis {
             present[i] = true;
-            let (sys, kind, o) = &sats[i];
-            let lam = lambda(*sys);
             let h = 0.05;
-            let rr = (light_time(o, *kind, &(r_e + v_e * h), t + h).1
-                - light_time(o, *kind, &(r_e - v_e * h), t - h).1)
-                / (2.0 * h);
-            let dts = clock_offset(o, *kind, t_tx) * C_LIGHT;
-            let dts_rate =
-                (clock_offset(o, *kind, t_tx + 0.5) - clock_offset(o, *kind, t_tx - 0.5)) * C_LIGHT;
+            let (sys, prn, lam, rr, dts, dts_rate, tgd) = if i < n_kepler {
+                let (sys, kind, o) = &sats[i];
+                let rr = (light_time(o, *kind, &(r_e + v_e * h), t + h).1
+                    - light_time(o, *kind, &(r_e - v_e * h), t - h).1)
+                    / (2.0 * h);
+                let dts = clock_offset(o, *kind, t_tx) * C_LIGHT;
+                let dts_rate = (clock_offset(o, *kind, t_tx + 0.5)
+                    - clock_offset(o, *kind, t_tx - 0.5))
+                    * C_LIGHT;
+                (*sys, o.prn, lambda(*sys), rr, dts, dts_rate, o.tgd)
+            } else {
+                let (slot, recs) = &glo_sats[i - n_kepler];
+                let lt = |rx: &Vec3, t: f64| light_time_glo(&nav_glonass, recs, rx, t);
+                let rr =
+                    (lt(&(r_e + v_e * h), t + h).1 - lt(&(r_e - v_e * h), t - h).1) / (2.0 * h);
+                let e = &nav_glonass[lt(&r_e, t).3];
+                let lam = C_LIGHT / glonass::l1_frequency_hz(e.freq_ch);
+                let dts = e.clock_offset(t_tx) * C_LIGHT;
+                let dts_rate = e.gamma_n * C_LIGHT;
+                ('R', *slot, lam, rr, dts, dts_rate, 0.0)
+            };
             let se = el.sin().max(0.05);
             let cn0 = 34.0 + 14.0 * se + n01(&mut rng);
             let kf = 10f64.powf(((45.0 - cn0) / 20.0).max(0.0));
@@ -381,9 +514,8 @@ pub fn simulate_multi(cfg: &MultiGnssConfig) -> MultiGnssLog {
                 * (KLOBUCHAR.delay_l1(g.lat, g.lon, az, el, tow)
                     + 1.0 * crate::raw_gnss::obliquity(el) * iono[i]);
             let t_delay = slant_delay(el, g.lat, g.h, doy, 0.7);
-            let common = range + b * C_LIGHT + isb(*sys) - dts + t_delay + 1.0 * sat_e[i];
-            let pr =
-                common + C_LIGHT * o.tgd + i_delay + mp_sigma * mp[i] + 0.5 * kf * n01(&mut rng);
+            let common = range + b * C_LIGHT + isb(sys) - dts + t_delay + 1.0 * sat_e[i];
+            let pr = common + C_LIGHT * tgd + i_delay + mp_sigma * mp[i] + 0.5 * kf * n01(&mut rng);
             let rr_meas = rr + d0 * C_LIGHT - dts_rate + 0.05 * kf / se.sqrt() * n01(&mut rng);
             let mut lli = 0;
             if !locked[i] {
@@ -399,8 +531,8 @@ pub fn simulate_multi(cfg: &MultiGnssConfig) -> MultiGnssLog {
                 })
             };
             ep.push((
-                *sys,
-                o.prn,
+                sys,
+                prn,
                 vec![v(pr, 0), v(cp, lli), v(-rr_meas / lam, 0), v(cn0, 0)],
             ));
         }
@@ -410,7 +542,8 @@ pub fn simulate_multi(cfg: &MultiGnssConfig) -> MultiGnssLog {
         let order = |s: char| match s {
             'G' => 0,
             'E' => 1,
-            _ => 2,
+            'C' => 2,
+            _ => 3,
         };
         ep.sort_by(|a, b| order(a.0).cmp(&order(b.0)).then(a.1.cmp(&b.1)));
         log.tags.push(tag);

@@ -30,6 +30,8 @@
 //! "−TauN" and "+GammaN" fields). Times here are GPS seconds (t_b converted
 //! from Moscow time by the reader: GLONASS time = UTC(SU) + 3 h).
 
+use super::raw::SatState;
+use super::C_LIGHT;
 #[allow(unused_imports)]
 use crate::prelude::*;
 use crate::Vec3;
@@ -53,6 +55,21 @@ pub const MAX_SPAN_S: f64 = 86_400.0;
 /// Lowest and highest FDMA frequency channel numbers (ICD 5.1 §3.3.1.1:
 /// k = −7…+6).
 pub const FREQ_CHANNELS: core::ops::RangeInclusive<i8> = -7..=6;
+/// Largest |t − t_b| [s] an ephemeris is used for: ±15 min. GLONASS
+/// uploads immediate information every 30 min with t_b at the centre of
+/// its interval (ICD 5.1 §4.4, t_b "within the 30-minute interval"), and
+/// the simplified algorithm of Appendix A.3.1.2 is specified for
+/// |τ_i| ≤ 15 min (its lunisolar accelerations are held constant; their
+/// change makes the error grow as Δt³). RTKLIB's `MAXDTOE_GLO` is 30 min,
+/// so a satellite whose next upload is missing is used by RTKLIB 15 min
+/// longer than here.
+pub const MAX_AGE_S: f64 = 900.0;
+/// Orbit + clock error σ of a GLONASS broadcast ephemeris [m]: RINEX
+/// GLONASS records carry no accuracy index (F_T only in string 4 /
+/// RINEX 3.05's fifth line), so RTKLIB's `ERREPH_GLO` = 5 m (ephemeris.c)
+/// stands in; GLONASS broadcast signal-in-space range errors are of order
+/// 2–5 m RMS (Montenbruck et al. 2015, *GPS Solutions* 19:321, Table 6).
+pub const SIGMA_EPH_M: f64 = 5.0;
 /// L1 FDMA carrier of channel k [Hz]: 1602 MHz + k · 562.5 kHz (ICD 5.1 §3.3.1.1).
 pub fn l1_frequency_hz(k: i8) -> f64 {
     1602.0e6 + f64::from(k) * 562.5e3
@@ -80,6 +97,62 @@ pub struct GlonassEph {
     /// γ_n(t_b) (relative frequency deviation).
     pub tau_n: f64,
     pub gamma_n: f64,
+}
+
+/// Nominal semi-major axis of a GLONASS orbit [m]: the nominal draconic
+/// period 11 h 15 min 44 s = 40 544 s (ICD 5.1 §3.1, altitude ≈ 19 100 km)
+/// through Kepler's third law, a = (μ T² / 4π²)^(1/3).
+pub fn nominal_semi_major_axis_m() -> f64 {
+    let t = 40_544.0f64;
+    (MU_PZ90 * t * t / (4.0 * core::f64::consts::PI * core::f64::consts::PI)).cbrt()
+}
+
+/// Frequency channel of orbital slot 1–24 in a nominal channel plan:
+/// antipodal slots (n and n + 4 in a plane) share a channel (ICD 5.1
+/// §3.3.1.1); the values are the plan of the operational constellation
+/// of the late 2010s (e.g. slots 1/5 → +1, 2/6 → −4, …), all within −7…+6.
+pub fn nominal_channel(slot: u8) -> i8 {
+    const K: [i8; 12] = [1, -4, 5, 6, -2, -7, 0, -1, 4, -3, 3, 2];
+    let s = usize::from(slot.clamp(1, 24)) - 1;
+    K[(s / 8) * 4 + s % 4]
+}
+
+/// A synthetic broadcast ephemeris of slot 1–24 of the nominal
+/// constellation (3 planes × 8 slots, i = 64.8°, ICD 5.1 §3.1): a circular
+/// orbit of [`nominal_semi_major_axis_m`], plane p = (slot − 1)/8 with its
+/// node at ECEF longitude 120° p at t_b, argument of latitude 45° per slot
+/// plus 15° per plane (the Walker 24/3/1 phasing of GLONASS), its state at
+/// `t_b` [GPS s] in the rotating frame (v_e = v_i − ω × r), zero lunisolar
+/// acceleration, the [`nominal_channel`], healthy, clocks zero (the caller
+/// sets τ_n, γ_n). For simulators and tests.
+pub fn nominal_eph(slot: u8, t_b: f64) -> GlonassEph {
+    let s = f64::from(slot.clamp(1, 24) - 1);
+    let plane = (s / 8.0).floor();
+    let k = s - 8.0 * plane;
+    let a = nominal_semi_major_axis_m();
+    let n = (MU_PZ90 / (a * a * a)).sqrt();
+    let (raan, inc) = ((120.0 * plane).to_radians(), 64.8f64.to_radians());
+    let u = (45.0 * k + 15.0 * plane).to_radians();
+    // Orbit plane → ECEF: R3(−Ω) R1(−i).
+    let rot = |x: f64, y: f64| -> Vec3 {
+        let (xo, yo, zo) = (x, y * inc.cos(), y * inc.sin());
+        Vec3::new(
+            xo * raan.cos() - yo * raan.sin(),
+            xo * raan.sin() + yo * raan.cos(),
+            zo,
+        )
+    };
+    let r = rot(a * u.cos(), a * u.sin());
+    let v_i = rot(-n * a * u.sin(), n * a * u.cos());
+    let w = Vec3::new(0.0, 0.0, OMEGA_E_PZ90);
+    GlonassEph {
+        slot: slot.clamp(1, 24),
+        freq_ch: nominal_channel(slot),
+        t_b,
+        pos_m: r,
+        vel_mps: v_i - w.cross(&r),
+        ..Default::default()
+    }
 }
 
 /// Time derivative of the state [x, y, z, Vx, Vy, Vz] (module equations).
@@ -156,6 +229,33 @@ impl GlonassEph {
     /// (ICD 5.1 §3.3.3; the relativistic effect is in τ_n/γ_n already).
     pub fn clock_offset(&self, t: f64) -> f64 {
         -self.tau_n + self.gamma_n * (t - self.t_b)
+    }
+
+    /// The satellite for a record received at receiver time `t_rx` [GPS s]
+    /// with pseudorange `pr` [m], as `sat_state_from_orbit` gives it for the
+    /// Kepler systems: transmission time `t_tx = t_rx − pr/c − δt_s` (the
+    /// clock evaluated at `t_rx − pr/c`, its change over δt_s being γ_n·δt_s
+    /// < 1e-15 s), position and velocity at `t_tx` from the RK4 integration
+    /// ([`GlonassEph::state_at`], ECEF of the transmission time; the range
+    /// model adds the earth rotation during travel), clock −τ_n + γ_n (t −
+    /// t_b) × c and its rate γ_n × c (no relativistic term and no group delay:
+    /// the broadcast τ_n/γ_n include the relativistic effect, ICD 5.1 §3.3.3,
+    /// and τ_n refers to L1 — the L1/L2 Δτ_n is for L2 users), `var_m2` =
+    /// [`SIGMA_EPH_M`]², valid = healthy (B_n's MSB clear) and the state
+    /// finite.
+    pub fn sat_state(&self, t_rx: f64, pr: f64) -> SatState {
+        let t0 = t_rx - pr / C_LIGHT;
+        let t_tx = t0 - self.clock_offset(t0);
+        let (pos_e, vel_e) = self.state_at(t_tx);
+        SatState {
+            pos_e,
+            vel_e,
+            clock_m: self.clock_offset(t_tx) * C_LIGHT,
+            clock_rate_mps: self.gamma_n * C_LIGHT,
+            iono_m: 0.0,
+            var_m2: (SIGMA_EPH_M * SIGMA_EPH_M) as f32,
+            valid: self.health == 0 && pos_e.x.is_finite(),
+        }
     }
 
     /// The Jacobi integral of the motion in the rotating frame without
@@ -332,6 +432,61 @@ mod tests {
             assert!(same < 1e-4, "{dt} s, same constants: {same} m");
             let theirs = (ours - rtk(&e, e.t_b + dt, true)).norm();
             assert!(theirs < 1e-2, "{dt} s, RTKLIB constants: {theirs} m");
+        }
+    }
+
+    /// The record's state: at the transmission time (pr/c + clock before
+    /// t_rx), velocity the integration's, clock and rate from τ_n/γ_n; an
+    /// unhealthy ephemeris is not valid. Velocity against a central
+    /// difference of positions (RK4's own velocity; agree to < 1 mm/s).
+    #[test]
+    fn sat_state_of_a_record() {
+        let mut e = icd_example();
+        e.tau_n = 2.0e-5;
+        e.gamma_n = 2.0e-12;
+        let t_rx = e.t_b + 300.0;
+        let pr = 2.2e7;
+        let s = e.sat_state(t_rx, pr);
+        let t_tx = t_rx - pr / C_LIGHT - e.clock_offset(t_rx - pr / C_LIGHT);
+        assert_eq!(s.pos_e, e.position_ecef(t_tx));
+        assert!((s.clock_m - C_LIGHT * (-2.0e-5 + 2.0e-12 * (t_tx - e.t_b))).abs() < 1e-9);
+        assert!((s.clock_rate_mps - C_LIGHT * 2.0e-12).abs() < 1e-15);
+        let h = 0.5;
+        let v_num = (e.position_ecef(t_tx + h) - e.position_ecef(t_tx - h)) / (2.0 * h);
+        assert!(
+            (s.vel_e - v_num).norm() < 1e-3,
+            "{}",
+            (s.vel_e - v_num).norm()
+        );
+        assert!(s.valid);
+        assert_eq!(s.var_m2, 25.0);
+        e.health = 1;
+        assert!(!e.sat_state(t_rx, pr).valid);
+        assert!(!icd_example().sat_state(e.t_b + 2.0 * MAX_SPAN_S, pr).valid);
+    }
+
+    /// The nominal constellation: radius and inclination as specified,
+    /// antipodal slots on one channel, every channel within −7…+6.
+    #[test]
+    fn nominal_constellation() {
+        let a = nominal_semi_major_axis_m();
+        assert!((a - 25_508e3).abs() < 2e3, "{a}");
+        for slot in 1..=24u8 {
+            let e = nominal_eph(slot, 0.0);
+            assert!((e.pos_m.norm() - a).abs() < 1e-3);
+            let h = e
+                .pos_m
+                .cross(&(e.vel_mps + Vec3::new(0.0, 0.0, OMEGA_E_PZ90).cross(&e.pos_m)));
+            let inc = (h.z / h.norm()).acos().to_degrees();
+            assert!((inc - 64.8).abs() < 1e-9, "{inc}");
+            assert!(FREQ_CHANNELS.contains(&e.freq_ch));
+            let anti = if (slot - 1) % 8 < 4 {
+                slot + 4
+            } else {
+                slot - 4
+            };
+            assert_eq!(nominal_channel(anti), e.freq_ch);
+            assert!((nominal_eph(anti, 0.0).pos_m + e.pos_m).norm() < 1e-3);
         }
     }
 

@@ -19,6 +19,11 @@
 //!   Saastamoinen ([`super::tropo`]);
 //! - one receiver clock per system (`sys` 0..[`MAX_SYS`]) so that
 //!   inter-system offsets are unknowns.
+//! - GLONASS satellites ([`SppObs::glo`]): RK4 orbit and −τ_n + γ_n (t −
+//!   t_b) clock of [`super::glonass`], no group delay, their own clock
+//!   group (an inter-system bias unknown, as for Galileo and BeiDou), the
+//!   receiver noise σ × [`GLO_NOISE_FACTOR`] (inter-frequency code biases
+//!   not modelled).
 //!
 //! Weights: the variance of each pseudorange is the sum of (RTKLIB 2.4
 //! manual eq. E.6.24 and `pntpos.c`, whose model this is)
@@ -59,6 +64,7 @@
 #[allow(unused_imports)]
 use crate::prelude::*;
 
+use super::glonass::GlonassEph;
 use super::iono::Klobuchar;
 use super::orbit_gnss::{self, OrbitKind};
 use super::tropo::{niell_mapping, saastamoinen_zenith};
@@ -151,7 +157,22 @@ pub struct SppObs {
     pub kind: OrbitKind,
     /// Signal-in-space range accuracy (URA) [m], 1σ.
     pub ura_m: f64,
+    /// A GLONASS satellite: its broadcast ephemeris (RK4 orbit and the
+    /// −τ_n + γ_n (t − t_b) clock, [`super::glonass`]); `orbit` and `kind`
+    /// are then not used. `lambda_m` must be the satellite's FDMA L1
+    /// wavelength (channel k: 1602 MHz + k · 562.5 kHz).
+    pub glo: Option<GlonassEph>,
 }
+
+/// Factor on the receiver noise σ (`a² + b²/sin El` scaled by its square)
+/// of GLONASS FDMA pseudoranges: RTKLIB's `EFACT_GLO` = 1.5 (pntpos.c
+/// `varerr`, `SQR(fact)·varr`). It stands for what is not modelled here:
+/// the receiver's inter-frequency code biases, which differ between the
+/// FDMA channels (decimetres to metres, receiver-dependent; Wanninger 2012,
+/// *GPS Solutions* 16:439) and are not estimated. A heuristic, copied so
+/// that `navfuse spp` and `rnx2rtkp` weigh GLONASS alike; not from a
+/// datasheet.
+pub const GLO_NOISE_FACTOR: f64 = 1.5;
 
 /// Tropospheric model applied to the pseudoranges.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
@@ -360,6 +381,9 @@ struct Sat {
     doppler_rr: f64,
     /// (f_L1/f)²: the ionospheric delay of the tracked frequency relative to L1.
     iono_scale: f64,
+    /// Factor on the receiver noise variance (1; GLONASS
+    /// [`GLO_NOISE_FACTOR`]²).
+    noise_var_fact: f64,
     /// Still a candidate (healthy, valid, not excluded by RAIM).
     active: bool,
     // Filled by `residuals`:
@@ -434,12 +458,56 @@ impl Spp {
                 self.skips.over_capacity += 1;
                 continue;
             }
-            if o.orbit.health != 0 {
+            let health = o.glo.map_or(o.orbit.health, |g| g.health);
+            if health != 0 {
                 self.skips.unhealthy += 1;
                 continue;
             }
             if !(o.pr_m.is_finite() && (1.0e7..5.0e7).contains(&o.pr_m)) {
                 self.skips.bad_range += 1;
+                continue;
+            }
+            let rr = if o.doppler_hz.is_finite() && o.lambda_m > 0.0 {
+                -o.lambda_m * o.doppler_hz
+            } else {
+                f64::NAN
+            };
+            let var_eph = if o.ura_m.is_finite() {
+                o.ura_m * o.ura_m
+            } else {
+                0.0
+            };
+            // Group delay ∝ 1/f² (λ²); L1 when the wavelength is not given.
+            let iono_scale = if o.lambda_m > 0.0 && o.lambda_m.is_finite() {
+                (o.lambda_m / LAMBDA_L1).powi(2)
+            } else {
+                1.0
+            };
+            if let Some(g) = &o.glo {
+                // GLONASS: the record's state at transmission
+                // (GlonassEph::sat_state; no group delay on L1).
+                let st = g.sat_state(t_rx, o.pr_m);
+                if !st.pos_e.x.is_finite() {
+                    self.skips.bad_range += 1;
+                    continue;
+                }
+                self.sats[self.n] = Sat {
+                    idx: k,
+                    sys: o.sys as usize,
+                    prn: o.prn,
+                    p: o.pr_m,
+                    pos_e: st.pos_e,
+                    vel_e: st.vel_e,
+                    clk_m: st.clock_m,
+                    drift_mps: st.clock_rate_mps,
+                    var_eph,
+                    doppler_rr: rr,
+                    iono_scale,
+                    noise_var_fact: GLO_NOISE_FACTOR * GLO_NOISE_FACTOR,
+                    active: true,
+                    ..Sat::default()
+                };
+                self.n += 1;
                 continue;
             }
             let t_sv = t_rx - o.pr_m / C_LIGHT;
@@ -449,11 +517,6 @@ impl Spp {
             let clk = |t: f64| orbit_gnss::clock_offset(&o.orbit, o.kind, t);
             let p_plus = pos(t_tx + h);
             let p_minus = pos(t_tx - h);
-            let rr = if o.doppler_hz.is_finite() && o.lambda_m > 0.0 {
-                -o.lambda_m * o.doppler_hz
-            } else {
-                f64::NAN
-            };
             self.sats[self.n] = Sat {
                 idx: k,
                 sys: o.sys as usize,
@@ -463,18 +526,10 @@ impl Spp {
                 vel_e: (p_plus - p_minus) / (2.0 * h),
                 clk_m: C_LIGHT * clk(t_tx),
                 drift_mps: C_LIGHT * (clk(t_tx + h) - clk(t_tx - h)) / (2.0 * h),
-                var_eph: if o.ura_m.is_finite() {
-                    o.ura_m * o.ura_m
-                } else {
-                    0.0
-                },
+                var_eph,
                 doppler_rr: rr,
-                // Group delay ∝ 1/f² (λ²); L1 when the wavelength is not given.
-                iono_scale: if o.lambda_m > 0.0 && o.lambda_m.is_finite() {
-                    (o.lambda_m / LAMBDA_L1).powi(2)
-                } else {
-                    1.0
-                },
+                iono_scale,
+                noise_var_fact: 1.0,
                 active: true,
                 ..Sat::default()
             };
@@ -606,8 +661,8 @@ impl Spp {
             }
             let sin_el = el.sin().max(5f64.to_radians().sin());
             s.v = s.p - (r + x[3 + s.sys] - s.clk_m + di + dt);
-            s.var = cfg.sigma_a_m * cfg.sigma_a_m
-                + cfg.sigma_b_m * cfg.sigma_b_m / sin_el
+            s.var = s.noise_var_fact
+                * (cfg.sigma_a_m * cfg.sigma_a_m + cfg.sigma_b_m * cfg.sigma_b_m / sin_el)
                 + s.var_eph
                 + cfg.sigma_code_bias_m * cfg.sigma_code_bias_m
                 + (cfg.iono_residual * di).powi(2)

@@ -84,6 +84,7 @@ fn observe(
             orbit: *o,
             kind: OrbitKind::Gps,
             ura_m: 2.0,
+            glo: None,
         };
         n += 1;
     }
@@ -312,4 +313,100 @@ fn ura_nominal_values_by_index() {
             ura_nominal_m(b)
         );
     }
+}
+
+/// GLONASS satellites (nominal constellation, RK4 orbits, clocks −τ_n +
+/// γ_n (t − t_b)) next to GPS: observed by an independent light-time
+/// solution (satellite at t − τ in the frame of t − τ, rotated into the
+/// frame of t), with a GLONASS receiver clock 120 m off GPS's and the
+/// Doppler on each satellite's FDMA wavelength. The solver recovers the
+/// position, both clocks and the velocity (noise-free: to mm, mm/s); the
+/// GLONASS ranges carry the larger noise variance (EFACT_GLO²).
+#[test]
+fn glonass_with_gps_two_clocks() {
+    use crate::gnss::glonass::{l1_frequency_hz, nominal_eph};
+    let rx = receiver();
+    let v_e = Vec3::new(-6.0, 9.0, 1.0);
+    let t = T_OE + 600.0;
+    let clk = [2.0e3, 0.0, 0.0, 2.0e3 + 120.0];
+    let drift = [30.0, 0.0, 0.0, 30.0];
+    let mut obs = [SppObs::default(); MAX_SATS];
+    let mut n = observe(&rx, &v_e, t, &clk, &drift, |_| 0, &mut obs);
+    let n_gps = n;
+    let g = ecef_to_geodetic(&rx);
+    let c = c_e_enu(g.lat, g.lon);
+    let receive = |e: &GlonassEph, rx: &Vec3, t: f64| -> (f64, f64) {
+        let mut tau = 0.07;
+        let mut range = 0.0;
+        for _ in 0..10 {
+            let q = e.position_ecef(t - tau);
+            let th = OMEGA_E_DOT * tau;
+            let p = Vec3::new(
+                th.cos() * q.x + th.sin() * q.y,
+                -th.sin() * q.x + th.cos() * q.y,
+                q.z,
+            );
+            range = (p - rx).norm();
+            tau = range / C_LIGHT;
+        }
+        (range, t - tau)
+    };
+    let mut n_glo = 0;
+    for slot in 1..=24u8 {
+        let mut e = nominal_eph(slot, T_OE + 900.0);
+        e.tau_n = 1e-5 * (f64::from(slot) - 12.0) / 12.0;
+        e.gamma_n = 1e-12 * (f64::from(slot % 5) - 2.0);
+        let (range, t_tx) = receive(&e, &rx, t);
+        let el = (c * ((e.position_ecef(t_tx) - rx) / range)).z.asin();
+        if el < 16f64.to_radians() || n == MAX_SATS {
+            continue;
+        }
+        let pr = range + clk[3] - C_LIGHT * e.clock_offset(t_tx);
+        let h = 1.0;
+        let (r_p, tp) = receive(&e, &(rx + v_e * h), t + h);
+        let (r_m, tm) = receive(&e, &(rx - v_e * h), t - h);
+        let rr = (r_p - r_m) / (2.0 * h) + drift[3]
+            - C_LIGHT * (e.clock_offset(tp) - e.clock_offset(tm)) / (2.0 * h);
+        let lambda = C_LIGHT / l1_frequency_hz(e.freq_ch);
+        obs[n] = SppObs {
+            sys: 3,
+            prn: slot,
+            pr_m: pr,
+            doppler_hz: -rr / lambda,
+            lambda_m: lambda,
+            ura_m: 5.0,
+            glo: Some(e),
+            ..SppObs::default()
+        };
+        n += 1;
+        n_glo += 1;
+    }
+    assert!(n_glo >= 4, "{n_glo} GLONASS satellites visible");
+    let mut spp = Spp::new(plain(), None);
+    let sol = spp.solve(t + clk[0] / C_LIGHT, &obs[..n], None).unwrap();
+    let err = (sol.pos_e - rx).norm();
+    assert!(
+        err < 5e-3,
+        "position error {err} m ({n_gps} GPS + {n_glo} GLONASS)"
+    );
+    assert!(
+        (sol.clk_m[3] - sol.clk_m[0] - 120.0).abs() < 5e-3,
+        "{:?}",
+        sol.clk_m
+    );
+    assert_eq!(sol.n_used as usize, n);
+    let vel = sol.vel.expect("Doppler velocity");
+    assert!((vel.vel_e - v_e).norm() < 2e-3, "{}", vel.vel_e - v_e);
+    assert!((vel.drift_mps[3] - drift[3]).abs() < 2e-3);
+    // GLONASS only (4 unknowns: position and the GLONASS clock).
+    let sol_r = spp
+        .solve(t + clk[0] / C_LIGHT, &obs[n_gps..n], None)
+        .unwrap();
+    assert!((sol_r.pos_e - rx).norm() < 5e-3);
+    assert!(sol_r.clk_m[0].is_nan());
+    // An unhealthy GLONASS ephemeris is skipped and counted.
+    let mut bad = obs;
+    bad[n_gps].glo.as_mut().unwrap().health = 1;
+    spp.solve(t + clk[0] / C_LIGHT, &bad[..n], None).unwrap();
+    assert_eq!(spp.skips().unhealthy, 1);
 }
