@@ -334,7 +334,8 @@ fn prune(members: &mut Vec<Member>, ln_prune: f64) {
         });
         if let Some(b) = dup {
             // One posterior mode held twice: the components merge (their
-            // weights add, Groves 2nd ed. §3.4.5), and the filter kept is the
+            // weights add, Groves 2nd ed. §3.4.5; the covariance keeps their
+            // spread, Eskf::add_mixture_spread), and the filter kept is the
             // one whose hypothesis needed the smaller yaw correction to get
             // there. The other started further from this yaw than its prior
             // σ allowed (e.g. 27° at σ 5°): on the way its linearised
@@ -349,6 +350,16 @@ fn prune(members: &mut Vec<Member>, ln_prune: f64) {
             if members[i].yaw_moved.abs() + tol < members[b].yaw_moved.abs() {
                 members.swap(b, i);
             }
+            // The filter kept stands for both: its covariance takes the
+            // other's offset from it (in yaw within σ, but possibly far in
+            // the z-gyro bias or tilt that absorbed a wrong start), weighted
+            // by the other's share of the merged weight.
+            let w_i = 1.0 / (1.0 + (members[i].score - members[b].score).exp());
+            let dx = {
+                let o = &members[i].eskf;
+                members[b].eskf.error_state_to(o.nav(), o.imu_errors())
+            };
+            members[b].eskf.add_mixture_spread(&dx, w_i);
             members[b].score = merged;
             members.remove(i);
         } else {

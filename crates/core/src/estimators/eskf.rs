@@ -1302,6 +1302,45 @@ impl Eskf {
     pub fn covariance(&self) -> &Cov {
         &self.p
     }
+    /// The error state `δx` that [`apply_correction`] would need to move
+    /// this filter's nominal state onto `(nav, errors)`: position NED [m]
+    /// (nominal − other, linearised at this filter's position), velocity
+    /// (nominal − other), attitude `φ` with `q_other = q(φ) q_nominal`, IMU
+    /// errors (other − nominal). Used as the spread term of a Gaussian-sum
+    /// merge.
+    pub fn error_state_to(&self, nav: &NavState, errors: &ImuErrors) -> StateVec {
+        let (rm, rn) = earth::radii(self.nav.lat);
+        let mut dx = StateVec::zeros();
+        dx[I_POS] = -(nav.lat - self.nav.lat) * (rm + self.nav.h);
+        dx[I_POS + 1] = -(nav.lon - self.nav.lon) * (rn + self.nav.h) * self.nav.lat.cos();
+        dx[I_POS + 2] = nav.h - self.nav.h;
+        dx.fixed_rows_mut::<3>(I_VEL)
+            .copy_from(&(self.nav.v_n - nav.v_n));
+        let dq = nav.q_bn * self.nav.q_bn.inverse();
+        dx.fixed_rows_mut::<3>(I_ATT).copy_from(&dq.scaled_axis());
+        dx.fixed_rows_mut::<3>(I_BG)
+            .copy_from(&(errors.bg - self.err.bg));
+        dx.fixed_rows_mut::<3>(I_BA)
+            .copy_from(&(errors.ba - self.err.ba));
+        dx.fixed_rows_mut::<3>(I_SG)
+            .copy_from(&(errors.sg - self.err.sg));
+        dx.fixed_rows_mut::<3>(I_SA)
+            .copy_from(&(errors.sa - self.err.sa));
+        dx
+    }
+    /// Widen the covariance by the spread of a merged mixture component:
+    /// `P ← P + w δx δxᵀ` (`w` ≥ 0 its share of the merged weight, `δx`
+    /// from [`Eskf::error_state_to`]). The second moment of a two-component
+    /// Gaussian sum about this component's mean, when the components'
+    /// covariances are alike (moment-preserving mixture reduction, Salmond
+    /// 1990; Runnalls 2007): what one filter must carry when it stands for
+    /// both hypotheses. Non-finite input is ignored.
+    pub fn add_mixture_spread(&mut self, dx: &StateVec, w: f64) {
+        if !(w.is_finite() && w > 0.0) || dx.iter().any(|x| !x.is_finite()) {
+            return;
+        }
+        self.p += (dx * dx.transpose()) * w;
+    }
     /// What happened to the inputs so far.
     pub fn stats(&self) -> &EskfStats {
         &self.stats
@@ -2296,6 +2335,51 @@ mod tests {
             sa_std: Vec3::repeat(1e-3),
             corr_time: 3600.0,
         }
+    }
+
+    /// `error_state_to` is what `apply_correction` needs: applying it to
+    /// this filter's nominal state lands on the other (to first order), and
+    /// the mixture spread adds `w δx δxᵀ` only.
+    #[test]
+    fn error_state_to_inverts_apply_correction_and_spread_adds_its_outer_product() {
+        let nav = |yaw_deg: f64, dn: f64| NavState {
+            lat: LAT + dn / 6.4e6,
+            lon: 0.3,
+            h: H,
+            v_n: Vec3::new(3.0, -1.0, 0.1 * dn),
+            q_bn: q_bn_from_rpy(&Vec3::new(0.02, -0.01, yaw_deg.to_radians())),
+        };
+        let mut e = Eskf::new(config(), nav(40.0, 0.0), ImuErrors::default(), &std0());
+        let other_err = ImuErrors {
+            bg: Vec3::new(1e-4, -2e-4, 3e-3),
+            ba: Vec3::new(0.01, 0.0, -0.02),
+            ..Default::default()
+        };
+        let other = nav(43.0, 2.0);
+        let dx = e.error_state_to(&other, &other_err);
+        let (mut n, mut er) = (*e.nav(), *e.imu_errors());
+        apply_correction(&mut n, &mut er, &dx);
+        assert!(((n.lat - other.lat) * 6.4e6).abs() < 1e-6);
+        assert!((n.v_n - other.v_n).norm() < 1e-12);
+        assert!(n.q_bn.angle_to(&other.q_bn) < 1e-12);
+        assert!((er.bg - other_err.bg).norm() < 1e-15 && (er.ba - other_err.ba).norm() < 1e-15);
+        assert!((dx[I_ATT + 2] - 3f64.to_radians()).abs() < 1e-3);
+        let p0 = *e.covariance();
+        e.add_mixture_spread(&dx, 0.25);
+        assert!(
+            (e.covariance() - p0 - dx * dx.transpose() * 0.25)
+                .abs()
+                .max()
+                < 1e-15
+        );
+        e.add_mixture_spread(&dx, f64::NAN);
+        e.add_mixture_spread(&dx, -1.0);
+        assert!(
+            (e.covariance() - p0 - dx * dx.transpose() * 0.25)
+                .abs()
+                .max()
+                < 1e-15
+        );
     }
 
     pub(super) fn std0() -> InitStd {
