@@ -56,7 +56,9 @@
 
 use crate::base_station::{pair_epochs, settle_position, BasePositionSpec};
 use crate::error::{PipelineError, Result};
-use crate::experiments::baseline::{dops, Opts as BaselineOpts, RejectReason};
+use crate::experiments::baseline::{
+    dops, EpochOut, Opts as BaselineOpts, RejectReason, Rejected, Summary,
+};
 use crate::raw_input::raw_from_obs_with;
 use navfuse_core::estimators::eskf::{
     Eskf, EskfConfig, ImuErrors, InitStd, RtkConfig, RtkSolution, RtkStats, NAMB,
@@ -122,14 +124,16 @@ pub struct RtkGnssEpoch {
     pub ratio: f64,
     pub n_candidates: usize,
     pub n_fixed: usize,
+    pub pdop: f64,
+    pub gdop: f64,
 }
 
 /// The run.
 #[derive(Clone, Debug)]
 pub struct RtkGnssRun {
     pub epochs: Vec<RtkGnssEpoch>,
-    /// Rejected paired epochs: (epoch number, time, reason).
-    pub rejected: Vec<(usize, f64, RejectReason)>,
+    /// Rejected paired epochs, as `baseline` reports them.
+    pub rejected: Vec<Rejected>,
     pub unpaired_rover: usize,
     /// Epochs whose DD candidate count was not the expected one.
     pub candidate_mismatch: usize,
@@ -143,6 +147,33 @@ impl RtkGnssRun {
     }
     pub fn fixed(&self) -> usize {
         self.epochs.iter().filter(|e| e.fixed_b.is_some()).count()
+    }
+    /// As `baseline`'s [`Summary`] (`navfuse baseline --via-rtk`): the
+    /// fixed integers and the runner-up baseline are not carried (empty,
+    /// `None`); slips = loss-of-lock and detected-slip resets.
+    pub fn to_summary(&self) -> Summary {
+        let t = self.stats.total();
+        Summary {
+            epochs: self
+                .epochs
+                .iter()
+                .map(|e| EpochOut {
+                    epoch: e.epoch,
+                    t: e.t,
+                    n_sats: e.n_sats,
+                    float_b: e.float_b,
+                    fixed_b: e.fixed_b,
+                    ratio: e.ratio,
+                    pdop: e.pdop,
+                    gdop: e.gdop,
+                    fixed_dd: Vec::new(),
+                    runner_up_b: None,
+                })
+                .collect(),
+            rejected: self.rejected.clone(),
+            unpaired: self.unpaired_rover,
+            slips: (t.lli_resets + t.slips) as usize,
+        }
     }
     pub fn first_fix_epoch(&self) -> Option<usize> {
         self.epochs
@@ -309,7 +340,7 @@ pub fn rtk_gnss_only(
             }
         }
         let n_sats = los.len();
-        let (_, gdop) = dops(los.into_iter());
+        let (pdop, gdop) = dops(los.into_iter());
         let reject = if n_sats < 4 {
             Some(RejectReason::FewSatellites)
         } else if gdop.is_nan() || gdop > opts.max_gdop {
@@ -318,7 +349,13 @@ pub fn rtk_gnss_only(
             None
         };
         if let Some(reason) = reject {
-            run.rejected.push((epoch, be.t, reason));
+            run.rejected.push(Rejected {
+                epoch,
+                t: be.t,
+                n_sats,
+                gdop,
+                reason,
+            });
             continue;
         }
         let expected = signals.len() * (n_sats - 1);
@@ -345,6 +382,8 @@ pub fn rtk_gnss_only(
             ratio: sol.ratio,
             n_candidates: sol.n_candidates,
             n_fixed: sol.n_fixed,
+            pdop,
+            gdop,
         });
     }
     if let Some(s) = f.rtk_stats() {
