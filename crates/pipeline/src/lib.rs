@@ -56,6 +56,7 @@ pub mod raw_drive;
 pub mod raw_input;
 pub mod resolved;
 pub mod rtk_gnss;
+pub mod rtk_run;
 pub mod run;
 pub mod run_checks;
 pub mod sensors;

@@ -130,6 +130,24 @@ pub fn load_raw(obs: &Path, nav: &[PathBuf]) -> Result<RawInput> {
     raw_from_obs(&o, &g, &n, obs, format)
 }
 
+/// [`load_raw`], with `second_frequency` the GPS L2 records too
+/// ([`raw_from_obs_with`]).
+pub fn load_raw_with(obs: &Path, nav: &[PathBuf], second_frequency: bool) -> Result<RawInput> {
+    if !second_frequency {
+        return load_raw(obs, nav);
+    }
+    if !crate::spp::is_ubx(obs) && nav.is_empty() {
+        return load_raw(obs, nav);
+    }
+    let (o, g, n) = crate::spp::load(obs, nav)?;
+    let format = if crate::spp::is_ubx(obs) {
+        "ubx-raw"
+    } else {
+        "rinex-obs"
+    };
+    raw_from_obs_with(&o, &g, &n, obs, format, true)
+}
+
 /// [`load_raw`] on observations and ephemerides already in memory.
 pub fn raw_from_obs(
     o: &ObsFile,
