@@ -785,7 +785,7 @@ pub(crate) fn run_eskf_span(
         _ => &aids,
     };
     let mut h = heads.partition_point(|x| x.t() <= t_next);
-    let mut driver = rtk.map(|r| crate::rtk_run::RtkDriver::new(r, t_next));
+    let mut driver = rtk.map(|r| crate::rtk_run::RtkDriver::new(r, t_next, coast_after_s));
     for s in &imu[k_next..] {
         let mut g1 = g;
         while g < gnss.len() && gnss[g].t <= s.t + 1e-3 {

@@ -12,6 +12,10 @@
 //!   the RTK update; the solution written for that IMU sample is the
 //!   **fixed** one when the validation passed (its σ from the conditional
 //!   covariance `P − P_xâ Q⁻¹ P_âx`), else the float filter's;
+//!   between epochs the fixed solution is carried by the INS: the float
+//!   filter's motion plus the epoch's fixed − float offset, σ² = the
+//!   fixed σ² + the float σ² grown since the epoch (written with Q = 1
+//!   until the coasting time passes); after a float epoch the float filter;
 //! - unpaired: **no GNSS update** that epoch (the RTK filter has no
 //!   receiver clock states, so the tight pseudorange update cannot run;
 //!   a code-only single-point update is not made), counted.
@@ -234,11 +238,24 @@ pub(crate) struct RtkDriver<'a> {
     float_ratios: Vec<f64>,
     first_t: f64,
     first_fix_t: Option<f64>,
+    /// The last epoch's fixed − float position (lat, lon, h) and variances
+    /// (fixed σ², float σ² NED at that epoch), carried to the samples up
+    /// to the next epoch; `None` after a float epoch.
+    carry: Option<Carry>,
+    coast_after_s: f64,
+}
+
+#[derive(Clone, Copy, Debug)]
+struct Carry {
+    t: f64,
+    d: Vec3,
+    var_fixed: Vec3,
+    var_float: Vec3,
 }
 
 impl<'a> RtkDriver<'a> {
     /// Epochs at or before `t_start` (the filter's start) are not applied.
-    pub fn new(span: &'a RtkSpan, t_start: f64) -> Self {
+    pub fn new(span: &'a RtkSpan, t_start: f64, coast_after_s: f64) -> Self {
         let next = span.rover.partition_point(|e| e.t <= t_start);
         RtkDriver {
             span,
@@ -253,12 +270,31 @@ impl<'a> RtkDriver<'a> {
             float_ratios: Vec::new(),
             first_t: f64::NAN,
             first_fix_t: None,
+            carry: None,
+            coast_after_s,
         }
     }
 
     /// After the IMU sample at `t_imu` (interval `dt`): apply the rover
     /// epochs whose true time is at most half an interval later.
     pub fn after_imu(&mut self, m: &mut Member, t_imu: f64, dt: f64) {
+        // Between epochs: the fixed solution carried by the INS (the float
+        // filter's motion since the epoch plus the epoch's fixed − float
+        // offset; σ² = fixed σ² + the float σ² grown since the epoch).
+        if let Some(c) = self.carry.filter(|c| t_imu - c.t <= self.coast_after_s) {
+            if let Some(s) = m.sols.last_mut().filter(|s| (s.t - t_imu).abs() < 1e-9) {
+                s.lat += c.d.x;
+                s.lon += c.d.y;
+                s.h += c.d.z;
+                let grown =
+                    (s.std_pos_ned.component_mul(&s.std_pos_ned) - c.var_float).map(|v| v.max(0.0));
+                s.std_pos_ned = (c.var_fixed + grown).map(f64::sqrt);
+                if let Some(r) = m.std.last_mut().filter(|r| (r.t - t_imu).abs() < 1e-9) {
+                    r.pos_ned = s.std_pos_ned;
+                    r.pos_cross_ned = Vec3::repeat(f64::NAN);
+                }
+            }
+        }
         while let Some(re) = self.span.rover.get(self.next) {
             // The clock bias moves the true time by ≤ 1 ms (steered
             // receivers): only look at epochs that could be due.
@@ -305,6 +341,16 @@ impl<'a> RtkDriver<'a> {
                                     })
                             })
                             .count();
+                    self.carry = sol.fixed.then(|| Carry {
+                        t: t_imu,
+                        d: Vec3::new(
+                            sol.pos.lat - sol.float_pos.lat,
+                            sol.pos.lon - sol.float_pos.lon,
+                            sol.pos.h - sol.float_pos.h,
+                        ),
+                        var_fixed: sol.std_ned.component_mul(&sol.std_ned),
+                        var_float: sol.float_std_ned.component_mul(&sol.float_std_ned),
+                    });
                     if sol.fixed {
                         self.fixed_ratios.push(sol.ratio);
                         self.first_fix_t.get_or_insert(t_imu);
