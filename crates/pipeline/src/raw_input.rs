@@ -160,7 +160,9 @@ pub fn raw_from_obs(
 }
 
 /// [`raw_from_obs`], with `second_frequency` also the GPS L2 records of a
-/// RINEX 2 file (RTK, `[filter] coupling = "rtk"`): carrier `L2`, code
+/// RINEX 2 or 3 file (RTK, `[filter] coupling = "rtk"`; RINEX 3 codes are
+/// mapped to RINEX 2 names by `navfuse_io::rinex::rinex2_name`, L2C's
+/// `C2L`/`L2L` to `C2`/`L2`): carrier `L2`, code
 /// `P2` else `C2` (the order `navfuse baseline` and RTKLIB's RINEX 2
 /// defaults use: the GEONET receivers log P2), loss of lock from `L2`'s
 /// LLI bit 0, signal [`Signal::GpsL2C`] (the L2 carrier, 1227.60 MHz,

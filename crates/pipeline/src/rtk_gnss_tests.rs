@@ -119,8 +119,7 @@ fn geonet_rtk_gnss_only_reproduces_baseline() {
     assert!(fails.is_empty(), "no parity: {fails:?}");
 }
 
-/// A base with no epoch within the pairing tolerance of the rover's: no
-/// paired epoch, every rover epoch counted unpaired.
+/// No navigation file: an error naming it.
 #[test]
 #[ignore = "real data: NAVFUSE_DATA=… cargo test --release -p navfuse-pipeline rtk_gnss -- --ignored"]
 fn geonet_missing_nav_is_a_clear_error() {

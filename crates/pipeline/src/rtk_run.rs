@@ -1,6 +1,6 @@
 //! RTK/INS in `navfuse run` (`[filter] coupling = "rtk"`, issue 15): the
 //! rover's raw records (`[input] gnss`, RINEX + `nav` or `.ubx`, with the
-//! GPS L2 records of a RINEX 2 file) and a base station's (`[input] base`,
+//! GPS L2 records of a RINEX 2/3 file) and a base station's (`[input] base`,
 //! `base_position`, [`crate::base_station`]) through
 //! [`Eskf::rtk_update`] after the alignment, which used the rover's
 //! single-point fixes as the tight path does.
@@ -362,7 +362,7 @@ impl<'a> RtkDriver<'a> {
                         q: if sol.fixed { 1 } else { 2 },
                         ns: ns.min(255) as u8,
                         ratio: sol.ratio as f32,
-                        age_s: (re.t - be.t) as f32,
+                        age_s: (re.t - be.t).abs() as f32,
                     });
                     // The solution written at this sample: the fixed one
                     // when fixed, else the float filter's.
