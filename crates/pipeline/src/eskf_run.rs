@@ -42,6 +42,9 @@ pub(crate) struct Span<'a> {
     /// `[filter] coupling = "tight"`: the raw records and their input
     /// account ([`cut_raw`]); `gnss` then holds their SPP fixes.
     pub tight: Option<TightSpan<'a>>,
+    /// `[filter] coupling = "rtk"`: rover and base epochs ([`crate::rtk_run`]);
+    /// `gnss` then holds the rover's SPP fixes (the alignment's).
+    pub rtk: Option<&'a crate::rtk_run::RtkSpan>,
 }
 
 /// The raw records of a tightly coupled run.
@@ -127,6 +130,7 @@ pub(crate) fn select_span<'a>(
         gnss_all,
         aiding: &[],
         tight: None,
+        rtk: None,
     })
 }
 
@@ -422,6 +426,10 @@ pub struct EskfRun {
     /// Tight coupling: every raw record by satellite and reason, the clock
     /// (summary.json `tight_coupling`); `None` when loosely coupled.
     pub tight: Option<crate::tight_run::TightAccount>,
+    /// RTK: the account (summary.json `rtk`) and the applied epochs (the
+    /// `.pos` quality); `None` / empty otherwise.
+    pub rtk: Option<crate::rtk_run::RtkAccount>,
+    pub rtk_epochs: Vec<crate::rtk_run::RtkEpochOut>,
 }
 
 impl EskfRun {
@@ -539,6 +547,20 @@ fn make_tight(cfg: &RunConfig, eskf: &mut Eskf) -> Result<()> {
     Ok(())
 }
 
+/// Switch the filter to RTK (after the alignment, as [`make_tight`]).
+#[inline(never)]
+fn make_rtk(
+    cfg: &RunConfig,
+    eskf: &mut Eskf,
+    rc: navfuse_core::estimators::eskf::RtkConfig,
+) -> Result<()> {
+    *eskf = eskf
+        .clone()
+        .with_rtk(rc)
+        .map_err(|e| cfg.err(format!("[filter] coupling = \"rtk\": {e}")))?;
+    Ok(())
+}
+
 /// [`run_eskf`] on a selected span; `with_std`: keep the σ rows of every
 /// solution ([`EskfRun::std`]).
 ///
@@ -588,7 +610,9 @@ pub(crate) fn run_eskf_span(
     };
     let mut a = align(cfg, imu, gnss, aux, &model)?;
     let tight = span.tight.as_ref();
-    let (aug, augmented_states) = if tight.is_some() {
+    let rtk = span.rtk;
+    let raw_coupled = tight.is_some() || rtk.is_some();
+    let (aug, augmented_states) = if raw_coupled {
         // The fix-error states model a receiver's position solution; the
         // tight filter weights each satellite instead.
         for (key, given) in [
@@ -600,16 +624,21 @@ pub(crate) fn run_eskf_span(
         ] {
             if given {
                 return Err(cfg.err(format!(
-                    "{key} is for loosely coupled fixes; [filter] coupling = \"tight\" \
-                     carries no augmented states (remove the key or use coupling = \"loose\")"
+                    "{key} is for loosely coupled fixes; [filter] coupling = \"{}\" \
+                     carries no augmented states (remove the key or use coupling = \"loose\")",
+                    if rtk.is_some() { "rtk" } else { "tight" }
                 )));
             }
         }
         (
             Default::default(),
-            "none (tight coupling: each satellite's slowly varying error is a consider \
-             state of the tight filter)"
-                .to_string(),
+            if rtk.is_some() {
+                "none (RTK: the satellites' errors cancel in the double differences)"
+            } else {
+                "none (tight coupling: each satellite's slowly varying error is a consider \
+                 state of the tight filter)"
+            }
+            .to_string(),
         )
     } else {
         let (mut aug, mut how) = crate::gnss_error::augmented_states(cfg, gnss)?;
@@ -700,10 +729,14 @@ pub(crate) fn run_eskf_span(
         make_tight(cfg, &mut m.eskf)?;
         g = gnss.len();
     }
+    if let Some(r) = rtk {
+        make_rtk(cfg, &mut m.eskf, r.cfg)?;
+        g = gnss.len();
+    }
     // σ under a correlated fix error from here on (the bank's decisions
     // above used the filter's own σ; the solutions are unchanged). Not with
     // tight coupling (its gain follows the 21-state update only).
-    let sigma = if tight.is_some() {
+    let sigma = if raw_coupled {
         crate::gnss_error::SigmaModels::default()
     } else {
         crate::gnss_error::sensitivity_model(cfg, gnss, Some(imu))
@@ -752,6 +785,7 @@ pub(crate) fn run_eskf_span(
         _ => &aids,
     };
     let mut h = heads.partition_point(|x| x.t() <= t_next);
+    let mut driver = rtk.map(|r| crate::rtk_run::RtkDriver::new(r, t_next, coast_after_s));
     for s in &imu[k_next..] {
         let mut g1 = g;
         while g < gnss.len() && gnss[g].t <= s.t + 1e-3 {
@@ -767,7 +801,14 @@ pub(crate) fn run_eskf_span(
             h += 1;
         }
         m.step(&gnss[g1..g], s);
+        if let Some(d) = &mut driver {
+            d.after_imu(&mut m, s.t, s.dt);
+        }
     }
+    let (rtk_account, rtk_epochs) = match driver {
+        Some(d) => (Some(d.account(&m.eskf)), d.out),
+        None => (None, Vec::new()),
+    };
     let tight_account = match (tight, &fed, m.eskf.tight_stats()) {
         (Some(ti), Some(fed), Some(st)) => {
             Some(crate::tight_run::account(ti.input, fed, st, m.eskf.clock()))
@@ -821,6 +862,8 @@ pub(crate) fn run_eskf_span(
         time_offset_applied: None,
         time_offset_passes: None,
         tight: tight_account,
+        rtk: rtk_account,
+        rtk_epochs,
     })
 }
 

@@ -442,6 +442,8 @@ pub struct InputSpec<'a> {
     pub nav: &'a [std::path::PathBuf],
     /// Read `gnss` as raw observations (`[filter] coupling = "tight"`).
     pub raw: bool,
+    /// With `raw`: the second-frequency records too (`coupling = "rtk"`).
+    pub raw_second: bool,
 }
 
 /// Read both inputs, put them on the IMU's time base and apply the IMU time
@@ -485,7 +487,8 @@ fn load_inner(spec: &InputSpec) -> Result<Loaded, String> {
         mut warnings,
     } = read_imu(spec, imu_fmt)?;
     let (mut gnss, gnss_report, mut raw) = if gnss_fmt == "raw" {
-        let mut r = crate::raw_input::load_raw(spec.gnss, spec.nav).map_err(|e| e.to_string())?;
+        let mut r = crate::raw_input::load_raw_with(spec.gnss, spec.nav, spec.raw_second)
+            .map_err(|e| e.to_string())?;
         let fixes = std::mem::take(&mut r.fixes);
         (fixes, r.report.clone(), Some(r))
     } else {

@@ -55,6 +55,8 @@ pub mod profile;
 pub mod raw_drive;
 pub mod raw_input;
 pub mod resolved;
+pub mod rtk_gnss;
+pub mod rtk_run;
 pub mod run;
 pub mod run_checks;
 pub mod sensors;

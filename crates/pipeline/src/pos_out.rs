@@ -57,6 +57,25 @@ pub fn rtklib_q(
 /// row; empty: σ and cross terms from the solutions / unknown). `status_of`
 /// gives the forward status at a time when a row has none (smoothed rows).
 /// Returns the path written.
+/// RTK quality ([`crate::rtk_run`]): the state of the last RTK epoch at or
+/// before `t` (1 fixed, 2 float, with its satellites, ratio and age) until
+/// `coast_after_s` has passed, then 7 (dead reckoning); 7 before the first.
+pub fn rtk_q(e: &mut PosEpoch, t: f64, epochs: &[crate::rtk_run::RtkEpochOut], coast_after_s: f64) {
+    let i = epochs.partition_point(|x| x.t <= t + 1e-9);
+    match i.checked_sub(1).map(|k| &epochs[k]) {
+        Some(x) if t - x.t <= coast_after_s + MATCH_S => {
+            e.q = x.q;
+            e.ns = x.ns;
+            e.ratio = x.ratio;
+            e.age_s = x.age_s;
+        }
+        _ => {
+            e.q = Q_DR;
+            e.ns = 0;
+        }
+    }
+}
+
 pub fn write_pos(
     path: &Path,
     sols: &[NavSolution],
@@ -64,6 +83,7 @@ pub fn write_pos(
     forward: &[StdRow],
     gnss: &[GnssFix],
     coast_after_s: f64,
+    rtk: Option<&[crate::rtk_run::RtkEpochOut]>,
 ) -> Result<String> {
     let write = || -> std::io::Result<()> {
         // Whole or absent: a temp file beside `path`, renamed on success.
@@ -79,11 +99,15 @@ pub fn write_pos(
                     .and_then(|r| r.status)
             });
             let (q, ns) = rtklib_q(s.t, status.as_ref(), gnss, coast_after_s);
-            let e = PosEpoch {
+            let mut e = PosEpoch {
                 q,
                 ns,
                 pos_cross_ned: row.map_or(PosEpoch::UNKNOWN.pos_cross_ned, |r| r.pos_cross_ned),
+                ..PosEpoch::UNKNOWN
             };
+            if let Some(ep) = rtk {
+                rtk_q(&mut e, s.t, ep, coast_after_s);
+            }
             w.write_epoch(s, &e)?;
         }
         navfuse_io::writers::TrajectoryWriter::finish(&mut w)?;

@@ -46,7 +46,7 @@ use navfuse_core::gnss::raw::{
     GnssSystem, RawObs, RawSat, SatState, Signal, FLAG_LOSS_OF_LOCK, MAX_RAW_SATS,
 };
 use navfuse_core::gnss::spp::{ura_nominal_m, SppSolution};
-use navfuse_core::gnss::{LAMBDA_L1, SECONDS_PER_WEEK};
+use navfuse_core::gnss::{LAMBDA_L1, LAMBDA_L2, SECONDS_PER_WEEK};
 use navfuse_core::types::GnssFix;
 use navfuse_core::Vec3;
 use navfuse_io::rinex::{GnssObs, ObsFile};
@@ -131,6 +131,24 @@ pub fn load_raw(obs: &Path, nav: &[PathBuf]) -> Result<RawInput> {
     raw_from_obs(&o, &g, &n, obs, format)
 }
 
+/// [`load_raw`], with `second_frequency` the GPS L2 records too
+/// ([`raw_from_obs_with`]).
+pub fn load_raw_with(obs: &Path, nav: &[PathBuf], second_frequency: bool) -> Result<RawInput> {
+    if !second_frequency {
+        return load_raw(obs, nav);
+    }
+    if !crate::spp::is_ubx(obs) && nav.is_empty() {
+        return load_raw(obs, nav);
+    }
+    let (o, g, n) = crate::spp::load(obs, nav)?;
+    let format = if crate::spp::is_ubx(obs) {
+        "ubx-raw"
+    } else {
+        "rinex-obs"
+    };
+    raw_from_obs_with(&o, &g, &n, obs, format, true)
+}
+
 /// [`load_raw`] on observations and ephemerides already in memory.
 pub fn raw_from_obs(
     o: &ObsFile,
@@ -138,6 +156,29 @@ pub fn raw_from_obs(
     n: &SppNav,
     file: &Path,
     format: &'static str,
+) -> Result<RawInput> {
+    raw_from_obs_with(o, g, n, file, format, false)
+}
+
+/// [`raw_from_obs`], with `second_frequency` also the GPS L2 records of a
+/// RINEX 2 or 3 file (RTK, `[filter] coupling = "rtk"`; RINEX 3 codes are
+/// mapped to RINEX 2 names by `navfuse_io::rinex::rinex2_name`, L2C's
+/// `C2L`/`L2L` to `C2`/`L2`): carrier `L2`, code
+/// `P2` else `C2` (the order `navfuse baseline` and RTKLIB's RINEX 2
+/// defaults use: the GEONET receivers log P2), loss of lock from `L2`'s
+/// LLI bit 0, signal [`Signal::GpsL2C`] (the L2 carrier, 1227.60 MHz,
+/// whichever code was tracked: only the frequency matters to the DD model),
+/// the Klobuchar delay scaled by (λ₂/λ₁)². Each such record follows its L1
+/// record in the epoch. The SPP, the fixes, the tight path and the account
+/// are those of the first signal (`second_frequency = false` gives
+/// exactly [`raw_from_obs`]).
+pub fn raw_from_obs_with(
+    o: &ObsFile,
+    g: &GnssObs,
+    n: &SppNav,
+    file: &Path,
+    format: &'static str,
+    second_frequency: bool,
 ) -> Result<RawInput> {
     // The SPP of every epoch (pooled variance factor scales the fixes' σ,
     // as `navfuse spp` writes them).
@@ -186,6 +227,7 @@ pub fn raw_from_obs(
     let iono = n.gps.iono.filter(|k| !k.is_zero());
     let idx = |c: &str| o.index(c);
     let (i_c1, i_p1, i_l1, i_d1, i_s1) = (idx("C1"), idx("P1"), idx("L1"), idx("D1"), idx("S1"));
+    let (i_p2, i_c2, i_l2, i_s2) = (idx("P2"), idx("C2"), idx("L2"), idx("S2"));
     let eph = by_prn(&n.gps);
     let mut records = Vec::with_capacity(o.epochs.len() * 10);
     let mut rejected: BTreeMap<String, PreCounts> = BTreeMap::new();
@@ -245,6 +287,35 @@ pub fn raw_from_obs(
             atmosphere(&mut r, rx, iono.as_ref(), ura, 1.0, scale);
             if !push(r, &mut records) {
                 bump(id, &|c| c.over_capacity += 1);
+                continue;
+            }
+            if second_frequency {
+                let l2 = get(i_l2);
+                if let Some(pr2) = get(i_p2).or_else(|| get(i_c2)).map(|v| v.value) {
+                    let mut r2 = RawSat {
+                        obs: RawObs {
+                            t: ep.t,
+                            pseudorange_m: pr2,
+                            carrier_m: l2.map_or(f64::NAN, |v| v.value * LAMBDA_L2),
+                            cn0_dbhz: get(i_s2).map_or(0.0, |v| v.value as f32),
+                            system: GnssSystem::Gps,
+                            prn: *prn,
+                            signal: Signal::GpsL2C,
+                            flags: if l2.is_some_and(|v| v.lli & 1 != 0) {
+                                FLAG_LOSS_OF_LOCK
+                            } else {
+                                0
+                            },
+                            ..RawObs::default()
+                        },
+                        sat: sat_state(orbit, OrbitKind::Gps, ep.t, pr2),
+                    };
+                    let f2 = (LAMBDA_L2 / LAMBDA_L1).powi(2);
+                    atmosphere(&mut r2, rx, iono.as_ref(), ura, f2, scale);
+                    if !push(r2, &mut records) {
+                        bump(id, &|c| c.over_capacity += 1);
+                    }
+                }
             }
         }
         // Galileo, BeiDou, QZSS of a RINEX 3 file (the SPP's signals and

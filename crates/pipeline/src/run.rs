@@ -76,6 +76,28 @@ pub fn run(cfg: &RunConfig, base_dir: &Path, opts: &RunOptions) -> Result<RunOut
         .unwrap_or_else(|| "eskf".into());
     let coupling = cfg.coupling()?;
     let tight = coupling == crate::config::Coupling::Tight;
+    let rtk = coupling == crate::config::Coupling::Rtk;
+    crate::rtk_run::check_keys(cfg, rtk)?;
+    if rtk && estimator != "eskf" {
+        return Err(cfg.err(format!(
+            "[filter] coupling = \"rtk\" is an ESKF model; estimator {estimator:?} takes fixes \
+             (use estimator = \"eskf\" or coupling = \"loose\")"
+        )));
+    }
+    if rtk && cfg.filter.smooth {
+        return Err(cfg.err(
+            "[filter] smooth = true: the RTS smoother does not handle the RTK filter's \
+             ambiguity states (they are outside its 21-state records); use smooth = false \
+             with coupling = \"rtk\"",
+        ));
+    }
+    if rtk && cfg.input.ubx.is_some() {
+        return Err(cfg.err(
+            "[filter] coupling = \"rtk\" reads the rover's raw observations from [input] gnss \
+             (a .ubx log with RXM-RAWX + RXM-SFRBX, or RINEX observations + nav); \
+             [input] ubx is an ESF/NAV-PVT log",
+        ));
+    }
     if tight && estimator != "eskf" {
         return Err(cfg.err(format!(
             "[filter] coupling = \"tight\" is an ESKF model; estimator {estimator:?} takes fixes \
@@ -102,6 +124,12 @@ pub fn run(cfg: &RunConfig, base_dir: &Path, opts: &RunOptions) -> Result<RunOut
         ));
     }
     let nav: Vec<PathBuf> = cfg.input.nav.iter().map(|p| rel(p)).collect();
+    // The base first: its errors (no nav, bad position) need no other file.
+    let base = if rtk {
+        Some(crate::rtk_run::load_base_cfg(cfg, &rel, &nav)?)
+    } else {
+        None
+    };
     if estimator == "cp-att" {
         // Carrier phase only: the IMU and GNSS files are not read.
         return crate::cp_att_run::run_cp_att(cfg, base_dir, &out_dir, &formats);
@@ -115,7 +143,7 @@ pub fn run(cfg: &RunConfig, base_dir: &Path, opts: &RunOptions) -> Result<RunOut
     // Unset or `auto`: loaded without an offset, decided below on the
     // loaded inputs (filter passes when the fixes carry velocities).
     // Not with tight coupling: the passes rerun the loosely coupled filter.
-    let passes = crate::offset_passes::wants_passes(cfg) && !tight;
+    let passes = crate::offset_passes::wants_passes(cfg) && !tight && !rtk;
     let offset = if passes {
         Some(&none)
     } else {
@@ -140,7 +168,8 @@ pub fn run(cfg: &RunConfig, base_dir: &Path, opts: &RunOptions) -> Result<RunOut
         )
         .map_err(|e| cfg.err(e))?,
         nav: &nav,
-        raw: tight,
+        raw: tight || rtk,
+        raw_second: rtk,
     })
     .map_err(|e| match e {
         // The data's fault (exit code 3), named after the configuration.
@@ -192,6 +221,22 @@ pub fn run(cfg: &RunConfig, base_dir: &Path, opts: &RunOptions) -> Result<RunOut
             .ok_or_else(|| PipelineError::Estimator("tight coupling without raw records".into()))?;
         span.tight = Some(crate::eskf_run::cut_raw(cfg, span.imu[0].t, raw));
     }
+    let rtk_span = match (base, loaded.raw.as_ref()) {
+        (Some(b), Some(raw)) => {
+            let mut b = b;
+            crate::rtk_run::base_on_rover_time(&mut b, loaded.imu.first().map_or(0.0, |s| s.t));
+            Some(crate::rtk_run::rtk_span(
+                cfg,
+                span.imu[0].t,
+                raw,
+                b,
+                cfg.input.base.as_deref().unwrap_or(""),
+            )?)
+        }
+        (Some(_), None) => return Err(PipelineError::Estimator("rtk without raw records".into())),
+        _ => None,
+    };
+    span.rtk = rtk_span.as_ref();
     let mut resolved = loaded.resolved.clone();
     resolved["time_keys"] = time_keys_json(cfg, &loaded.imu);
     let warnings = &loaded.warnings;
@@ -235,6 +280,7 @@ pub fn run(cfg: &RunConfig, base_dir: &Path, opts: &RunOptions) -> Result<RunOut
             &r.std,
             &span.gnss,
             r.coast_after_s,
+            r.rtk.as_ref().map(|_| &r.rtk_epochs[..]),
         )
     };
     outputs.extend(write_solutions(

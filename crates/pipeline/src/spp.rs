@@ -488,6 +488,7 @@ pub fn pos_row(sol: &SppSolution, var_scale: f64) -> (NavSolution, PosEpoch) {
         q: Q_SINGLE,
         ns: sol.n_used,
         pos_cross_ned: Vec3::new(p[(0, 1)], p[(1, 2)], p[(2, 0)]),
+        ..PosEpoch::UNKNOWN
     };
     (s, e)
 }

@@ -41,6 +41,9 @@ pub(crate) struct Summary<'a> {
     /// reason, the NIS and the receiver clock ([`crate::tight_run`]).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub tight_coupling: Option<crate::tight_run::TightAccount>,
+    /// `[filter] coupling = "rtk"`: every rover epoch and record, the fix
+    /// decisions, the base ([`crate::rtk_run::RtkAccount`]).
+    pub rtk: Option<crate::rtk_run::RtkAccount>,
 }
 
 impl<'a> Summary<'a> {
@@ -58,6 +61,9 @@ impl<'a> Summary<'a> {
         let mut warnings = run.warnings.clone();
         warnings.extend(nis_warnings);
         warnings.extend(crate::sigma::nis_adaptation_warnings(run.nis_adaptation));
+        if let Some(r) = &run.rtk {
+            warnings.extend(r.warnings.iter().cloned());
+        }
         Summary {
             config,
             filter: filter_json(run),
@@ -98,6 +104,7 @@ impl<'a> Summary<'a> {
             nis_check,
             outputs,
             tight_coupling: run.tight.clone(),
+            rtk: run.rtk.clone(),
         }
     }
 }
@@ -112,7 +119,13 @@ fn filter_json(run: &EskfRun) -> serde_json::Value {
     serde_json::json!({
         "platform": run.platform.map(|p| p.to_string()),
         "imu_noise_source": run.noise_source,
-        "coupling": if run.tight.is_some() { "tight" } else { "loose" },
+        "coupling": if run.tight.is_some() {
+            "tight"
+        } else if run.rtk.is_some() {
+            "rtk"
+        } else {
+            "loose"
+        },
         "augmented_states": run.augmented_states,
         "augmented_estimate": run.augmented.map(|a| serde_json::json!({
             "gnss_error_ned_m": v(&a.gnss_error_n), "gnss_error_std_m": v(&a.gnss_error_std),

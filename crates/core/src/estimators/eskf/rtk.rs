@@ -1593,3 +1593,55 @@ pub(super) fn dd_update_both(
 /// Joint dimension, for the tests.
 #[cfg(test)]
 pub(super) const NJ_TEST: usize = NJ;
+
+impl Eskf {
+    /// The RTK configuration in use (`None`: off).
+    pub fn rtk_config(&self) -> Option<RtkConfig> {
+        self.rtk.as_ref().map(|r| r.cfg)
+    }
+
+    /// Replace the RTK configuration between epochs (ambiguity slots,
+    /// states and counters kept; the gates recomputed). For callers that
+    /// change a choice per epoch, e.g. the pipeline's GNSS-only parity path
+    /// (`navfuse_pipeline::rtk_gnss`), which sets [`RtkConfig::min_fix`] to
+    /// the number of candidates so that only the full set may fix, as
+    /// `navfuse baseline` does. Refused when off or invalid.
+    pub fn rtk_set_config(&mut self, cfg: RtkConfig) -> Result<(), RtkConfigError> {
+        if !cfg.is_valid() {
+            return Err(RtkConfigError::Invalid);
+        }
+        let r = self.rtk.as_mut().ok_or(RtkConfigError::Incompatible)?;
+        r.cfg = cfg;
+        r.gate = kalman::chi2_quantile(1, cfg.gate_probability);
+        r.slip_gate = kalman::chi2_quantile(1, cfg.slip_probability);
+        Ok(())
+    }
+
+    /// Forget the position and velocity prior before the next RTK epoch:
+    /// their rows and columns (with the ambiguities too) zeroed, variance
+    /// `sigma_m²` per axis (m, m/s), the estimate kept where it is (the last
+    /// epoch's posterior when nothing propagated it). `navfuse baseline`'s
+    /// kinematic mode. Unlike [`RtkConfig::gnss_only`] the position is not
+    /// re-centred on the code solution, so the rover troposphere and lines
+    /// of sight are evaluated at the last estimate (cm off) rather than at a
+    /// code solution (metres off): the modelled slant delay changes by
+    /// ~0.3 mm per metre of height (Saastamoinen zenith delay 2.3 m over
+    /// the ~7 km scale height) times the mapping function, and that
+    /// derivative is not in `H`, so on the GEONET pair the re-centred
+    /// linearisation moved the fixed baseline by up to 1.7 mm
+    /// (`navfuse_pipeline::rtk_gnss`). No effect when off.
+    pub fn rtk_forget_position(&mut self, sigma_m: f64) {
+        let Some(r) = &mut self.rtk else { return };
+        let s2 = sigma_m * sigma_m;
+        for k in I_POS..I_VEL + 3 {
+            for j in 0..NX {
+                self.p[(k, j)] = 0.0;
+                self.p[(j, k)] = 0.0;
+            }
+            self.p[(k, k)] = s2;
+            for j in 0..NK {
+                r.p_xa[(k, j)] = 0.0;
+            }
+        }
+    }
+}

@@ -353,7 +353,7 @@ pub fn process(
 /// PDOP and GDOP of unit lines of sight (ECEF; any frame gives the same
 /// traces): `Q = (GᵀG)⁻¹` with rows `[−eᵀ, 1]`, PDOP = √(Q₁₁+Q₂₂+Q₃₃),
 /// GDOP = √tr Q (Misra & Enge §6.1.2). ∞ when fewer than 4 satellites or singular.
-pub(super) fn dops(los: impl Iterator<Item = Vec3>) -> (f64, f64) {
+pub fn dops(los: impl Iterator<Item = Vec3>) -> (f64, f64) {
     let mut g = nalgebra::Matrix4::<f64>::zeros();
     let mut n = 0;
     for e in los {
