@@ -17,6 +17,8 @@ fn rtk_ins_fixes_right_and_refixes_faster_than_gnss_only() {
         duration: 500.0,
         almanac: None,
         json: None,
+        single_frequency: true,
+        intra_system_only: false,
         success_min: None,
     };
     let r = run_rtk(&o).unwrap();
