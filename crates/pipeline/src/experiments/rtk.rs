@@ -64,6 +64,20 @@
 //! after the 4-satellite window of three systems left ≤ 1 DD per group:
 //! `--intra-system-only` runs without it.
 //!
+//! **Measured** (`navfuse experiment rtk --seeds 20 --json F`, 20 × 600 s,
+//! consumer / industrial with the INS; `--intra-system-only` in
+//! brackets): first fix 0.4 / 0.4 s (0.85 / 0.9); re-fix 1.65 / 1.3
+//! epochs (2.3 / 1.5), without the INS 1.9 (2.35); 0 wrong fixes; fixed
+//! horizontal RMS 13.4 / 10.7 cm pooled (21.6 / 10.0), of which the full
+//! sky 3.5 / 4.4 cm (10.7 / 7.3): ≤ 2.6 cm in 16 of 20 seeds, seeds 5,
+//! 10, 13 at 4–15 cm with the DD integers right (not understood yet); the
+//! 4-satellite window: largest error 0.62 / 0.42 m (2.24 / 0.63), fixed
+//! 75–80 % of its epochs (25 %), target 0.3 m not met; the fixed σ covers
+//! 72–76 % (target 95 %: the time-correlated differential ionosphere is
+//! weighted as white noise). GNSS-only mode diverges in 5 of 20 seeds
+//! (float error 10⁵ m, seeds 12–14, 19, 20; 20 wrong fixed epochs per seed
+//! on average): a defect of the comparison mode, not understood yet.
+//!
 //! Filters (both from the truth of the first IMU interval, car profile
 //! with its NHC, the IMU grade's noise; [`RtkConfig::consumer`]):
 //! - **with INS**: [`Eskf::with_rtk`];
