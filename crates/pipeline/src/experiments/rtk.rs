@@ -826,6 +826,11 @@ pub fn run_rtk(o: &Options) -> Result<RtkReport, ExperimentError> {
     let (orbits, orbit_name) = super::tight::load_orbits(o.almanac.as_ref());
     let mut rc = RtkConfig::consumer();
     rc.inter_system = !(o.single_frequency || o.intra_system_only);
+    if o.single_frequency {
+        // That scenario has no differential ionosphere by construction
+        // (common-mode errors off, module documentation).
+        rc.iono_ppm = 0.0;
+    }
     if let Some(p) = o.success_min {
         // 0 = off: any success rate passes.
         rc.success_min = p.max(f64::MIN_POSITIVE);
