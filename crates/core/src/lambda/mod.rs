@@ -17,8 +17,11 @@
 #[allow(unused_imports)]
 use crate::prelude::*;
 
-/// Largest problem size.
-pub const MAX_N: usize = 32;
+/// Largest problem size: 48 = `MAX_RAW_SATS`, every record of a
+/// dual-frequency epoch (24 satellites × 2 signals) in one search (the RTK
+/// filter's ambiguity slots; was 32, which dual-frequency GPS + Galileo +
+/// BeiDou exceeds).
+pub const MAX_N: usize = 48;
 
 /// Why LAMBDA could not run.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]

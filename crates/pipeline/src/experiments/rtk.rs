@@ -1,28 +1,82 @@
-//! Issue 15, must-show 2 (first simulated measurements): RTK/INS on a
-//! simulated car against a static base (`navfuse experiment rtk`).
+//! Issue 15, must-shows 2 and 3: RTK/INS on a simulated car against a
+//! static base (`navfuse experiment rtk`).
 //!
-//! Scenario (fixed before any run):
+//! **Scenario (the issue's, written before any run of it)**:
 //! - a simulated car ([`navfuse_sim::platform`], static start, 100 Hz IMU
-//!   of the grade under test: industrial "adis16465" and consumer "phone"),
-//!   raw GNSS at 1 Hz from the YUMA almanac of seed 003 (GPS L1 only: the
-//!   single-frequency simulator [`navfuse_sim::raw_gnss`] until the
-//!   dual-frequency scene lands), the sky moving with the seed as in
-//!   `experiment tight`;
-//! - a static base 3 km north and 2 km east of the car's start at its
-//!   height (a 3.6 km baseline), its own receiver (own seed: own clock,
-//!   code noise, multipath, carrier noise), position known exactly;
-//! - **short-baseline approximation**: the common-mode errors of the
-//!   simulator (satellite orbit/clock error, ionosphere and troposphere
-//!   residuals) are switched off in both receivers' configurations. The two
-//!   `simulate_raw` calls draw them independently, so left on they would
-//!   not cancel in the DD as the real ones (the same satellites' errors seen
-//!   3.6 km apart) do; off, the DD holds what remains of a short baseline:
-//!   each receiver's noise, multipath and clock;
-//! - an undetected 1-cycle slip (no loss-of-lock flag) injected into the
-//!   rover carrier of its third-highest satellite from 150 s on;
-//! - a full outage (no satellite) for 30 s from 240 s after the start and
-//!   a 60 s window from 420 s in which only the 4 highest satellites remain;
-//!   full sky otherwise. Needs ≥ 490 s.
+//!   of the grade under test: consumer MEMS "phone" — the issue's row — and
+//!   industrial "adis16465" as a second row), 20 seeds × 600 s;
+//! - **dual-frequency GPS L1/L2C + Galileo E1/E5b + BeiDou B1I/B2I** at
+//!   1 Hz from [`navfuse_sim::rtk_scene`] (its defaults: common satellite
+//!   orbit/clock error, ionosphere and troposphere residuals ON and shared
+//!   by both receivers, so they cancel in the DD up to the baseline part,
+//!   the 1 ppm ionosphere gradient; each receiver's own clock, code noise,
+//!   multipath and carrier noise; 10° tracking mask, ≤ 24 satellites), the
+//!   synthetic constellations of [`navfuse_sim::multi_gnss::constellations`]
+//!   at a reference epoch moved by 997 s per seed (the sky changes with
+//!   the seed); rover cycle slips at 1e-4 per satellite-frequency and epoch
+//!   (the scene's ±1…±5 cycles, half of them flagged: ≈ 2 per run, a test
+//!   setting, not a measured rate), none at the base;
+//! - the base at [`navfuse_sim::rtk_scene::DEFAULT_BASE_OFFSET_NEU_M`]
+//!   from the car's start (5 km north, 2 km east, 20 m up: 5.4 km),
+//!   position known exactly;
+//! - an undetected (unflagged) 1-cycle slip injected into the rover's first
+//!   signal of its third-highest satellite from 150 s on;
+//! - a full outage (no satellite) for 30 s from 240 s and a 60 s window from
+//!   420 s with only the 4 highest satellites (both their signals) at the
+//!   rover (the urban mask); full sky otherwise. Needs ≥ 490 s.
+//!
+//! **Targets (the issue's)**: with the INS, consumer MEMS: first fix
+//! ≤ 5 s; re-fix ≤ 2 epochs after the signals return (and the number
+//! without the INS reported); horizontal RMS of the fixed epochs ≤ 2 cm;
+//! 0 wrong fixes; in the 4-satellite window the fix kept or the float
+//! ≤ 0.3 m horizontal, where GNSS-only RTK loses the fix. The 95 % σ
+//! coverage of the fixed and float solutions is reported (target ~0.95).
+//!
+//! `--single-frequency` keeps the first measurements' scenario (GPS L1 only
+//! from the YUMA almanac of seed 003 via two [`simulate_raw`] calls with the
+//! common-mode errors off — they would be drawn independently per receiver
+//! and not cancel — base 3.6 km away).
+//!
+//! Ambiguity capacity: dual-frequency G+E+C gives up to 2 × 24 = 48
+//! records, beyond the first 32 slots; [`navfuse_core::estimators::eskf::NAMB`]
+//! and [`navfuse_core::lambda::MAX_N`] are 48 = `MAX_RAW_SATS` so nothing
+//! is left out (counted anyway: `capacity`).
+//!
+//! What makes the dual-frequency (re)fix fast, measured before adding
+//! machinery: LAMBDA on both frequencies jointly (its decorrelation does
+//! what a wide-lane-first Melbourne–Wübbena step would, Teunissen 1995)
+//! with ~15 satellites of 3 systems × 2 signals fixes at the first or
+//! second epoch without any wide-lane step, with or without the INS; so no
+//! wide-lane / geometry-free machinery was added (nor a geometry-free slip
+//! test: slips are caught by the INS-predicted test and the DD gates,
+//! counted). A re-acquired satellite's new ambiguity starts from code
+//! (σ 30 m/λ) with no correlation, and the same epoch's phase DD updates it
+//! jointly with the position: in information form that equals starting
+//! it at `(phase − INS-predicted range)/λ` with σ = the INS position σ
+//! along the line of sight, so the INS prior is used whenever it is the
+//! smaller one (GNSS-only mode has σ 30 m there instead).
+//!
+//! Choices made after the first 2-seed runs (written here as such):
+//! [`RtkConfig::iono_ppm`] = 1 ppm (consumer default; the literature value
+//! the scene also uses) after the fixed σ covered the truth 40–47 % of the
+//! time without it; [`RtkConfig::inter_system`] on (the scene's receivers
+//! are of one type, so the between-receiver inter-system bias is zero)
+//! after the 4-satellite window of three systems left ≤ 1 DD per group:
+//! `--intra-system-only` runs without it.
+//!
+//! **Measured** (`navfuse experiment rtk --seeds 20 --json F`, 20 × 600 s,
+//! consumer / industrial with the INS; `--intra-system-only` in
+//! brackets): first fix 0.4 / 0.4 s (0.85 / 0.9); re-fix 1.65 / 1.3
+//! epochs (2.3 / 1.5), without the INS 1.9 (2.35); 0 wrong fixes; fixed
+//! horizontal RMS 13.4 / 10.7 cm pooled (21.6 / 10.0), of which the full
+//! sky 3.5 / 4.4 cm (10.7 / 7.3): ≤ 2.6 cm in 16 of 20 seeds, seeds 5,
+//! 10, 13 at 4–15 cm with the DD integers right (not understood yet); the
+//! 4-satellite window: largest error 0.62 / 0.42 m (2.24 / 0.63), fixed
+//! 75–80 % of its epochs (25 %), target 0.3 m not met; the fixed σ covers
+//! 72–76 % (target 95 %: the time-correlated differential ionosphere is
+//! weighted as white noise). GNSS-only mode diverges in 5 of 20 seeds
+//! (float error 10⁵ m, seeds 12–14, 19, 20; 20 wrong fixed epochs per seed
+//! on average): a defect of the comparison mode, not understood yet.
 //!
 //! Filters (both from the truth of the first IMU interval, car profile
 //! with its NHC, the IMU grade's noise; [`RtkConfig::consumer`]):
@@ -43,10 +97,11 @@
 //! - horizontal RMS of the fixed epochs' IMU position against the truth
 //!   (pooled over seeds; target ≤ 2 cm);
 //! - wrong fixes: fixed epochs with any fixed DD integer different from the
-//!   simulated one (the truth SD integers are recovered exactly from the
-//!   simulated carrier: `(Φ − ρ − c δt_r + c δt_s − T)/λ` with the true
-//!   geometry, clock and troposphere, the 3 mm carrier noise ≪ λ/2);
-//!   target 0; the fixed epochs > 5 cm (3D) from the truth are counted too;
+//!   simulated one (dual frequency: the scene's record truth; single
+//!   frequency: recovered exactly from the simulated carrier,
+//!   `(Φ − ρ − c δt_r + c δt_s − T)/λ` with the true geometry, clock and
+//!   troposphere, the 3 mm carrier noise ≪ λ/2); target 0; the fixed
+//!   epochs > 5 cm (3D) from the truth are counted too;
 //! - re-fix after the outage: the number of the first fixed epoch among the
 //!   epochs after the signals return (1 = fixed at the first epoch back;
 //!   the issue's target ≤ 2 with the INS), with and without the INS; an
@@ -66,12 +121,16 @@ use navfuse_core::estimators::eskf::{
     receiver_clock_bias_m, Eskf, EskfConfig, ImuErrors, InitStd, RtkConfig, RtkSolution, RtkStats,
 };
 use navfuse_core::geodesy::{c_en, ecef_to_geodetic, geodetic_to_ecef, Geodetic};
+use navfuse_core::gnss::raw::{GnssSystem, Signal};
 use navfuse_core::gnss::tropo::{day_of_year, slant_delay};
 use navfuse_core::gnss::{sat_at_receive, KeplerOrbit, C_LIGHT};
 use navfuse_core::ins::mech::{q_bn_from_rpy, NavState};
 use navfuse_core::{Estimator, Event, Vec3};
 use navfuse_sim::platform::{platform_run, GnssGrade, ImuGrade, Platform, PlatformOptions};
 use navfuse_sim::raw_gnss::{simulate_raw, MaskWindow, RawConfig, RawTruthEpoch, SkyMask};
+use navfuse_sim::rtk_scene::{
+    offset_position, simulate_rtk, RtkSceneConfig, SceneSat, DEFAULT_BASE_OFFSET_NEU_M,
+};
 use navfuse_sim::trajectory::Trajectory;
 use rayon::prelude::*;
 use serde::Serialize;
@@ -89,8 +148,14 @@ pub const PARTIAL_SATS: usize = 4;
 /// third-highest satellite from this time on [s from t₀] (no loss-of-lock
 /// flag: what the INS-predicted test has to catch).
 pub const SLIP_AT_S: f64 = 150.0;
-/// Base offset from the car's start, north and east [m].
+/// Base offset from the car's start, north and east [m] (single frequency).
 pub const BASE_NE_M: (f64, f64) = (3000.0, 2000.0);
+/// Rover cycle-slip probability per satellite-frequency and epoch of the
+/// dual-frequency scene (module documentation: a test setting).
+pub const SLIP_RATE: f64 = 1e-4;
+/// Reference epoch of the dual-frequency scene (GPS week 2034, day 2, as
+/// the scene's tests), moved by 997 s per seed.
+const T_REF: f64 = 2034.0 * 604_800.0 + 2.0 * 86_400.0;
 
 /// Options of `navfuse experiment rtk`.
 #[derive(Clone, Debug)]
@@ -112,6 +177,14 @@ pub struct Options {
     /// Write the report as JSON to FILE.
     #[cfg_attr(feature = "clap", arg(long))]
     pub json: Option<PathBuf>,
+    /// The first measurements' scenario: GPS L1 only, common-mode errors
+    /// off (module documentation).
+    #[cfg_attr(feature = "clap", arg(long))]
+    pub single_frequency: bool,
+    /// Ablation: DDs within each system only (dual frequency; default:
+    /// [`RtkConfig::inter_system`] on, the scene's receivers are of one type).
+    #[cfg_attr(feature = "clap", arg(long))]
+    pub intra_system_only: bool,
     /// Ablation only: the bootstrapped success-rate threshold (default
     /// [`RtkConfig::rtklib`]'s 0.999; 0 turns the check off, ratio only).
     #[cfg_attr(feature = "clap", arg(long))]
@@ -128,6 +201,9 @@ pub struct Scores {
     /// float solution outside the outage [m].
     pub fixed_h_rms_m: Option<f64>,
     pub float_h_rms_m: Option<f64>,
+    /// Pooled horizontal RMS of the fixed epochs outside the 4-satellite
+    /// window [m] (full sky).
+    pub fixed_h_rms_full_sky_m: Option<f64>,
     /// Fixed epochs / epochs with satellites (pooled).
     pub fixed_epochs: usize,
     pub epochs: usize,
@@ -202,6 +278,8 @@ pub struct RtkReport {
 struct RunOut {
     first_fix: Option<f64>,
     fixed_h2: Vec<f64>,
+    /// Fixed epochs outside the 4-satellite window.
+    fixed_h2_full: Vec<f64>,
     float_h2: Vec<f64>,
     epochs: usize,
     wrong: usize,
@@ -296,6 +374,14 @@ fn truth_integers(
     out
 }
 
+/// Truth key of a satellite-signal (system index, PRN, signal as u8:
+/// [`Signal`] is not `Hash`).
+type TKey = (usize, u8, u8);
+
+fn tkey(sys: GnssSystem, prn: u8, sig: Signal) -> TKey {
+    (sys.index(), prn, sig as u8)
+}
+
 /// Everything of one seed and IMU grade that both filters share.
 struct Drive<'a> {
     traj: &'a Trajectory,
@@ -304,11 +390,11 @@ struct Drive<'a> {
     rover: Vec<RawTruthEpoch>,
     base: Vec<RawTruthEpoch>,
     base_e: Vec3,
-    /// Truth DD reference: SD integers per epoch (rover − base) by PRN.
-    sd_truth: Vec<HashMap<u8, i64>>,
+    /// Truth SD integers per epoch (rover − base) by satellite-signal.
+    sd_truth: Vec<HashMap<TKey, i64>>,
     t0: f64,
-    /// PRN of the injected slip.
-    slip_prn: Option<u8>,
+    /// Satellite of the injected slip.
+    slip_prn: Option<(GnssSystem, u8)>,
 }
 
 fn run_filter(d: &Drive, mut f: Eskf) -> Result<RunOut, String> {
@@ -363,13 +449,19 @@ fn run_filter(d: &Drive, mut f: Eskf) -> Result<RunOut, String> {
             }
             out.first_fix.get_or_insert(sol.t - t_first);
             out.fixed_h2.push(h_err * h_err);
+            if !(re.t >= p0 && re.t < p1) {
+                out.fixed_h2_full.push(h_err * h_err);
+            }
             let up = sol.pos.h - tr.h;
             if (h_err * h_err + up * up).sqrt() > 0.05 {
                 out.over5 += 1;
             }
             let sd = &d.sd_truth[k];
             let wrong = sol.fixed_dd[..sol.n_fixed].iter().any(|x| {
-                match (sd.get(&x.prn), sd.get(&x.ref_prn)) {
+                match (
+                    sd.get(&tkey(x.system, x.prn, x.signal)),
+                    sd.get(&tkey(x.ref_system, x.ref_prn, x.ref_signal)),
+                ) {
                     (Some(a), Some(b)) => a - b != x.n,
                     _ => true,
                 }
@@ -398,8 +490,8 @@ fn run_filter(d: &Drive, mut f: Eskf) -> Result<RunOut, String> {
         }
     }
     out.stats = f.rtk_stats().copied();
-    if let (Some(prn), Some(st)) = (d.slip_prn, &out.stats) {
-        let c = st.sat(navfuse_core::gnss::raw::GnssSystem::Gps, prn);
+    if let (Some((sys, prn)), Some(st)) = (d.slip_prn, &out.stats) {
+        let c = st.sat(sys, prn);
         // Before the outage the satellite had no other reason to reset.
         out.slip_outcome = Some(if c.slips > 0 {
             0
@@ -412,6 +504,122 @@ fn run_filter(d: &Drive, mut f: Eskf) -> Result<RunOut, String> {
     Ok(out)
 }
 
+/// The rover's sky-mask windows: the outage and the 4-satellite window.
+fn rover_windows(t0: f64) -> Vec<MaskWindow> {
+    vec![
+        MaskWindow {
+            start: t0 + OUTAGE_START_S,
+            end: t0 + OUTAGE_START_S + OUTAGE_S,
+            mask: SkyMask::Highest(0),
+        },
+        MaskWindow {
+            start: t0 + PARTIAL_START_S,
+            end: t0 + PARTIAL_START_S + PARTIAL_S,
+            mask: SkyMask::Highest(PARTIAL_SATS),
+        },
+    ]
+}
+
+/// Satellite of the third-highest record at the rover at `SLIP_AT_S`.
+fn slip_satellite(
+    rover: &[RawTruthEpoch],
+    traj: &Trajectory,
+    lever: &Vec3,
+    t0: f64,
+) -> Option<(GnssSystem, u8)> {
+    rover.iter().find(|e| e.t >= t0 + SLIP_AT_S).and_then(|e| {
+        let (ra, _) = antenna_truth(traj, lever, e.t);
+        let g = ecef_to_geodetic(&ra);
+        let cen = c_en(g.lat, g.lon);
+        let mut v: Vec<(f64, (GnssSystem, u8))> = e
+            .epoch
+            .sats()
+            .iter()
+            .filter(|s| s.obs.signal.is_first())
+            .map(|s| {
+                let u = cen * (s.sat.pos_e - ra).normalize();
+                (-u.z, (s.obs.system, s.obs.prn))
+            })
+            .collect();
+        v.sort_by(|a, b| b.0.total_cmp(&a.0));
+        v.get(2).map(|x| x.1)
+    })
+}
+
+/// The dual-frequency G+E+C drive (module documentation).
+fn drive_dual(seed: u64, run: &navfuse_sim::SimRun) -> Result<Drive<'_>, String> {
+    let traj = &run.traj;
+    let lever = Vec3::from(run.scenario.gnss.lever_arm_m);
+    let t0 = traj.truth[0].t;
+    let t_ref = T_REF + 997.0 * seed as f64;
+    let sats = SceneSat::multi((t_ref / 960.0).floor() * 960.0, seed);
+    let mut cfg = RtkSceneConfig::default();
+    cfg.raw.orbit_time_offset_s = t_ref - t0;
+    cfg.raw.windows = rover_windows(t0);
+    cfg.raw.seed = seed.wrapping_mul(7919).wrapping_add(17);
+    cfg.slip_rate_per_epoch = SLIP_RATE;
+    let (a0, _) = antenna_truth(traj, &lever, t0);
+    let [bn, be, bu] = DEFAULT_BASE_OFFSET_NEU_M;
+    let base_e = offset_position(&a0, bn, be, bu);
+    let t_end = traj.truth.last().map_or(t0, |s| s.t);
+    let times: Vec<f64> = (1..)
+        .map(|k| t0 + k as f64)
+        .take_while(|t| *t <= t_end - 1.0)
+        .collect();
+    let mut sc = simulate_rtk(
+        &cfg,
+        &sats,
+        &times,
+        |t| antenna_truth(traj, &lever, t),
+        base_e,
+    );
+    let slip_prn = slip_satellite(&sc.rover, traj, &lever, t0);
+    if let Some((sys, prn)) = slip_prn {
+        for (e, tr) in sc.rover.iter_mut().zip(sc.rover_truth.iter_mut()) {
+            if e.t < t0 + SLIP_AT_S {
+                continue;
+            }
+            let n = e.epoch.n;
+            for (s, x) in e.epoch.sats[..n].iter_mut().zip(tr.iter_mut()) {
+                if s.obs.system == sys && s.obs.prn == prn && s.obs.signal.is_first() {
+                    s.obs.carrier_m += s.obs.wavelength_m();
+                    x.ambiguity_cyc += 1;
+                }
+            }
+        }
+    }
+    let key = |s: &navfuse_core::gnss::raw::RawSat| tkey(s.obs.system, s.obs.prn, s.obs.signal);
+    let sd_truth = (0..sc.rover.len())
+        .map(|k| {
+            let b: HashMap<TKey, i64> = sc.base[k]
+                .epoch
+                .sats()
+                .iter()
+                .zip(&sc.base_truth[k])
+                .map(|(s, x)| (key(s), x.ambiguity_cyc))
+                .collect();
+            sc.rover[k]
+                .epoch
+                .sats()
+                .iter()
+                .zip(&sc.rover_truth[k])
+                .filter_map(|(s, x)| b.get(&key(s)).map(|nb| (key(s), x.ambiguity_cyc - nb)))
+                .collect()
+        })
+        .collect();
+    Ok(Drive {
+        traj,
+        imu: &run.imu,
+        lever,
+        rover: sc.rover,
+        base: sc.base,
+        base_e,
+        sd_truth,
+        t0,
+        slip_prn,
+    })
+}
+
 /// One seed and grade: the drive, both receivers, both filters.
 fn run_seed(
     seed: u64,
@@ -419,6 +627,7 @@ fn run_seed(
     duration: f64,
     orbits: &[KeplerOrbit],
     rc: RtkConfig,
+    single_frequency: bool,
 ) -> Result<[RunOut; 3], String> {
     let opts = PlatformOptions {
         duration_s: duration,
@@ -429,6 +638,39 @@ fn run_seed(
     };
     let pr = platform_run(Platform::Car, seed, &opts).map_err(|e| e.to_string())?;
     let run = &pr.run;
+    let d = if single_frequency {
+        drive_l1(seed, run, orbits)?
+    } else {
+        drive_dual(seed, run)?
+    };
+    let with = car_filter(d.traj, d.lever, grade)?
+        .with_rtk(rc)
+        .map_err(|e| e.to_string())?;
+    let without = car_filter(d.traj, d.lever, grade)?
+        .with_rtk(RtkConfig {
+            gnss_only: true,
+            ..rc
+        })
+        .map_err(|e| e.to_string())?;
+    let hold = car_filter(d.traj, d.lever, grade)?
+        .with_rtk(RtkConfig {
+            fix_and_hold: true,
+            ..rc
+        })
+        .map_err(|e| e.to_string())?;
+    Ok([
+        run_filter(&d, with)?,
+        run_filter(&d, without)?,
+        run_filter(&d, hold)?,
+    ])
+}
+
+/// The single-frequency GPS L1 drive (module documentation).
+fn drive_l1<'a>(
+    seed: u64,
+    run: &'a navfuse_sim::SimRun,
+    orbits: &[KeplerOrbit],
+) -> Result<Drive<'a>, String> {
     let traj = &run.traj;
     let lever = Vec3::from(run.scenario.gnss.lever_arm_m);
     let t0 = traj.truth[0].t;
@@ -442,40 +684,14 @@ fn run_seed(
         ..Default::default()
     };
     let rover_cfg = RawConfig {
-        windows: vec![
-            MaskWindow {
-                start: t0 + OUTAGE_START_S,
-                end: t0 + OUTAGE_START_S + OUTAGE_S,
-                mask: SkyMask::Highest(0),
-            },
-            MaskWindow {
-                start: t0 + PARTIAL_START_S,
-                end: t0 + PARTIAL_START_S + PARTIAL_S,
-                mask: SkyMask::Highest(PARTIAL_SATS),
-            },
-        ],
+        windows: rover_windows(t0),
         seed: seed.wrapping_mul(7919).wrapping_add(17),
         ..short_baseline.clone()
     };
     let mut rover = super::tight::simulate_drive_raw(run, orbits, &rover_cfg);
     // The injected slip: the third-highest satellite at SLIP_AT_S.
-    let slip_prn = rover.iter().find(|e| e.t >= t0 + SLIP_AT_S).and_then(|e| {
-        let (ra, _) = antenna_truth(traj, &lever, e.t);
-        let g = ecef_to_geodetic(&ra);
-        let cen = c_en(g.lat, g.lon);
-        let mut v: Vec<(f64, u8)> = e
-            .epoch
-            .sats()
-            .iter()
-            .map(|s| {
-                let u = cen * (s.sat.pos_e - ra).normalize();
-                (-u.z, s.obs.prn)
-            })
-            .collect();
-        v.sort_by(|a, b| b.0.total_cmp(&a.0));
-        v.get(2).map(|x| x.1)
-    });
-    if let Some(prn) = slip_prn {
+    let slip_prn = slip_satellite(&rover, traj, &lever, t0);
+    if let Some((_, prn)) = slip_prn {
         for e in rover.iter_mut().filter(|e| e.t >= t0 + SLIP_AT_S) {
             let n = e.epoch.n;
             for s in e.epoch.sats[..n].iter_mut() {
@@ -499,7 +715,8 @@ fn run_seed(
     };
     let times: Vec<f64> = rover.iter().map(|e| e.t).collect();
     let base = simulate_raw(&base_cfg, orbits, &times, |_| (base_e, Vec3::zeros()));
-    let sd_truth: Vec<HashMap<u8, i64>> = rover
+    let l1 = |p: &u8| tkey(GnssSystem::Gps, *p, Signal::GpsL1Ca);
+    let sd_truth: Vec<HashMap<TKey, i64>> = rover
         .iter()
         .zip(&base)
         .map(|(r, b)| {
@@ -507,11 +724,11 @@ fn run_seed(
             let nr = truth_integers(r, &ra, orbits, orbit_offset);
             let nb = truth_integers(b, &base_e, orbits, orbit_offset);
             nr.iter()
-                .filter_map(|(p, a)| nb.get(p).map(|b| (*p, a - b)))
+                .filter_map(|(p, a)| nb.get(p).map(|b| (l1(p), a - b)))
                 .collect()
         })
         .collect();
-    let d = Drive {
+    Ok(Drive {
         traj,
         imu: &run.imu,
         lever,
@@ -521,27 +738,7 @@ fn run_seed(
         sd_truth,
         t0,
         slip_prn,
-    };
-    let with = car_filter(traj, d.lever, grade)?
-        .with_rtk(rc)
-        .map_err(|e| e.to_string())?;
-    let without = car_filter(traj, d.lever, grade)?
-        .with_rtk(RtkConfig {
-            gnss_only: true,
-            ..rc
-        })
-        .map_err(|e| e.to_string())?;
-    let hold = car_filter(traj, d.lever, grade)?
-        .with_rtk(RtkConfig {
-            fix_and_hold: true,
-            ..rc
-        })
-        .map_err(|e| e.to_string())?;
-    Ok([
-        run_filter(&d, with)?,
-        run_filter(&d, without)?,
-        run_filter(&d, hold)?,
-    ])
+    })
 }
 
 fn mean(v: &[f64]) -> Option<f64> {
@@ -553,6 +750,10 @@ fn scores(v: &[RunOut]) -> Scores {
     let ff: Vec<f64> = v.iter().filter_map(|r| r.first_fix).collect();
     let fixed: Vec<f64> = v.iter().flat_map(|r| r.fixed_h2.iter().copied()).collect();
     let float: Vec<f64> = v.iter().flat_map(|r| r.float_h2.iter().copied()).collect();
+    let full: Vec<f64> = v
+        .iter()
+        .flat_map(|r| r.fixed_h2_full.iter().copied())
+        .collect();
     let refix: Vec<f64> = v.iter().filter_map(|r| r.refix.map(|x| x as f64)).collect();
     let partial: Vec<f64> = v.iter().map(|r| r.partial_max).collect();
     let pf = v.iter().fold((0, 0), |a, r| {
@@ -563,6 +764,7 @@ fn scores(v: &[RunOut]) -> Scores {
         never_fixed: v.len() - ff.len(),
         fixed_h_rms_m: mean(&fixed).map(f64::sqrt),
         float_h_rms_m: mean(&float).map(f64::sqrt),
+        fixed_h_rms_full_sky_m: mean(&full).map(f64::sqrt),
         fixed_epochs: fixed.len(),
         epochs: v.iter().map(|r| r.epochs).sum(),
         wrong_fixes: v.iter().map(|r| r.wrong as f64).sum::<f64>() / n,
@@ -623,6 +825,12 @@ pub fn run_rtk(o: &Options) -> Result<RtkReport, ExperimentError> {
     }
     let (orbits, orbit_name) = super::tight::load_orbits(o.almanac.as_ref());
     let mut rc = RtkConfig::consumer();
+    rc.inter_system = !(o.single_frequency || o.intra_system_only);
+    if o.single_frequency {
+        // That scenario has no differential ionosphere by construction
+        // (common-mode errors off, module documentation).
+        rc.iono_ppm = 0.0;
+    }
     if let Some(p) = o.success_min {
         // 0 = off: any success rate passes.
         rc.success_min = p.max(f64::MIN_POSITIVE);
@@ -635,7 +843,13 @@ pub fn run_rtk(o: &Options) -> Result<RtkReport, ExperimentError> {
         .collect();
     let res: Vec<Job> = super::on_worker_pool(|| {
         jobs.par_iter()
-            .map(|&(s, g)| (s, g, run_seed(s, g, o.duration, &orbits, rc)))
+            .map(|&(s, g)| {
+                (
+                    s,
+                    g,
+                    run_seed(s, g, o.duration, &orbits, rc, o.single_frequency),
+                )
+            })
             .collect()
     });
     let mut failed = Vec::new();
@@ -676,14 +890,26 @@ pub fn run_rtk(o: &Options) -> Result<RtkReport, ExperimentError> {
         seeds: ids,
         duration_s: o.duration,
         orbits: orbit_name,
-        scenario: format!(
-            "car, GPS L1 1 Hz rover + static base {:.1} km away, common-mode errors off \
-             (short-baseline approximation); full outage {OUTAGE_START_S}-{} s, \
-             {PARTIAL_SATS} satellites {PARTIAL_START_S}-{} s",
-            BASE_NE_M.0.hypot(BASE_NE_M.1) / 1000.0,
-            OUTAGE_START_S + OUTAGE_S,
-            PARTIAL_START_S + PARTIAL_S
-        ),
+        scenario: if o.single_frequency {
+            format!(
+                "car, GPS L1 1 Hz rover + static base {:.1} km away, common-mode errors off \
+                 (short-baseline approximation); full outage {OUTAGE_START_S}-{} s, \
+                 {PARTIAL_SATS} satellites {PARTIAL_START_S}-{} s",
+                BASE_NE_M.0.hypot(BASE_NE_M.1) / 1000.0,
+                OUTAGE_START_S + OUTAGE_S,
+                PARTIAL_START_S + PARTIAL_S
+            )
+        } else {
+            let [n, e, u] = DEFAULT_BASE_OFFSET_NEU_M;
+            format!(
+                "car, dual-frequency GPS L1/L2C + Galileo E1/E5b + BeiDou B1I/B2I 1 Hz rover + \
+                 static base {:.1} km away (rtk_scene, common-mode errors on, slips {SLIP_RATE}); \
+                 full outage {OUTAGE_START_S}-{} s, {PARTIAL_SATS} satellites {PARTIAL_START_S}-{} s",
+                (n * n + e * e + u * u).sqrt() / 1000.0,
+                OUTAGE_START_S + OUTAGE_S,
+                PARTIAL_START_S + PARTIAL_S
+            )
+        },
         failed,
     })
 }
@@ -732,8 +958,8 @@ pub fn run(o: Options) -> Result<(), ToolError> {
                 s.partial_sky_fixed_share
             );
             println!(
-                "{:<21} cov95 fixed {:.3} float {:.3}; phase DD/epoch {:.1}; injected slip caught by test {} / gate {} / missed {}; slips {} lli {} phase gated {} code gated {} ref resets {}; fix: {} attempts, {} fixed ({} partial), rejected {} success rate / {} ratio / {} too few; NIS code {:.2} phase {:.2}; >5 cm fixed {:.2}; refix censored {}; never fixed {}",
-                "", s.coverage95_fixed, s.coverage95_float, s.mean_phase_dd, s.injected_slip_detected, s.injected_slip_gated, s.injected_slip_missed, s.slips, s.lli_resets, s.phase_gated, s.code_gated, s.ref_resets, s.fix_attempts, s.fixed, s.fixed_partial,
+                "{:<21} fixed h RMS full sky {}; cov95 fixed {:.3} float {:.3}; phase DD/epoch {:.1}; injected slip caught by test {} / gate {} / missed {}; slips {} lli {} phase gated {} code gated {} ref resets {}; fix: {} attempts, {} fixed ({} partial), rejected {} success rate / {} ratio / {} too few; NIS code {:.2} phase {:.2}; >5 cm fixed {:.2}; refix censored {}; never fixed {}",
+                "", f(s.fixed_h_rms_full_sky_m), s.coverage95_fixed, s.coverage95_float, s.mean_phase_dd, s.injected_slip_detected, s.injected_slip_gated, s.injected_slip_missed, s.slips, s.lli_resets, s.phase_gated, s.code_gated, s.ref_resets, s.fix_attempts, s.fixed, s.fixed_partial,
                 s.rejected_success_rate, s.rejected_ratio, s.rejected_too_few, s.mean_nis_code, s.mean_nis_phase,
                 s.fixed_over_5cm, s.refix_censored, s.never_fixed
             );

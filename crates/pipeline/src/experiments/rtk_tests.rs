@@ -7,6 +7,45 @@
 
 use super::*;
 
+/// The dual-frequency G+E+C scenario at CI size (1 seed × 500 s,
+/// both IMU grades; synthetic constellations, no data files). Asserted
+/// with the INS (targets of the module documentation that the 20-seed run
+/// reached): a fix within 5 s, re-fix within 2 epochs after the 30 s
+/// outage, no wrong fix, full-sky fixed epochs ≤ 2 cm horizontal RMS, the
+/// injected slip caught by the INS-predicted test, and in the 4-satellite
+/// window a smaller largest error than GNSS-only RTK (the 0.3 m
+/// is not reached: see the module documentation).
+#[test]
+fn dual_frequency_rtk_ins_fixes_fast_and_right() {
+    let o = Options {
+        seeds: 1,
+        seed0: 1,
+        duration: 500.0,
+        almanac: None,
+        json: None,
+        single_frequency: false,
+        intra_system_only: false,
+        success_min: None,
+    };
+    let r = run_rtk(&o).unwrap();
+    assert!(r.failed.is_empty(), "{:?}", r.failed);
+    for (g, gr) in &r.by_imu {
+        let w = &gr.with_ins;
+        assert_eq!(w.never_fixed, 0, "{g}: {w:?}");
+        assert!(w.first_fix_s.unwrap() <= 5.0, "{g}: {w:?}");
+        assert!(w.refix_epochs.unwrap() <= 2.0, "{g}: {w:?}");
+        assert_eq!(w.refix_censored, 0, "{g}: {w:?}");
+        assert_eq!(w.wrong_fixes, 0.0, "{g}: {w:?}");
+        assert!(w.fixed_h_rms_full_sky_m.unwrap() <= 0.02, "{g}: {w:?}");
+        assert_eq!(w.injected_slip_detected, 1, "{g}: {w:?}");
+        let wo = &gr.without_ins;
+        assert!(
+            w.partial_sky_h_m.unwrap() < wo.partial_sky_h_m.unwrap(),
+            "{g}: {w:?} {wo:?}"
+        );
+    }
+}
+
 #[test]
 #[ignore = "real data (YUMA almanac): run with `cargo test --release -- --ignored`"]
 fn rtk_ins_fixes_right_and_refixes_faster_than_gnss_only() {
@@ -17,6 +56,8 @@ fn rtk_ins_fixes_right_and_refixes_faster_than_gnss_only() {
         duration: 500.0,
         almanac: None,
         json: None,
+        single_frequency: true,
+        intra_system_only: false,
         success_min: None,
     };
     let r = run_rtk(&o).unwrap();

@@ -17,11 +17,16 @@
 //! noise): propagation is `P_xa ← Φ_x P_xa` only (`Φ_x = I + F dt`, the
 //! filter's first-order transition), `P_aa` unchanged.
 //!
-//! Capacity [`NAMB`] = 32 = [`crate::lambda::MAX_N`]: more DD ambiguities
-//! than LAMBDA takes in one search cannot be fixed together anyway;
-//! single-frequency GPS + Galileo + BeiDou above a 15° mask is ~20–28
-//! satellites, dual-frequency GPS + Galileo ~32 signals. A record beyond
-//! the capacity is not used and counted ([`RtkSatCounts::capacity`]).
+//! Capacity [`NAMB`] = 48 = [`MAX_RAW_SATS`] = [`crate::lambda::MAX_N`]:
+//! every record an epoch can hold gets a slot and all its DD ambiguities
+//! can go into one LAMBDA search. It was 32, but dual-frequency GPS +
+//! Galileo + BeiDou above a 15° mask is ~15–20 satellites × 2 signals
+//! (the `experiment rtk` scene: up to 24 × 2); selecting satellites by
+//! elevation instead would throw away the redundancy that makes
+//! instantaneous fixing possible. The joint covariance is then 72 × 72
+//! (on the stack, 41 kB). A record beyond the capacity (only possible when
+//! freed slots lag, not from one epoch) is not used and counted
+//! ([`RtkSatCounts::capacity`]).
 //!
 //! **Measurements** (Teunissen & Montenbruck, *Springer Handbook of GNSS*
 //! 2017, ch. 26; RTKLIB `ddres`), per system and signal against its
@@ -113,7 +118,7 @@ use crate::{Mat3, Vec3};
 use nalgebra::{SMatrix, SVector};
 
 /// Ambiguity slots (module documentation).
-pub const NAMB: usize = 32;
+pub const NAMB: usize = MAX_RAW_SATS;
 /// Ambiguities + the clone of the previous epoch's position error.
 const NK: usize = NAMB + 3;
 /// Index (within the block) of the position clone.
@@ -146,6 +151,23 @@ pub struct RtkConfig {
     pub slip_probability: f64,
     /// Prior σ of a new SD ambiguity [m] (divided by λ for cycles).
     pub amb_prior_m: f64,
+    /// Baseline-dependent (differential) ionosphere, σ of the single
+    /// difference per unit baseline at the zenith on 1575.42 MHz [ppm =
+    /// mm/km]: added to the SD code and phase variances as
+    /// `(ppm · 10⁻⁶ · |b| · M(el) · γ_f)²` (`M` the single-layer obliquity,
+    /// 350 km shell; `γ_f = (λ_f/λ_L1)²`). 0 = not modelled (RTKLIB's
+    /// `stats-errphasebl` default).
+    pub iono_ppm: f64,
+    /// Inter-system DDs where two systems share a frequency: Galileo E1
+    /// with GPS L1 (1575.42 MHz) and BeiDou B2I with Galileo E5b
+    /// (1207.14 MHz) against one reference (Odijk & Teunissen 2013, GPS
+    /// Solutions 17:521, "tightly combined" GPS + Galileo RTK). Valid only
+    /// when the between-receiver inter-system bias is zero, i.e. rover and
+    /// base receivers of the same type (their study: L1-E1 and L5-E5a ISBs
+    /// absent for same-type receivers); with 4 satellites of 3 systems it is
+    /// what leaves enough DDs to keep the position (4 satellites give 3
+    /// DDs per shared frequency instead of ≤ 1 per system). Off by default.
+    pub inter_system: bool,
     /// Ratio test threshold and bootstrapped success-rate threshold.
     pub ratio_min: f64,
     pub success_min: f64,
@@ -191,6 +213,8 @@ impl RtkConfig {
             gate_probability: 0.9999,
             slip_probability: 0.9999,
             amb_prior_m: 30.0,
+            iono_ppm: 0.0,
+            inter_system: false,
             ratio_min: 3.0,
             success_min: 0.999,
             min_fix: 4,
@@ -206,9 +230,14 @@ impl RtkConfig {
     /// (weighted as the white noise of the same low-frequency power; the
     /// value `TightConfig` documents for a moving car), and the standard
     /// atmosphere's humidity 0.7 (RTKLIB `REL_HUMI`) in the troposphere
-    /// model at both sites.
+    /// model at both sites; the differential ionosphere σ 1 ppm
+    /// ([`RtkConfig::iono_ppm`]: 1–2 ppm typical of mid-latitude baselines
+    /// under quiet conditions, Wanninger 1993, Odijk 2002 ch. 5, Springer
+    /// Handbook of GNSS 2017 ch. 26; the lower end — not estimated, so a
+    /// stormy day makes the σ optimistic).
     pub fn consumer() -> Self {
         RtkConfig {
+            iono_ppm: 1.0,
             code_model: Some(TightConfig {
                 mp_tau_s: 10.0,
                 interval_s: 1.0,
@@ -232,6 +261,8 @@ impl RtkConfig {
             && self.slip_probability > 0.0
             && self.slip_probability < 1.0
             && pos(self.amb_prior_m)
+            && self.iono_ppm.is_finite()
+            && self.iono_ppm >= 0.0
             && self.ratio_min >= 1.0
             && self.success_min > 0.0
             && self.success_min < 1.0
@@ -416,6 +447,10 @@ pub struct FixedDd {
     pub signal: Signal,
     pub prn: u8,
     pub ref_prn: u8,
+    /// The reference's system and signal (differ from `system`, `signal`
+    /// only with [`RtkConfig::inter_system`]).
+    pub ref_system: GnssSystem,
+    pub ref_signal: Signal,
     pub n: i64,
 }
 
@@ -666,6 +701,8 @@ struct Rec {
     key_sys: GnssSystem,
     key_prn: u8,
     key_sig: Signal,
+    /// DD group ([`RtkConfig::inter_system`]).
+    grp: (GnssSystem, Signal),
     slot: usize,
     el: f64,
     lambda: f64,
@@ -884,11 +921,26 @@ impl Eskf {
             let t_b = slant_delay(el_b.max(0.0), bg.lat, bg.h, doy, cfg.humidity);
             let geo = (rho_r - s.sat.clock_m + t_r) - (rho_b - b.sat.clock_m + t_b);
             let iono = s.sat.iono_m as f64 - b.sat.iono_m as f64;
+            // Differential ionosphere (RtkConfig::iono_ppm): single-layer
+            // obliquity at 350 km, γ_f = (λ_f / λ_L1)².
+            let v_iono = {
+                let re = 6_371_000.0;
+                let sz = re / (re + 350_000.0) * el.cos();
+                let obl = 1.0 / (1.0 - sz * sz).max(1e-6).sqrt();
+                let gamma = (o.wavelength_m() / (299_792_458.0 / 1575.42e6)).powi(2);
+                let s_i = cfg.iono_ppm * 1e-6 * (a.r_e - base_e).norm() * obl * gamma;
+                s_i * s_i
+            };
             let (cn_r, cn_b) = (o.cn0_dbhz as f64, b.obs.cn0_dbhz as f64);
             recs[nr] = Rec {
                 key_sys: o.system,
                 key_prn: o.prn,
                 key_sig: o.signal,
+                grp: match (cfg.inter_system, o.signal) {
+                    (true, Signal::GalE1) => (GnssSystem::Gps, Signal::GpsL1Ca),
+                    (true, Signal::BdsB2I) => (GnssSystem::Galileo, Signal::GalE5b),
+                    _ => (o.system, o.signal),
+                },
                 slot: usize::MAX,
                 el,
                 lambda: o.wavelength_m(),
@@ -896,8 +948,8 @@ impl Eskf {
                 sd_code: o.pseudorange_m - b.obs.pseudorange_m,
                 pred_phi: geo - iono,
                 pred_code: geo + iono,
-                v_phi: cfg.phase_var(el) + cfg.phase_var(el_b),
-                v_code: cfg.code_var(el, cn_r) + cfg.code_var(el_b, cn_b),
+                v_phi: cfg.phase_var(el) + cfg.phase_var(el_b) + v_iono,
+                v_code: cfg.code_var(el, cn_r) + cfg.code_var(el_b, cn_b) + v_iono,
                 u_n,
                 use_code: true,
                 use_phase: true,
@@ -995,7 +1047,7 @@ impl Eskf {
             if recs[i].slot == usize::MAX {
                 continue;
             }
-            let g = (recs[i].key_sys, recs[i].key_sig);
+            let g = recs[i].grp;
             let gi = match groups[..ng].iter().position(|x| *x == Some(g)) {
                 Some(gi) => gi,
                 None if ng < NGROUP => {
@@ -1043,7 +1095,7 @@ impl Eskf {
                 let rf = recs[ir];
                 for i in 0..nr {
                     let r = recs[i];
-                    if i == ir || r.slot == usize::MAX || (r.key_sys, r.key_sig) != g {
+                    if i == ir || r.slot == usize::MAX || r.grp != g {
                         continue;
                     }
                     let du = r.u_n - rf.u_n;
@@ -1332,12 +1384,7 @@ impl Eskf {
             }
             let rf = recs[ir];
             for (i, r) in recs.iter().enumerate() {
-                if i == ir
-                    || !used[i]
-                    || r.slot == usize::MAX
-                    || (r.key_sys, r.key_sig) != (rf.key_sys, rf.key_sig)
-                    || nc >= NAMB
-                {
+                if i == ir || !used[i] || r.slot == usize::MAX || r.grp != rf.grp || nc >= NAMB {
                     continue;
                 }
                 cand[nc] = (r.slot, rf.slot, i, ir);
@@ -1433,6 +1480,8 @@ impl Eskf {
                     signal: ri.key_sig,
                     prn: ri.key_prn,
                     ref_prn: rr.key_prn,
+                    ref_system: rr.key_sys,
+                    ref_signal: rr.key_sig,
                     n: res.fixed[0][u] as i64,
                 };
             }
@@ -1459,12 +1508,15 @@ impl Eskf {
         let mut dxf = SVector::<f64, NJ>::zeros();
         let mut held = 0u64;
         for f in &sol.fixed_dd[..sol.n_fixed] {
-            let slot_of = |prn: u8| {
+            let slot_of = |sys: GnssSystem, sig: Signal, prn: u8| {
                 recs.iter()
-                    .find(|r| r.key_sys == f.system && r.key_sig == f.signal && r.key_prn == prn)
+                    .find(|r| r.key_sys == sys && r.key_sig == sig && r.key_prn == prn)
                     .map(|r| r.slot)
             };
-            let (Some(i), Some(j)) = (slot_of(f.prn), slot_of(f.ref_prn)) else {
+            let (Some(i), Some(j)) = (
+                slot_of(f.system, f.signal, f.prn),
+                slot_of(f.ref_system, f.ref_signal, f.ref_prn),
+            ) else {
                 continue;
             };
             if i == usize::MAX || j == usize::MAX {
