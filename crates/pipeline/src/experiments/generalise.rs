@@ -760,7 +760,10 @@ mod tests {
     fn cell_patterns_select_and_reject() {
         assert_eq!(matrix().len(), 48);
         assert_eq!(select_cells("car").unwrap().len(), 12);
-        assert_eq!(select_cells_in(matrix(), "*:tactical:*:0.1").unwrap().len(), 8);
+        assert_eq!(
+            select_cells_in(matrix(), "*:tactical:*:0.1").unwrap().len(),
+            8
+        );
         // `*` also reaches the platforms outside the matrix (marine).
         assert_eq!(select_cells("*:tactical:*:0.1").unwrap().len(), 10);
         assert_eq!(select_cells("uav:consumer:rtk:0.10").unwrap().len(), 1);
