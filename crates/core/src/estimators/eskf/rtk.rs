@@ -1406,7 +1406,13 @@ impl Eskf {
         for k in 0..nc {
             order[k] = k;
         }
-        order[..nc].sort_by(|&i, &j| qdd(&cand[i], &cand[i]).total_cmp(&qdd(&cand[j], &cand[j])));
+        // Unstable sort (no allocation, no_std) with the index as tie-break:
+        // the same order as a stable sort.
+        order[..nc].sort_unstable_by(|&i, &j| {
+            qdd(&cand[i], &cand[i])
+                .total_cmp(&qdd(&cand[j], &cand[j]))
+                .then(i.cmp(&j))
+        });
         let mut n = nc.min(lambda::MAX_N);
         let mut reason = 0u8; // 0 too few, 1 success, 2 ratio, 3 lambda
         let mut a_hat = [0.0f64; NAMB];
