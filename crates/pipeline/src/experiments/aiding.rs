@@ -157,19 +157,25 @@ fn sensors_opts(duration_s: f64, outages: Outages) -> PlatformOptions {
 
 /// The car filter at the truth of the first IMU interval.
 fn filter(run: &SimRun, aiding: AidingConfig) -> Result<Eskf, String> {
-    car_filter_at_truth(&run.traj, Vec3::from(run.scenario.gnss.lever_arm_m), aiding)
+    car_filter_at_truth(
+        &run.traj,
+        Vec3::from(run.scenario.gnss.lever_arm_m),
+        ImuGrade::Consumer,
+        aiding,
+    )
 }
 
-/// The car-profile ESKF with the consumer IMU preset's noise, started at
+/// The car-profile ESKF with the IMU preset's noise of `grade`, started at
 /// the truth of the first IMU interval of `traj` (σ 1 m, 0.1 m/s,
 /// 0.5/0.5/2°, the preset's bias and scale-factor σ): the experiments
 /// compare inputs, not alignments. `lever` body FRD [m].
 pub(crate) fn car_filter_at_truth(
     traj: &navfuse_sim::trajectory::Trajectory,
     lever: Vec3,
+    grade: ImuGrade,
     aiding: AidingConfig,
 ) -> Result<Eskf, String> {
-    let sn = imu_noise_preset(ImuGrade::Consumer.preset()).map_err(|e| e.to_string())?;
+    let sn = imu_noise_preset(grade.preset()).map_err(|e| e.to_string())?;
     let base = EskfConfig {
         noise: sn.noise,
         lever_arm_b: lever,

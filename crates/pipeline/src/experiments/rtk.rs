@@ -114,17 +114,15 @@
 //!   ≤ 0.3 m), and the fixed share there.
 
 use super::ExperimentError;
-use crate::profile::Platform as Profile;
-use crate::sensors::imu_noise_preset;
 use crate::ToolError;
 use navfuse_core::estimators::eskf::{
-    receiver_clock_bias_m, Eskf, EskfConfig, ImuErrors, InitStd, RtkConfig, RtkSolution, RtkStats,
+    receiver_clock_bias_m, Eskf, RtkConfig, RtkSolution, RtkStats,
 };
 use navfuse_core::geodesy::{c_en, ecef_to_geodetic, geodetic_to_ecef, Geodetic};
 use navfuse_core::gnss::raw::{GnssSystem, Signal};
 use navfuse_core::gnss::tropo::{day_of_year, slant_delay};
 use navfuse_core::gnss::{sat_at_receive, KeplerOrbit, C_LIGHT};
-use navfuse_core::ins::mech::{q_bn_from_rpy, NavState};
+use navfuse_core::ins::mech::q_bn_from_rpy;
 use navfuse_core::{Estimator, Event, Vec3};
 use navfuse_sim::platform::{platform_run, GnssGrade, ImuGrade, Platform, PlatformOptions};
 use navfuse_sim::raw_gnss::{simulate_raw, MaskWindow, RawConfig, RawTruthEpoch, SkyMask};
@@ -303,32 +301,7 @@ type Job = (u64, ImuGrade, Result<[RunOut; 3], String>);
 /// The car filter of `grade` at the truth of the first IMU interval
 /// ([`super::aiding::car_filter_at_truth`] with the grade's noise).
 fn car_filter(traj: &Trajectory, lever: Vec3, grade: ImuGrade) -> Result<Eskf, String> {
-    let sn = imu_noise_preset(grade.preset()).map_err(|e| e.to_string())?;
-    let base = EskfConfig {
-        noise: sn.noise,
-        lever_arm_b: lever,
-        scale_factors: true,
-        ..EskfConfig::seed001()
-    };
-    let cfg = Profile::Car.profile().apply(base);
-    let t = &traj.truth[1];
-    let nav = NavState {
-        lat: t.lat,
-        lon: t.lon,
-        h: t.h,
-        v_n: t.v_n,
-        q_bn: q_bn_from_rpy(&t.rpy),
-    };
-    let std = InitStd {
-        pos: Vec3::repeat(1.0),
-        vel: Vec3::repeat(0.1),
-        att: Vec3::new(0.5, 0.5, 2.0).map(f64::to_radians),
-        bg: Vec3::repeat(sn.init_bg_std),
-        ba: Vec3::repeat(sn.init_ba_std),
-        sg: Vec3::repeat(sn.init_sg_std),
-        sa: Vec3::repeat(sn.init_sa_std),
-    };
-    Ok(Eskf::new(cfg, nav, ImuErrors::default(), &std))
+    super::aiding::car_filter_at_truth(traj, lever, grade, Default::default())
 }
 
 /// Truth antenna position and velocity (ECEF) of a drive at true time `t`.

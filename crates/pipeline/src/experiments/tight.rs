@@ -265,7 +265,7 @@ fn windows(t0: f64, duration: f64) -> Vec<[f64; 2]> {
 
 /// The car filter at the truth of the first IMU interval, no aiding.
 fn car_filter(traj: &Trajectory, lever: Vec3) -> Result<Eskf, String> {
-    super::aiding::car_filter_at_truth(traj, lever, Default::default())
+    super::aiding::car_filter_at_truth(traj, lever, ImuGrade::Consumer, Default::default())
 }
 
 /// The orbits: the almanac at `path` (or the default), else synthetic.
