@@ -95,9 +95,8 @@ pub fn run(args: Args) -> Result<(), Fail> {
     // reads the files itself.
     let (sum, base_e) = if args.via_rtk {
         let o = navfuse_pipeline::rtk_gnss::RtkGnssOpts::from(&opts);
-        let run =
-            navfuse_pipeline::rtk_gnss::rtk_gnss_only(&args.rover, &args.base, &args.nav, &o)
-                .map_err(|e| Fail::input(e.to_string()))?;
+        let run = navfuse_pipeline::rtk_gnss::rtk_gnss_only(&args.rover, &args.base, &args.nav, &o)
+            .map_err(|e| Fail::input(e.to_string()))?;
         (run.to_summary(), run.base_e)
     } else {
         let (rover, base, nav) =
