@@ -260,7 +260,16 @@ impl<'a> Heading<'a> {
             return imu.partition_point(|s| s.t < t);
         }
         let below = |s: &ImuSample| s.t < t;
-        let h = self.hint.get().min(n);
+        // Start where a uniform rate from the last sample found puts t
+        // (exact or next to it for a steady IMU); any start gives the
+        // same index.
+        let mut h = self.hint.get().min(n);
+        if let Some(s) = imu.get(h) {
+            let g = h as f64 + ((t - s.t) / s.dt).ceil();
+            if g.is_finite() && s.dt > 0.0 {
+                h = g.clamp(0.0, n as f64) as usize;
+            }
+        }
         let k = if h < n && below(&imu[h]) {
             // Answer in (h, n]: widen [lo, lo + step] until it holds it.
             let mut lo = h + 1;
