@@ -132,7 +132,7 @@ fn write_sim_rtk_car(dir: &Path, seed: u64, duration: f64, slip_rate: f64) -> na
         navfuse_io::rinex_write::nav3_text(&nav_gps, &[]),
     )
     .unwrap();
-    navfuse_sim::output::write_run(&sim, &dir).unwrap();
+    navfuse_sim::output::write_run(&sim, dir).unwrap();
     let toml = format!(
         "formats = [\"nav\", \"pos\"]\n\
          [input]\nimu = \"imu.csv\"\nimu_rate = {}\ngnss = \"rover.obs\"\nnav = \"nav.rnx\"\n\

@@ -54,7 +54,7 @@ fn main() {
     };
     let seed: u64 = arg(args.next(), 1, "SEED");
     let duration: f64 = arg(args.next(), 3600.0, "SECONDS");
-    if !(duration >= 10.0) {
+    if duration.is_nan() || duration < 10.0 {
         fail("SECONDS", "must be ≥ 10");
     }
     let dir = std::path::Path::new(&out);
