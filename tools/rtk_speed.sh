@@ -16,6 +16,9 @@
 #        `rnx2rtkp` G+E+C L1+L2 (tools/rtklib_rtk_multi.conf).
 #    The fixed share of each output is printed beside its time.
 # A ratio rnx2rtkp/navfuse ≥ 1 means navfuse is at least as fast.
+# Measured 2026-11-27 (N = 5, shared 2-core machine at load ≈ 7): GEONET 1.38,
+# sim GNSS-only 1.05, sim RTK/INS run 1.09 (0.77 / 0.77 on the simulated hour
+# before the speed commits of that day; outputs byte-identical across them).
 # Usage: NAVFUSE_DATA=../shared/data tools/rtk_speed.sh [NAVFUSE_BIN] [N] [SIM_EXAMPLE_BIN]
 set -eu
 here=$(cd "$(dirname "$0")" && pwd)
