@@ -8,7 +8,7 @@ use std::path::{Path, PathBuf};
 
 use navfuse_core::Vec3;
 use navfuse_pipeline::experiments::baseline::{
-    enu_at, load, process, stats, Opts, RejectReason, Summary,
+    enu_at_ecef, load, process, stats, Opts, RejectReason, Summary,
 };
 
 /// Carrier-phase baseline between two RINEX observation files.
@@ -80,8 +80,6 @@ pub fn run(args: Args) -> Result<(), Fail> {
             r.len()
         )));
     }
-    let (rover, base, nav) =
-        load(&args.rover, &args.base, &args.nav).map_err(|e| Fail::input(String::from(e)))?;
     let opts = Opts {
         kinematic: args.kinematic,
         l2: args.l2,
@@ -93,13 +91,19 @@ pub fn run(args: Args) -> Result<(), Fail> {
         humidity: args.humidity,
         ..Default::default()
     };
-    let sum = if args.via_rtk {
+    // The base's header position (both paths hold it fixed); the RTK path
+    // reads the files itself.
+    let (sum, base_e) = if args.via_rtk {
         let o = navfuse_pipeline::rtk_gnss::RtkGnssOpts::from(&opts);
-        navfuse_pipeline::rtk_gnss::rtk_gnss_only(&args.rover, &args.base, &args.nav, &o)
-            .map_err(|e| Fail::input(e.to_string()))?
-            .to_summary()
+        let run = navfuse_pipeline::rtk_gnss::rtk_gnss_only(&args.rover, &args.base, &args.nav, &o)
+            .map_err(|e| Fail::input(e.to_string()))?;
+        (run.to_summary(), run.base_e)
     } else {
-        process(&base, &rover, &nav, &opts).map_err(|e| Fail::input(String::from(e)))?
+        let (rover, base, nav) =
+            load(&args.rover, &args.base, &args.nav).map_err(|e| Fail::input(String::from(e)))?;
+        let sum = process(&base, &rover, &nav, &opts).map_err(|e| Fail::input(String::from(e)))?;
+        let p = base.approx_pos;
+        (sum, Vec3::new(p[0], p[1], p[2]))
     };
     if sum.epochs.is_empty() {
         return Err(Fail::input(format!(
@@ -143,7 +147,7 @@ pub fn run(args: Args) -> Result<(), Fail> {
             b.norm(),
             last.ratio
         );
-        let enu = enu_at(&base, &b);
+        let enu = enu_at_ecef(&base_e, &b);
         println!(
             "ENU at base: E {:+.4} N {:+.4} U {:+.4} m",
             enu.x, enu.y, enu.z

@@ -32,6 +32,75 @@ pub fn write_innovations(path: &Path, log: &[UpdateLog]) -> Result<String> {
     Ok(path.display().to_string())
 }
 
+/// The journal of an RTK run: [`write_innovations`]'s rows and columns,
+/// then one `rtk_fix` row per applied RTK epoch (after the updates of the
+/// same filter time), with columns added at the end (empty in the other
+/// rows): `n_fixed`, `ratio`, `success_rate`, `decision` (`fixed`,
+/// `fixed_partial`, `no_ambiguities`, `rejected_too_few`,
+/// `rejected_success_rate`, `rejected_ratio`, `rejected_lambda`: the reason
+/// the last, smallest subset tried failed), `resets_loss_of_lock`,
+/// `resets_ins_slip`, `resets_reference`, `ambiguities_new`,
+/// `ambiguities_freed`. In an `rtk_fix` row `nis` is `nan` (no innovation),
+/// `dof` the number of DD ambiguities offered to LAMBDA and `accepted`
+/// whether the epoch was fixed. Returns the path written.
+pub fn write_innovations_rtk(
+    path: &Path,
+    log: &[UpdateLog],
+    rtk: &[crate::rtk_run::RtkEpochOut],
+) -> Result<String> {
+    use std::io::Write as _;
+    let io = PipelineError::io(path, "");
+    let write = || -> std::io::Result<()> {
+        let mut w = navfuse_io::atomic::AtomicFile::create(path)?;
+        writeln!(
+            w,
+            "t,kind,nis,dof,accepted,n_fixed,ratio,success_rate,decision,resets_loss_of_lock,\
+             resets_ins_slip,resets_reference,ambiguities_new,ambiguities_freed"
+        )?;
+        let mut k = 0;
+        let rtk_row = |w: &mut navfuse_io::atomic::AtomicFile, e: &crate::rtk_run::RtkEpochOut| {
+            let r = e.resets;
+            writeln!(
+                w,
+                "{:.4},rtk_fix,nan,{},{},{},{:.3},{:.6},{},{},{},{},{},{}",
+                e.t,
+                e.n_candidates,
+                e.decision.is_fixed() as u8,
+                e.n_fixed,
+                e.ratio,
+                e.success_rate,
+                e.decision.name(),
+                r.loss_of_lock,
+                r.ins_slip,
+                r.reference,
+                r.rises,
+                r.sets
+            )
+        };
+        for u in log {
+            while k < rtk.len() && rtk[k].t < u.t {
+                rtk_row(&mut w, &rtk[k])?;
+                k += 1;
+            }
+            writeln!(
+                w,
+                "{:.4},{},{:.6},{},{},,,,,,,,,",
+                u.t,
+                u.kind.name(),
+                u.nis,
+                u.dof,
+                u.accepted as u8
+            )?;
+        }
+        for e in &rtk[k..] {
+            rtk_row(&mut w, e)?;
+        }
+        w.commit()
+    };
+    write().map_err(io)?;
+    Ok(path.display().to_string())
+}
+
 /// The update journal as a Parquet table
 /// ([`navfuse_io::parquet_out::journal_table`]: `t_gps_s`, `kind`, `nis`,
 /// `dof`, `accepted`), written whole or not at all. Returns the path written.

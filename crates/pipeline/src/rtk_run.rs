@@ -27,16 +27,20 @@
 //! epoch's ratio test value, age the rover − base time difference.
 //!
 //! The RTS smoother is refused (its records do not carry the ambiguity
-//! block, [`navfuse_core::estimators::eskf`] `rtk` module); the journal
-//! (`solution.innovations.csv`) lists the IMU-rate updates only, the RTK
-//! decisions are counted in summary.json `rtk`.
+//! block, [`navfuse_core::estimators::eskf`] `rtk` module). Every RTK
+//! epoch's fix decision is a `rtk_fix` row of the run journal
+//! (`solution.innovations.csv`, [`crate::outputs::write_innovations_rtk`]:
+//! ambiguities offered / fixed, ratio, success rate, decision and reason,
+//! resets), and counted in summary.json `rtk`.
 
 use crate::base_station::{pair_epochs, BasePosition, BaseStation, Pairing, MAX_AGE_S};
 use crate::config::RunConfig;
 use crate::error::{PipelineError, Result};
 use crate::raw_input::{sat_id, RawInput};
 use crate::yaw_bank::Member;
-use navfuse_core::estimators::eskf::{receiver_clock_bias_m, Eskf, RtkConfig, RtkSatCounts};
+use navfuse_core::estimators::eskf::{
+    receiver_clock_bias_m, Eskf, RtkConfig, RtkSatCounts, RtkSolution, RtkStats,
+};
 use navfuse_core::geodesy::{geodetic_to_ecef, Geodetic};
 use navfuse_core::gnss::raw::{GnssSystem, RawEpoch, RawSat};
 use navfuse_core::gnss::C_LIGHT;
@@ -210,7 +214,8 @@ fn rover_records(ep: &[RawEpoch]) -> Vec<RawSat> {
     ep.iter().flat_map(|e| e.sats().iter().copied()).collect()
 }
 
-/// One applied RTK epoch, for the `.pos` quality.
+/// One applied RTK epoch: the `.pos` quality and the fix decision (a row
+/// of the run journal, [`crate::outputs::write_innovations_rtk`]).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct RtkEpochOut {
     /// Filter time of the update [s].
@@ -219,9 +224,125 @@ pub struct RtkEpochOut {
     pub q: u8,
     /// Satellites with records at both receivers.
     pub ns: u8,
+    /// Ratio test of the last subset tried (0 when none was).
     pub ratio: f32,
     /// Rover − base time difference [s].
     pub age_s: f32,
+    /// DD ambiguities offered to LAMBDA, and fixed (fewer than offered:
+    /// a partial fix of the lowest-variance subset).
+    pub n_candidates: u16,
+    pub n_fixed: u16,
+    /// Bootstrapped success rate of the last subset tried (0 when none).
+    pub success_rate: f64,
+    pub decision: FixDecision,
+    /// Ambiguities reset or (re)initialised this epoch.
+    pub resets: RtkResets,
+}
+
+/// What an epoch's fix validation decided; for a rejection, why the last
+/// (smallest) subset tried failed ([`RtkStats`] reasons).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum FixDecision {
+    /// Every DD ambiguity offered was fixed.
+    Fixed,
+    /// A subset was fixed (partial ambiguity resolution).
+    FixedPartial,
+    /// No DD ambiguity to try (no phase DD this epoch).
+    NoAmbiguities,
+    /// Fewer ambiguities than the configured minimum remained.
+    RejectedTooFew,
+    /// Bootstrapped success rate below the threshold.
+    RejectedSuccessRate,
+    /// Ratio test below the threshold.
+    RejectedRatio,
+    /// LAMBDA (or the conditional update's factorisation) failed.
+    RejectedLambda,
+}
+
+impl FixDecision {
+    /// Stable journal name.
+    pub fn name(self) -> &'static str {
+        match self {
+            FixDecision::Fixed => "fixed",
+            FixDecision::FixedPartial => "fixed_partial",
+            FixDecision::NoAmbiguities => "no_ambiguities",
+            FixDecision::RejectedTooFew => "rejected_too_few",
+            FixDecision::RejectedSuccessRate => "rejected_success_rate",
+            FixDecision::RejectedRatio => "rejected_ratio",
+            FixDecision::RejectedLambda => "rejected_lambda",
+        }
+    }
+    pub fn is_fixed(self) -> bool {
+        matches!(self, FixDecision::Fixed | FixDecision::FixedPartial)
+    }
+}
+
+/// Ambiguity resets and initialisations of one epoch, by reason (the
+/// differences of the core's [`RtkStats`] counters across the update).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct RtkResets {
+    pub loss_of_lock: u16,
+    /// Slips the INS-predicted phase test found.
+    pub ins_slip: u16,
+    /// Re-initialisations because the reference's DDs failed their gates.
+    pub reference: u16,
+    /// New ambiguities (satellites rising or first seen).
+    pub rises: u16,
+    /// Ambiguities freed (satellites set).
+    pub sets: u16,
+}
+
+/// The [`RtkStats`] counters an epoch's decision is read from.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+struct DecisionCounters {
+    total: RtkSatCounts,
+    too_few: u64,
+    success: u64,
+    ratio: u64,
+    lambda: u64,
+}
+
+impl DecisionCounters {
+    fn of(s: Option<&RtkStats>) -> Self {
+        s.map_or_else(Self::default, |s| DecisionCounters {
+            total: s.total(),
+            too_few: s.rejected_too_few,
+            success: s.rejected_success_rate,
+            ratio: s.rejected_ratio,
+            lambda: s.rejected_lambda,
+        })
+    }
+
+    /// The decision and resets between `self` (before) and `after`.
+    fn decision(&self, after: &Self, sol: &RtkSolution) -> (FixDecision, RtkResets) {
+        let d = if sol.n_candidates == 0 {
+            FixDecision::NoAmbiguities
+        } else if sol.fixed {
+            if sol.n_fixed < sol.n_candidates {
+                FixDecision::FixedPartial
+            } else {
+                FixDecision::Fixed
+            }
+        } else if after.success > self.success {
+            FixDecision::RejectedSuccessRate
+        } else if after.ratio > self.ratio {
+            FixDecision::RejectedRatio
+        } else if after.lambda > self.lambda {
+            FixDecision::RejectedLambda
+        } else {
+            FixDecision::RejectedTooFew
+        };
+        let (a, b) = (&after.total, &self.total);
+        let n = |x: u32, y: u32| x.saturating_sub(y).min(u16::MAX as u32) as u16;
+        let r = RtkResets {
+            loss_of_lock: n(a.lli_resets, b.lli_resets),
+            ins_slip: n(a.slips, b.slips),
+            reference: n(a.ref_resets, b.ref_resets),
+            rises: n(a.rises, b.rises),
+            sets: n(a.sets, b.sets),
+        };
+        (d, r)
+    }
 }
 
 /// Applies the rover epochs as the IMU samples pass them.
@@ -326,8 +447,11 @@ impl<'a> RtkDriver<'a> {
                 continue;
             };
             let be = &self.span.base[jb];
+            let before = DecisionCounters::of(m.eskf.rtk_stats());
             match m.eskf.rtk_update(re, be, &self.span.base_e) {
                 Ok(sol) => {
+                    let (decision, resets) =
+                        before.decision(&DecisionCounters::of(m.eskf.rtk_stats()), &sol);
                     if self.first_t.is_nan() {
                         self.first_t = t_imu;
                     }
@@ -363,6 +487,11 @@ impl<'a> RtkDriver<'a> {
                         ns: ns.min(255) as u8,
                         ratio: sol.ratio as f32,
                         age_s: (re.t - be.t).abs() as f32,
+                        n_candidates: sol.n_candidates.min(u16::MAX as usize) as u16,
+                        n_fixed: sol.n_fixed.min(u16::MAX as usize) as u16,
+                        success_rate: sol.success_rate,
+                        decision,
+                        resets,
                     });
                     // The solution written at this sample: the fixed one
                     // when fixed, else the float filter's.

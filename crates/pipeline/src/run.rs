@@ -295,10 +295,12 @@ pub fn run(cfg: &RunConfig, base_dir: &Path, opts: &RunOptions) -> Result<RunOut
     if !opts.no_std {
         outputs.push(write_std(&out_dir.join("solution.std"), &r.std)?);
     }
-    outputs.push(write_innovations(
-        &out_dir.join("solution.innovations.csv"),
-        &r.updates,
-    )?);
+    let journal = out_dir.join("solution.innovations.csv");
+    outputs.push(match &r.rtk {
+        // RTK: the fix decisions are rows of the journal too.
+        Some(_) => crate::outputs::write_innovations_rtk(&journal, &r.updates, &r.rtk_epochs)?,
+        None => write_innovations(&journal, &r.updates)?,
+    });
     if formats.contains(&OutFormat::Parquet) {
         let p = out_dir.join("journal.parquet");
         outputs.push(write_journal_parquet(&p, &r.updates)?);

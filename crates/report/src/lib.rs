@@ -14,6 +14,7 @@
 //! | `innovations.csv`, `NAME.innovations.csv` | innovations: columns `t` (or `t_gps_s`), `kind`, `nis`, `dof`, `accepted` (1/0/true/false), optional `estimator` |
 //! | `states.csv`, `NAME.states.csv` | estimated states vs time: `t` (or `t_gps_s`) and columns `QUANTITY_AXIS_UNIT` or `QUANTITY_UNIT` (e.g. `bg_x_dph`, `ba_z_mg`, `td_s`); one plot per quantity+unit |
 //! | any other `*.nav`, `*.csv` (navfuse trajectory CSV), `*.pos` | one solution each, named by the file stem, its own colour |
+//! | `STEM.pos` quality | the Q column of any `.pos` (also one set aside as the same solution as `STEM.nav`): the fix state along the track and its shares ([`fix_state`]) |
 //! | `STEM.std` | navfuse σ file of the solution `STEM.*` (or `--std FILE`): ±3σ bands and the uncertainty section (error against ±2σ, horizontal NEES) |
 //! | `KF_GINS_Navresult.nav` + `KF_GINS_STD.txt` + `KF_GINS_IMU_ERR.txt` | a KF-GINS output folder (KF-GINS's or `navfuse kf-gins`'s): the solution with its σ and IMU error states ([`read_kfgins_output`]) |
 //!
@@ -32,6 +33,7 @@
 //! fixes longer than 5 median fix intervals (and ≥ 3 s).
 
 pub mod build;
+pub mod fix_state;
 pub mod fixture;
 mod page;
 mod sigma_in;
@@ -111,6 +113,9 @@ pub struct Inputs {
     pub eval: EvalConfig,
     /// Files seen and not used, with the reason.
     pub ignored: Vec<String>,
+    /// Per-epoch fix state (quality Q) of the solutions that have one
+    /// (`STEM.pos`, also when the solution itself is read from `STEM.nav`).
+    pub quality: Vec<fix_state::QualityTrack>,
 }
 
 /// Options of [`load_run_dir`].
@@ -361,6 +366,11 @@ pub fn read_innovations(
             s.parse::<f64>()
                 .map_err(|_| format!("{name}:{}: field `{field}`: not a number: {s:?}", ln + 1))
         };
+        // An RTK run's fix decisions (`rtk_fix`, navfuse run) share the
+        // journal: not innovations (their `nis` is `nan`).
+        if ik.and_then(|i| f.get(i)).is_some_and(|k| *k == "rtk_fix") {
+            continue;
+        }
         let t = num(it, "t")?;
         if !t.is_finite() {
             return Err(format!("{name}:{}: field `t`: not finite", ln + 1));
@@ -626,6 +636,19 @@ pub fn load_run_dir(dir: &Path, opt: &LoadOptions) -> Result<Inputs, String> {
         }
         !dup
     });
+    // The fix state of every `.pos` (kept or set aside as a duplicate).
+    for p in files.iter().filter(|p| lower_name(p).ends_with(".pos")) {
+        let st = lower_name(p);
+        if st.starts_with("truth.") || st.starts_with("reference.") {
+            continue;
+        }
+        if st.starts_with("gnss.") || st.starts_with("fixes.") {
+            continue;
+        }
+        if let Some(q) = fix_state::read_pos_quality(p, &stem(p))? {
+            inp.quality.push(q);
+        }
+    }
     sol_paths.extend(opt.solutions.iter().cloned());
     for (name, p) in &sol_paths {
         inp.solutions.push(read_trajectory(p, name, false)?);

@@ -293,6 +293,16 @@ pub(crate) fn render(inp: &Inputs, progress: &mut dyn FnMut(&str)) -> Result<Ren
         });
     }
 
+    // --- Fix state along the track (solutions with a quality column).
+    if let Some((html, plots)) = crate::fix_state::section(inp, &origin) {
+        sections.push(Section {
+            id: "fix-state",
+            title: "Fix state along the track".into(),
+            html,
+            plots,
+        });
+    }
+
     // --- Position error, velocity error, attitude error.
     if inp.truth.is_some() && !inp.solutions.is_empty() {
         let mut plots = Vec::new();

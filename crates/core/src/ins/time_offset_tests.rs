@@ -316,3 +316,31 @@ fn antenna_lever_is_not_taken_for_a_time_offset() {
         assert!(!e.apply, "{e:?}");
     }
 }
+
+/// The galloping sample search finds the index of the plain binary search
+/// for times inside, between, on and outside the stamps, in any order,
+/// with a repeated stamp.
+#[test]
+fn heading_find_equals_partition_point() {
+    let mut imu: Vec<ImuSample> = (0..1000)
+        .map(|k| ImuSample {
+            t: 100.0 + 0.01 * k as f64,
+            dt: 0.01,
+            ..Default::default()
+        })
+        .collect();
+    imu[500].t = imu[499].t;
+    let h = super::Heading::new(&imu);
+    assert!(h.sorted);
+    let mut x = 0.123_f64;
+    for i in 0..20_000 {
+        // Pseudo-random jumps, plus exact stamps.
+        x = (x * 997.0 + 0.371).fract();
+        let t = if i % 7 == 0 {
+            imu[(x * 999.0) as usize].t
+        } else {
+            99.5 + 11.0 * x
+        };
+        assert_eq!(h.find(t), imu.partition_point(|s| s.t < t), "t {t}");
+    }
+}

@@ -374,8 +374,15 @@ pub fn dops(los: impl Iterator<Item = Vec3>) -> (f64, f64) {
 
 /// ENU components of an ECEF baseline error at the base.
 pub fn enu_at(base: &ObsFile, d: &Vec3) -> Vec3 {
-    let navfuse_core::geodesy::Geodetic { lat, lon, .. } = navfuse_core::geodesy::ecef_to_geodetic(
+    enu_at_ecef(
         &Vec3::new(base.approx_pos[0], base.approx_pos[1], base.approx_pos[2]),
-    );
+        d,
+    )
+}
+
+/// [`enu_at`] for a base given by its ECEF position [m].
+pub fn enu_at_ecef(base_e: &Vec3, d: &Vec3) -> Vec3 {
+    let navfuse_core::geodesy::Geodetic { lat, lon, .. } =
+        navfuse_core::geodesy::ecef_to_geodetic(base_e);
     c_e_enu(lat, lon) * d
 }
