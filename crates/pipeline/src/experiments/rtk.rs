@@ -521,6 +521,22 @@ fn slip_satellite(
 
 /// The dual-frequency G+E+C drive (module documentation).
 fn drive_dual(seed: u64, run: &navfuse_sim::SimRun) -> Result<Drive<'_>, String> {
+    drive_dual_with(seed, run, |_| {}).map(|(d, _)| d)
+}
+
+/// Per epoch, the scene's record truth of the rover and of the base.
+type SceneTruth = (
+    Vec<Vec<navfuse_sim::rtk_scene::RecordTruth>>,
+    Vec<Vec<navfuse_sim::rtk_scene::RecordTruth>>,
+);
+
+/// [`drive_dual`] with the scene configuration passed through `tweak`
+/// (diagnostic ablations only) and the scene's record truth.
+fn drive_dual_with(
+    seed: u64,
+    run: &navfuse_sim::SimRun,
+    tweak: impl Fn(&mut RtkSceneConfig),
+) -> Result<(Drive<'_>, SceneTruth), String> {
     let traj = &run.traj;
     let lever = Vec3::from(run.scenario.gnss.lever_arm_m);
     let t0 = traj.truth[0].t;
@@ -531,6 +547,7 @@ fn drive_dual(seed: u64, run: &navfuse_sim::SimRun) -> Result<Drive<'_>, String>
     cfg.raw.windows = rover_windows(t0);
     cfg.raw.seed = seed.wrapping_mul(7919).wrapping_add(17);
     cfg.slip_rate_per_epoch = SLIP_RATE;
+    tweak(&mut cfg);
     let (a0, _) = antenna_truth(traj, &lever, t0);
     let [bn, be, bu] = DEFAULT_BASE_OFFSET_NEU_M;
     let base_e = offset_position(&a0, bn, be, bu);
@@ -580,17 +597,20 @@ fn drive_dual(seed: u64, run: &navfuse_sim::SimRun) -> Result<Drive<'_>, String>
                 .collect()
         })
         .collect();
-    Ok(Drive {
-        traj,
-        imu: &run.imu,
-        lever,
-        rover: sc.rover,
-        base: sc.base,
-        base_e,
-        sd_truth,
-        t0,
-        slip_prn,
-    })
+    Ok((
+        Drive {
+            traj,
+            imu: &run.imu,
+            lever,
+            rover: sc.rover,
+            base: sc.base,
+            base_e,
+            sd_truth,
+            t0,
+            slip_prn,
+        },
+        (sc.rover_truth, sc.base_truth),
+    ))
 }
 
 /// One seed and grade: the drive, both receivers, both filters.
