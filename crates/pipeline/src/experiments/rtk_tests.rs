@@ -26,6 +26,8 @@ fn dual_frequency_rtk_ins_fixes_fast_and_right() {
         single_frequency: false,
         intra_system_only: false,
         success_min: None,
+        white_iono: false,
+        iono_ppm: None,
     };
     let r = run_rtk(&o).unwrap();
     assert!(r.failed.is_empty(), "{:?}", r.failed);
@@ -59,6 +61,8 @@ fn rtk_ins_fixes_right_and_refixes_faster_than_gnss_only() {
         single_frequency: true,
         intra_system_only: false,
         success_min: None,
+        white_iono: false,
+        iono_ppm: None,
     };
     let r = run_rtk(&o).unwrap();
     assert!(r.failed.is_empty(), "{:?}", r.failed);

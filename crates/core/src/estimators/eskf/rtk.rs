@@ -43,6 +43,19 @@
 //! `H = [−Δuᵀ, 0, −Δuᵀ[l_n×], 0…, +λ (a_i), −λ (a_r)]`, `Δu = u_i − u_r`
 //! (NED lines of sight from the rover antenna).
 //!
+//! **Differential ionosphere** ([`RtkConfig::iono_estimate`], on in
+//! [`RtkConfig::consumer`]): [`NION`] more states in the block, one per
+//! satellite, the SD slant delay `I` on 1575.42 MHz beyond the broadcast
+//! model; the DD code gets `+γ_i I_i − γ_r I_r`, the DD phase the negative
+//! (`γ_f = (λ_f/λ_L1)²`), so two frequencies separate it from the range.
+//! Gauss–Markov, σ = `iono_ppm` × |baseline| × single-layer obliquity. Off,
+//! it is white noise of that σ in every SD variance: measured on the
+//! `experiment rtk` scene (1 ppm, 5.4 km) that made the fixed epochs
+//! 3.5–4.4 cm RMS with 72–76 % coverage, up to 30 cm on seeds whose
+//! time-correlated ionosphere biased the float ambiguities by ~1 cycle
+//! (right integers, biased conditional update), and 11 wrong fixed epochs
+//! in seeds 21–40; estimated, 0.3–0.9 cm and 97–99 %.
+//!
 //! **Weights**: undifferenced phase `σ² = a² + b²/sin²el`, a = b = 3 mm
 //! (RTKLIB defaults `stats-errphase`, `stats-errphaseel`, manual 2.4.3
 //! Table F.4-1), code either the same × `stats-eratio1` = 100 (RTKLIB) or
