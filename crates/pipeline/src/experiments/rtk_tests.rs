@@ -119,7 +119,7 @@ fn truth_integers_are_constant_while_tracked() {
 }
 
 /// Diagnostic (issue 15, the fixed epochs' error budget), not an
-/// assertion: for the seeds of `H1_SEEDS` (default 5,10,13,1,2) and the
+/// assertion: for the seeds of `RTK_DIAG_SEEDS` (default 5,10,13,1,2) and the
 /// consumer IMU, runs the with-INS filter epoch by epoch and writes per
 /// epoch the fixed/float horizontal errors and σ beside the scene's truth
 /// of the unmodelled double-difference errors (ionosphere: the simulated
@@ -127,26 +127,29 @@ fn truth_integers_are_constant_while_tracked() {
 /// the simulated delay minus the filter's Saastamoinen + Niell at the true
 /// antenna) and the position error those alone imply through an
 /// unweighted least-squares of the phase DDs (same-signal groups against
-/// their highest satellite). `H1_TWEAK=nograd` zeroes the scene's
-/// ionosphere gradient (ablation, this test only). CSV in /tmp/h1diag.
+/// their highest satellite). `RTK_DIAG_SCENE=nograd` zeroes the scene's
+/// ionosphere gradient (ablation, this test only); `RTK_DIAG_IONO=0` runs
+/// the filter with the ionosphere as white noise. CSV per seed in
+/// `$TMPDIR/rtk_diag`.
 #[test]
 #[ignore = "diagnostic: prints the DD error budget per seed"]
 fn rtk_fixed_error_budget_diagnostic() {
     use navfuse_core::gnss::raw::geometric_range;
-    let seeds: Vec<u64> = std::env::var("H1_SEEDS")
+    let seeds: Vec<u64> = std::env::var("RTK_DIAG_SEEDS")
         .unwrap_or_else(|_| "5,10,13,1,2".into())
         .split(',')
         .filter_map(|x| x.trim().parse().ok())
         .collect();
-    let tweak = std::env::var("H1_TWEAK").unwrap_or_default();
-    let est = std::env::var("H1_IONO").map_or(true, |v| v != "0");
+    let tweak = std::env::var("RTK_DIAG_SCENE").unwrap_or_default();
+    let est = std::env::var("RTK_DIAG_IONO").map_or(true, |v| v != "0");
     let rc = RtkConfig {
         inter_system: true,
         iono_estimate: est,
         ..RtkConfig::consumer()
     };
     let tweak = format!("{tweak}_est{}", u8::from(est));
-    std::fs::create_dir_all("/tmp/h1diag").unwrap();
+    let dir = std::env::temp_dir().join("rtk_diag");
+    std::fs::create_dir_all(&dir).unwrap();
     for seed in seeds {
         let opts = PlatformOptions {
             duration_s: 600.0,
@@ -329,7 +332,7 @@ fn rtk_fixed_error_budget_diagnostic() {
                 sol.n_code
             );
         }
-        std::fs::write(format!("/tmp/h1diag/seed{seed}_{tweak}.csv"), csv).unwrap();
+        std::fs::write(dir.join(format!("seed{seed}_{tweak}.csv")), csv).unwrap();
         let st = f.rtk_stats().unwrap();
         println!(
             "seed {seed} {tweak}: fixed {nfix}, h rms {:.4} m, LS-from-truth-DD h rms {:.4} m, cover95 {:.3}, NIS code {:.3} phase {:.3}",
