@@ -937,7 +937,7 @@ pub struct Eskf {
     /// Tight coupling to raw GNSS (`None`: off, the plain filter).
     tight: Option<tight::Tight>,
     /// RTK ambiguity block (`None`: off; module `rtk`).
-    rtk: Option<rtk::Rtk>,
+    rtk: Option<rtk::RtkBlock>,
 }
 
 /// The adaptive parts of the filter (all `None` by default).
