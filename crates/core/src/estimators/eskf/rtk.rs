@@ -117,6 +117,8 @@ use crate::prelude::*;
 use crate::{Mat3, Vec3};
 use nalgebra::{SMatrix, SVector};
 
+mod gnss_only;
+
 /// Ambiguity slots (module documentation).
 pub const NAMB: usize = MAX_RAW_SATS;
 /// Ambiguities + the clone of the previous epoch's position error.
@@ -175,11 +177,13 @@ pub struct RtkConfig {
     pub min_fix: usize,
     /// Feed the fixed DDs back into the float filter.
     pub fix_and_hold: bool,
-    /// GNSS-only kinematic mode: before each update the position and
-    /// velocity lose their INS prediction (rows/columns zeroed, variance
-    /// `(gnss_only_sigma)²` per axis, m and m/s; the position restarts from
-    /// the last epoch's solution), as RTKLIB kinematic mode without
-    /// dynamics re-initialises the position each epoch. For comparison runs.
+    /// GNSS-only kinematic mode, for comparison runs: position, velocity
+    /// and ambiguities follow their own constant-velocity model (RTKLIB
+    /// kinematic with dynamics), not the INS, and the INS-predicted slip
+    /// test is off (`rtk/gnss_only.rs`). `gnss_only_sigma`: σ of the
+    /// position [m] and velocity [m/s] at a (re)start from the code
+    /// solution, and the posterior position σ beyond which it restarts
+    /// (RTKLIB `VAR_POS`).
     pub gnss_only: bool,
     pub gnss_only_sigma: f64,
 }
@@ -516,13 +520,13 @@ pub(super) struct Rtk {
     p_aa: SMatrix<f64, NK, NK>,
     /// The clone holds a previous epoch's position error.
     clone_set: bool,
-    /// Posterior IMU position (lat, lon, h) of the last epoch.
-    last_pos: Option<(f64, f64, f64)>,
     slots: [Slot; NAMB],
     /// Reference PRN of each (system, signal) group last epoch.
     refs: [(Option<(GnssSystem, Signal)>, u8); NGROUP],
     gate: f64,
     slip_gate: f64,
+    /// GNSS-only mode: the constant-velocity model's last posterior.
+    cv: Option<gnss_only::CvPosterior>,
     pub(super) stats: RtkStats,
 }
 
@@ -537,11 +541,11 @@ impl Rtk {
             p_xa: SMatrix::zeros(),
             p_aa: SMatrix::zeros(),
             clone_set: false,
-            last_pos: None,
             slots: [Slot::default(); NAMB],
             refs: [(None, 0); NGROUP],
             gate: kalman::chi2_quantile(1, cfg.gate_probability),
             slip_gate: kalman::chi2_quantile(1, cfg.slip_probability),
+            cv: None,
             stats: RtkStats::default(),
         })
     }
@@ -849,28 +853,8 @@ impl Eskf {
             .map(|r| r.cfg)
             .ok_or(RtkError::NotEnabled)?;
         if cfg.gnss_only {
-            // No INS prediction: the position restarts from the last
-            // epoch's (RTKLIB kinematic without dynamics restarts from the
-            // epoch's single-point position with σ 30 m, `udpos`).
-            if let Some((lat, lon, h)) = self.rtk.as_ref().and_then(|r| r.last_pos) {
-                self.nav.lat = lat;
-                self.nav.lon = lon;
-                self.nav.h = h;
-            }
-            self.recentre_on_code(rover, base, base_e, &cfg);
-            let s2 = cfg.gnss_only_sigma * cfg.gnss_only_sigma;
-            for k in I_POS..I_VEL + 3 {
-                for j in 0..NX {
-                    self.p[(k, j)] = 0.0;
-                    self.p[(j, k)] = 0.0;
-                }
-                self.p[(k, k)] = s2;
-                if let Some(r) = &mut self.rtk {
-                    for j in 0..NK {
-                        r.p_xa[(k, j)] = 0.0;
-                    }
-                }
-            }
+            // No INS: constant-velocity prediction (rtk/gnss_only.rs).
+            self.gnss_only_predict(rover, base, base_e, &cfg);
         }
         let bg = crate::geodesy::ecef_to_geodetic(base_e);
         let cen_b = c_en(bg.lat, bg.lon);
@@ -997,8 +981,8 @@ impl Eskf {
                 }
             }
         }
-        // 3. INS-predicted cycle-slip test.
-        {
+        // 3. INS-predicted cycle-slip test (not in GNSS-only mode).
+        if !cfg.gnss_only {
             let mut d = [0.0f64; MAX_RAW_SATS];
             let mut dv = [0.0f64; MAX_RAW_SATS];
             let mut nd = 0usize;
@@ -1248,8 +1232,8 @@ impl Eskf {
             sl.prev_var = r.v_phi;
         }
         rt.set_clone(&self.p);
-        if n_code + n_phase > 0 {
-            rt.last_pos = Some((self.nav.lat, self.nav.lon, self.nav.h));
+        if cfg.gnss_only {
+            self.gnss_only_store();
         }
         sol.t = self.t;
         sol.n_code = n_code;
@@ -1258,17 +1242,23 @@ impl Eskf {
     }
 
     /// GNSS-only mode: move the position onto the code-DD least-squares
-    /// solution (unweighted, 4 Gauss–Newton steps; the relative-mode analogue
-    /// of RTKLIB's single-point prior), so a car that moved while the
-    /// satellites were gone does not start hundreds of metres off.
+    /// solution (unweighted Gauss–Newton, the relative-mode analogue of
+    /// RTKLIB's single-point prior), so a car that moved while the
+    /// satellites were gone does not start hundreds of metres off. DDs
+    /// grouped as the update groups them ([`RtkConfig::inter_system`]).
+    /// Refused (position restored, `false`) without redundancy — fewer than
+    /// 4 DDs for the 3 unknowns: an exactly determined code solution has no
+    /// check and, with 4 satellites, a DOP that put it 300 m off (seed 12 of
+    /// `experiment rtk`) — or when it does not converge to 1 cm in 6 steps.
     fn recentre_on_code(
         &mut self,
         rover: &RawEpoch,
         base: &RawEpoch,
         base_e: &Vec3,
         cfg: &RtkConfig,
-    ) {
-        for _ in 0..4 {
+    ) -> bool {
+        let saved = (self.nav.lat, self.nav.lon, self.nav.h);
+        for _ in 0..6 {
             let a = self.rtk_antenna();
             let doy = day_of_year(rover.t);
             let bg = crate::geodesy::ecef_to_geodetic(base_e);
@@ -1304,12 +1294,12 @@ impl Eskf {
                 let t_r = slant_delay(el, a.lat, a.h, doy, cfg.humidity);
                 let t_b = slant_delay(el, bg.lat, bg.h, doy, cfg.humidity);
                 let pred = (rho_r - s.sat.clock_m + t_r) - (rho_b - b.sat.clock_m + t_b);
-                rows[n] = (
-                    (o.system, o.signal),
-                    el,
-                    u_n,
-                    (o.pseudorange_m - b.obs.pseudorange_m) - pred,
-                );
+                let grp = match (cfg.inter_system, o.signal) {
+                    (true, Signal::GalE1) => (GnssSystem::Gps, Signal::GpsL1Ca),
+                    (true, Signal::BdsB2I) => (GnssSystem::Galileo, Signal::GalE5b),
+                    _ => (o.system, o.signal),
+                };
+                rows[n] = (grp, el, u_n, (o.pseudorange_m - b.obs.pseudorange_m) - pred);
                 n += 1;
             }
             let mut nm = Mat3::zeros();
@@ -1332,22 +1322,23 @@ impl Eskf {
                 rhs += hrow * dz;
                 m += 1;
             }
-            if m < 3 {
-                return;
-            }
-            let Some(inv) = nm.try_inverse() else { return };
+            let Some(inv) = nm.try_inverse().filter(|_| m >= 4) else {
+                break;
+            };
             let dr = inv * rhs;
             if !dr.iter().all(|v| v.is_finite()) {
-                return;
+                break;
             }
             let (rm, rn) = earth::radii(self.nav.lat);
             self.nav.lat -= dr[0] / (rm + self.nav.h);
             self.nav.lon -= dr[1] / ((rn + self.nav.h) * self.nav.lat.cos());
             self.nav.h += dr[2];
             if dr.norm() < 0.01 {
-                return;
+                return true;
             }
         }
+        (self.nav.lat, self.nav.lon, self.nav.h) = saved;
+        false
     }
 
     /// LAMBDA with partial ambiguity resolution on the DD ambiguities of
