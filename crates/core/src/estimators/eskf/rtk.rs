@@ -79,6 +79,13 @@
 //! uncertainty common to both epochs does not count) with the χ²₁ quantile
 //! of [`RtkConfig::slip_probability`]. Needs ≥ 3 records with a
 //! previous epoch (a median of two cannot tell which slipped).
+//! Not run in [`RtkConfig::gnss_only`] mode.
+//!
+//! **Dual-frequency slips**: then, for each satellite with both signals in
+//! slots and neither reset this epoch, the geometry-free and
+//! Melbourne–Wübbena tests of [`crate::gnss::slip`] on the single
+//! differences (thresholds and sources there); a slip re-initialises both
+//! signals ([`RtkSatCounts::dual_slips`]).
 //!
 //! **Fixing** (Teunissen 1995 LAMBDA, [`crate::lambda`]): DD float
 //! ambiguities `â = D a`, `Q = D P_aa Dᵀ` of the phase DDs used this epoch;
@@ -361,6 +368,9 @@ pub struct RtkSatCounts {
     pub lli_resets: u32,
     /// Re-initialisations on an INS-detected cycle slip.
     pub slips: u32,
+    /// Re-initialisations (of both signals) on a dual-frequency
+    /// geometry-free or Melbourne–Wübbena slip ([`crate::gnss::slip`]).
+    pub dual_slips: u32,
     /// Re-initialisations because the reference's DDs failed their gates.
     pub ref_resets: u32,
 }
@@ -436,6 +446,7 @@ impl RtkStats {
                 sets: a.sets + s.sets,
                 lli_resets: a.lli_resets + s.lli_resets,
                 slips: a.slips + s.slips,
+                dual_slips: a.dual_slips + s.dual_slips,
                 ref_resets: a.ref_resets + s.ref_resets,
             })
     }
@@ -527,6 +538,10 @@ pub(super) struct Rtk {
     slip_gate: f64,
     /// GNSS-only mode: the constant-velocity model's last posterior.
     cv: Option<gnss_only::CvPosterior>,
+    /// GNSS-only mode: the INS attitude rows of `P` during the update.
+    att_aside: Option<gnss_only::AttRows>,
+    /// Dual-frequency slip detectors on the single differences.
+    dual: crate::gnss::slip::DualFreqSlip,
     pub(super) stats: RtkStats,
 }
 
@@ -546,6 +561,8 @@ impl Rtk {
             gate: kalman::chi2_quantile(1, cfg.gate_probability),
             slip_gate: kalman::chi2_quantile(1, cfg.slip_probability),
             cv: None,
+            att_aside: None,
+            dual: Default::default(),
             stats: RtkStats::default(),
         })
     }
@@ -686,6 +703,65 @@ impl Rtk {
                 if let Some(i) = self.refs.iter().position(|r| r.0.is_none()) {
                     self.refs[i] = (Some(g), prn);
                 }
+            }
+        }
+    }
+
+    /// Geometry-free and Melbourne–Wübbena tests ([`crate::gnss::slip`])
+    /// on the single differences of each satellite with both signals in a
+    /// slot: the receiver clocks cancel in both combinations and the
+    /// ionosphere mostly, and one test covers a slip at either receiver.
+    /// Variances: the records' SD phase and code variances. A slip
+    /// re-initialises both signals' slots (GF cannot tell which one
+    /// slipped; RTKLIB flags both too); a record already reset (rise,
+    /// loss of lock) restarts the satellite's arc.
+    fn dual_slip_tests(&mut self, recs: &mut [Rec], t: f64) {
+        for i in 0..recs.len() {
+            let r1 = recs[i];
+            if r1.slot == usize::MAX || !r1.key_sig.is_first() {
+                continue;
+            }
+            let Some(sig2) = Signal::second_of(r1.key_sys) else {
+                continue;
+            };
+            let Some(j) = recs.iter().position(|r| {
+                r.key_sys == r1.key_sys
+                    && r.key_prn == r1.key_prn
+                    && r.key_sig == sig2
+                    && r.slot != usize::MAX
+            }) else {
+                continue;
+            };
+            let r2 = recs[j];
+            let key = (r1.key_sys, r1.key_prn);
+            if r1.reset || r2.reset {
+                self.dual.restart(key);
+            }
+            let o = crate::gnss::slip::DualObs {
+                t,
+                f1_hz: r1.key_sig.frequency_hz(0),
+                f2_hz: sig2.frequency_hz(0),
+                l1_m: r1.sd_phi,
+                l2_m: r2.sd_phi,
+                p1_m: r1.sd_code,
+                p2_m: r2.sd_code,
+                var_l1: r1.v_phi,
+                var_l2: r2.v_phi,
+                var_p1: r1.v_code,
+                var_p2: r2.v_code,
+            };
+            if self.dual.update(key, &o).slip() {
+                for k in [i, j] {
+                    let r = &mut recs[k];
+                    if !r.reset {
+                        let a0 = (r.sd_phi - r.sd_code) / r.lambda;
+                        self.init_slot(r.slot, (r.key_sys, r.key_prn, r.key_sig), r.lambda, a0);
+                        self.slots[r.slot].seen = true;
+                        r.reset = true;
+                    }
+                }
+                self.stats.per_sat[r1.key_sys.index() * 64 + r1.key_prn as usize % 64]
+                    .dual_slips += 1;
             }
         }
     }
@@ -981,7 +1057,7 @@ impl Eskf {
                 }
             }
         }
-        // 3. INS-predicted cycle-slip test (not in GNSS-only mode).
+        // 3a. INS-predicted cycle-slip test (not in GNSS-only mode).
         if !cfg.gnss_only {
             let mut d = [0.0f64; MAX_RAW_SATS];
             let mut dv = [0.0f64; MAX_RAW_SATS];
@@ -1023,6 +1099,10 @@ impl Eskf {
                 rt.stats.slip_untestable += 1;
             }
         }
+        // 3b. Dual-frequency GF / MW slip tests (no INS needed) on the
+        // satellites the INS test left alone: it resets only the signal
+        // that slipped, GF / MW both.
+        rt.dual_slip_tests(&mut recs[..nr], rover.t);
         // 4. Reference per (system, signal): highest elevation.
         let mut groups: [Option<(GnssSystem, Signal)>; NGROUP] = [None; NGROUP];
         let mut gref = [usize::MAX; NGROUP];

@@ -69,13 +69,45 @@ pub(in crate::estimators::eskf) struct CvPosterior {
     p_aa: SMatrix<f64, NK, NK>,
 }
 
+/// The INS attitude rows of `P` set aside during a GNSS-only update.
+pub(in crate::estimators::eskf) type AttRows = SMatrix<f64, 3, NX>;
+
 const _: () = assert!(I_VEL == I_POS + 3, "position and velocity adjacent");
 
 impl Eskf {
     /// Before a GNSS-only epoch: the constant-velocity prediction from the
     /// last posterior (module documentation); at the first epoch the code
-    /// solution with σ [`RtkConfig::gnss_only_sigma`].
+    /// solution with σ [`RtkConfig::gnss_only_sigma`]. The attitude's rows
+    /// of `P` are set aside (zeroed) until [`Eskf::gnss_only_store`]: the
+    /// lever arm is turned by the INS attitude taken as exact, so the DDs
+    /// do not estimate the attitude (and with it move the IMU position by
+    /// lever × angle, which made the GNSS-only result depend on the IMU).
     pub(super) fn gnss_only_predict(
+        &mut self,
+        rover: &RawEpoch,
+        base: &RawEpoch,
+        base_e: &Vec3,
+        cfg: &RtkConfig,
+    ) {
+        self.gnss_only_predict_pv(rover, base, base_e, cfg);
+        let att: AttRows = self.p.fixed_rows::<3>(I_ATT).into_owned();
+        for k in I_ATT..I_ATT + 3 {
+            for j in 0..NX {
+                self.p[(k, j)] = 0.0;
+                self.p[(j, k)] = 0.0;
+            }
+        }
+        if let Some(rt) = &mut self.rtk {
+            for k in I_ATT..I_ATT + 3 {
+                for j in 0..NK {
+                    rt.p_xa[(k, j)] = 0.0;
+                }
+            }
+            rt.att_aside = Some(att);
+        }
+    }
+
+    fn gnss_only_predict_pv(
         &mut self,
         rover: &RawEpoch,
         base: &RawEpoch,
@@ -130,8 +162,17 @@ impl Eskf {
         }
     }
 
-    /// After a GNSS-only epoch: keep this model's posterior.
+    /// After a GNSS-only epoch: keep this model's posterior, give the INS
+    /// its attitude rows back.
     pub(super) fn gnss_only_store(&mut self) {
+        if let Some(att) = self.rtk.as_mut().and_then(|r| r.att_aside.take()) {
+            for k in 0..3 {
+                for j in 0..NX {
+                    self.p[(I_ATT + k, j)] = att[(k, j)];
+                    self.p[(j, I_ATT + k)] = att[(k, j)];
+                }
+            }
+        }
         let t = self.t;
         let (lat, lon, h, v_n) = (self.nav.lat, self.nav.lon, self.nav.h, self.nav.v_n);
         let p6 = self.p.fixed_view::<6, 6>(I_POS, I_POS).into_owned();
