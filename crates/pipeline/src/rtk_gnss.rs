@@ -172,7 +172,7 @@ impl RtkGnssRun {
                 .collect(),
             rejected: self.rejected.clone(),
             unpaired: self.unpaired_rover,
-            slips: (t.lli_resets + t.slips) as usize,
+            slips: (t.lli_resets + t.slips + t.dual_slips) as usize,
         }
     }
     pub fn first_fix_epoch(&self) -> Option<usize> {
