@@ -41,6 +41,8 @@
 
 use crate::gnss::raw::GnssSystem;
 use crate::gnss::C_LIGHT;
+#[allow(unused_imports)]
+use crate::prelude::*;
 
 /// Satellites tracked at once (GPS 32 + Galileo 36 + BeiDou 63 would be
 /// more, but never in view together: 64 ≥ the ≤ 48 records of an epoch).
