@@ -131,8 +131,8 @@ pub fn load_raw(obs: &Path, nav: &[PathBuf]) -> Result<RawInput> {
     raw_from_obs(&o, &g, &n, obs, format)
 }
 
-/// [`load_raw`], with `second_frequency` the GPS L2 records too
-/// ([`raw_from_obs_with`]).
+/// [`load_raw`], with `second_frequency` the second-frequency records too
+/// (GPS L2, Galileo E5b, BeiDou B2I; [`raw_from_obs_with`]).
 pub fn load_raw_with(obs: &Path, nav: &[PathBuf], second_frequency: bool) -> Result<RawInput> {
     if !second_frequency {
         return load_raw(obs, nav);
@@ -169,7 +169,12 @@ pub fn raw_from_obs(
 /// LLI bit 0, signal [`Signal::GpsL2C`] (the L2 carrier, 1227.60 MHz,
 /// whichever code was tracked: only the frequency matters to the DD model),
 /// the Klobuchar delay scaled by (λ₂/λ₁)². Each such record follows its L1
-/// record in the epoch. The SPP, the fixes, the tight path and the account
+/// record in the epoch. Likewise for a RINEX 3 file's Galileo and BeiDou
+/// satellites: their first signal (E1, B1I) gets its carrier, LLI and C/N0
+/// (without `second_frequency` those records carry code and Doppler only,
+/// as the SPP and tight filter use them), and the second (E5b, B2I: band 7,
+/// codes in [`rtk_codes`]) follows it with the same ephemeris, the
+/// Klobuchar delay scaled by (λ₂/λ₁)². The SPP, the fixes, the tight path and the account
 /// are those of the first signal (`second_frequency = false` gives
 /// exactly [`raw_from_obs`]).
 pub fn raw_from_obs_with(
@@ -405,9 +410,52 @@ pub fn raw_from_obs_with(
                 },
                 sat: sat_state(&e.orbit, e.kind, ep.t, pr),
             };
+            if second_frequency {
+                // RTK: the first signal's carrier and C/N0 too
+                // (raw_from_obs_with).
+                let (phases, _, snr) = rtk_codes(signal);
+                r.obs.cn0_dbhz = get(snr).map_or(0.0, |v| v as f32);
+                if let Some(l) = first_obs(g, *sys, phases, vals) {
+                    r.obs.carrier_m = l.value * lambda;
+                    r.obs.flags = if l.lli & 1 != 0 { FLAG_LOSS_OF_LOCK } else { 0 };
+                }
+            }
             let f2 = (lambda / LAMBDA_L1).powi(2);
             atmosphere(&mut r, rx, iono.as_ref(), ura, f2, scale);
             if !push(r, &mut records) {
+                bump(id, &|c| c.over_capacity += 1);
+                continue;
+            }
+            let Some(sig2) = Signal::second_of(system).filter(|_| second_frequency) else {
+                continue;
+            };
+            let (phases, codes2, snr2) = rtk_codes(sig2);
+            let Some(pr2) = get(codes2) else {
+                continue;
+            };
+            let lambda2 = sig2.wavelength_m(0);
+            let l2 = first_obs(g, *sys, phases, vals);
+            let mut r2 = RawSat {
+                obs: RawObs {
+                    t: ep.t,
+                    pseudorange_m: pr2,
+                    carrier_m: l2.map_or(f64::NAN, |v| v.value * lambda2),
+                    cn0_dbhz: get(snr2).map_or(0.0, |v| v as f32),
+                    system,
+                    prn: *prn,
+                    signal: sig2,
+                    flags: if l2.is_some_and(|v| v.lli & 1 != 0) {
+                        FLAG_LOSS_OF_LOCK
+                    } else {
+                        0
+                    },
+                    ..RawObs::default()
+                },
+                sat: sat_state(&e.orbit, e.kind, ep.t, pr2),
+            };
+            let f2 = (lambda2 / LAMBDA_L1).powi(2);
+            atmosphere(&mut r2, rx, iono.as_ref(), ura, f2, scale);
+            if !push(r2, &mut records) {
                 bump(id, &|c| c.over_capacity += 1);
             }
         }
@@ -461,6 +509,50 @@ pub fn raw_from_obs_with(
         sat_var_scale: sat_scale,
         sat_var_dof_eff: sat_dof_eff,
     })
+}
+
+/// RINEX 3.04 (Table 4) carrier, code and C/N0 codes the RTK input reads
+/// for a Galileo or BeiDou signal, in preference order: E1 pilot/combined
+/// (`1C`, `1X`, `1B`: the SPP's code order), B1I on band 2 (`2I`, and the
+/// RINEX 3.01 `1I`), E5b (`7Q`, `7X`, `7I`), B2I (`7I`, `7Q`, `7X`).
+/// The simulated scene ([`Signal::rinex3_codes`]) writes `L1C`, `L2I`,
+/// `L7Q`, `L7I`.
+type Codes = &'static [&'static str];
+fn rtk_codes(sig: Signal) -> (Codes, Codes, Codes) {
+    match sig {
+        Signal::GalE1 => (
+            &["L1C", "L1X", "L1B"],
+            &["C1C", "C1X", "C1B"],
+            &["S1C", "S1X", "S1B"],
+        ),
+        Signal::BdsB1I => (&["L2I", "L1I"], &["C2I", "C1I"], &["S2I", "S1I"]),
+        Signal::GalE5b => (
+            &["L7Q", "L7X", "L7I"],
+            &["C7Q", "C7X", "C7I"],
+            &["S7Q", "S7X", "S7I"],
+        ),
+        Signal::BdsB2I => (
+            &["L7I", "L7Q", "L7X"],
+            &["C7I", "C7Q", "C7X"],
+            &["S7I", "S7Q", "S7X"],
+        ),
+        _ => (&[], &[], &[]),
+    }
+}
+
+/// The first non-zero observation (value and LLI) among `codes` of one
+/// satellite's RINEX 3 values ([`GnssObs::first_value`] with the LLI).
+fn first_obs(
+    g: &GnssObs,
+    sys: char,
+    codes: &[&str],
+    vals: &[Option<navfuse_io::rinex::ObsValue>],
+) -> Option<navfuse_io::rinex::ObsValue> {
+    codes
+        .iter()
+        .filter_map(|c| g.index(sys, c))
+        .filter_map(|i| vals.get(i).copied().flatten())
+        .find(|v| v.value != 0.0)
 }
 
 /// Satellite orbit/clock σ [m] of a record for the tight filter: Galileo

@@ -214,3 +214,87 @@ fn glonass_records_from_the_simulated_log() {
         assert!(d.abs() < 40.0, "R{:02}: {d} m", x.obs.prn);
     }
 }
+
+/// RTK input of a RINEX 3 G+E+C pair file (the simulated scene's own
+/// codes): with `second_frequency` every Galileo and BeiDou satellite gets
+/// its carrier on the first signal and an E5b / B2I record after it, equal
+/// to the simulated records to the file's precision; without it the
+/// Galileo/BeiDou records stay code-only and no second signal appears (the
+/// SPP/tight input unchanged).
+#[test]
+fn rtk_input_reads_galileo_e5b_and_beidou_b2i() {
+    use navfuse_sim::multi_gnss::{constellations, MultiGnssConfig};
+    use navfuse_sim::rtk_scene::{offset_position, simulate_rtk, RtkSceneConfig, SceneSat};
+    let dir = crate::test_dir("rtk-input-e5b-b2i");
+    let m = MultiGnssConfig::default();
+    let t_oe = ((m.t0 - 1.0) / 960.0).floor() * 960.0;
+    let (nav_gps, nav_other) = constellations(t_oe, 4);
+    let sats = SceneSat::from_broadcast(&nav_gps, &nav_other);
+    let rx = geodetic_to_ecef(&m.centre);
+    let base = offset_position(&rx, 5000.0, 2000.0, 20.0);
+    let times: Vec<f64> = (0..5).map(|k| m.t0 + k as f64).collect();
+    let sc = simulate_rtk(
+        &RtkSceneConfig::default(),
+        &sats,
+        &times,
+        |_| (rx, Vec3::zeros()),
+        base,
+    );
+    let (rover_text, _) = sc.obs_texts();
+    let obs = dir.join("rover.obs");
+    let nav = dir.join("nav.rnx");
+    std::fs::write(&obs, rover_text).unwrap();
+    std::fs::write(
+        &nav,
+        navfuse_io::rinex_write::nav3_text(&nav_gps, &nav_other),
+    )
+    .unwrap();
+    let dual = load_raw_with(&obs, std::slice::from_ref(&nav), true).unwrap();
+    let single = load_raw_with(&obs, std::slice::from_ref(&nav), false).unwrap();
+    let count = |r: &RawInput, s: Signal| r.records.iter().filter(|x| x.obs.signal == s).count();
+    for s in [Signal::GalE5b, Signal::BdsB2I] {
+        assert!(count(&dual, s) >= 5, "{s:?}: {}", count(&dual, s));
+        assert_eq!(count(&single, s), 0, "{s:?}");
+        let first = Signal::first_of(s.system());
+        assert_eq!(count(&dual, s), count(&dual, first), "{s:?}");
+    }
+    let mut compared = 0;
+    for r in dual
+        .records
+        .iter()
+        .filter(|x| x.obs.system != GnssSystem::Gps)
+    {
+        let ep = sc
+            .rover
+            .iter()
+            .find(|e| (e.epoch.t - r.obs.t).abs() < 1e-6)
+            .expect("epoch");
+        let o = ep
+            .epoch
+            .sats()
+            .iter()
+            .find(|s| {
+                s.obs.system == r.obs.system
+                    && s.obs.prn == r.obs.prn
+                    && s.obs.signal == r.obs.signal
+            })
+            .expect("simulated record");
+        // RINEX: 0.001 cycles and 0.001 m.
+        assert!(
+            (r.obs.carrier_m - o.obs.carrier_m).abs() < 2e-3,
+            "{r:?} {o:?}"
+        );
+        assert!((r.obs.pseudorange_m - o.obs.pseudorange_m).abs() < 2e-3);
+        assert_eq!(
+            r.obs.flags & FLAG_LOSS_OF_LOCK,
+            o.obs.flags & FLAG_LOSS_OF_LOCK
+        );
+        compared += 1;
+    }
+    assert!(compared >= 20, "{compared}");
+    assert!(single
+        .records
+        .iter()
+        .filter(|x| x.obs.system != GnssSystem::Gps)
+        .all(|x| x.obs.carrier_m.is_nan()));
+}

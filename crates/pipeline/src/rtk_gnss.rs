@@ -13,10 +13,10 @@
 //! - **kinematic**: position and velocity lose their prior before each
 //!   epoch, σ 30 m (`baseline`: 900 m²), the estimate kept at the last
 //!   epoch's ([`Eskf::rtk_forget_position`], as `baseline`); optionally the
-//!   core's [`RtkConfig::gnss_only`] instead, which re-centres on the code
-//!   solution first ([`RtkGnssOpts::core_gnss_only`]; on GEONET that moved
-//!   the fixed baseline by up to 1.7 mm: the rover troposphere evaluated
-//!   metres off, see [`Eskf::rtk_forget_position`]).
+//!   core's [`RtkConfig::gnss_only`] instead, a constant-velocity model
+//!   (RTKLIB with dynamics, not `baseline`'s model:
+//!   [`RtkGnssOpts::core_gnss_only`]; on GEONET its fixed baselines differ
+//!   from `baseline`'s by up to ~15 mm; diagnostic only, not asserted).
 //!
 //! Choices reconciled with `baseline` (each one read in both codes):
 //! - elevation weights `σ² = a² + a²/sin²el`, a = 3 mm, code 100× (both:
@@ -89,9 +89,10 @@ pub struct RtkGnssOpts {
     pub pair_tol_s: f64,
     pub max_gdop: f64,
     pub humidity: f64,
-    /// Kinematic by the core's [`RtkConfig::gnss_only`] (re-centred on the
-    /// code solution each epoch) instead of [`Eskf::rtk_forget_position`]
-    /// (kept at the last estimate, as `baseline`). For the comparison.
+    /// Kinematic by the core's [`RtkConfig::gnss_only`] (its own
+    /// constant-velocity model) instead of [`Eskf::rtk_forget_position`]
+    /// (prior forgotten each epoch, kept at the last estimate, as
+    /// `baseline`). For the comparison.
     pub core_gnss_only: bool,
 }
 
@@ -172,7 +173,7 @@ impl RtkGnssRun {
                 .collect(),
             rejected: self.rejected.clone(),
             unpaired: self.unpaired_rover,
-            slips: (t.lli_resets + t.slips) as usize,
+            slips: (t.lli_resets + t.slips + t.dual_slips) as usize,
         }
     }
     pub fn first_fix_epoch(&self) -> Option<usize> {

@@ -588,6 +588,9 @@ pub struct SatJson {
     pub ambiguity_frees_set: u32,
     pub resets_loss_of_lock: u32,
     pub resets_ins_slip: u32,
+    /// Both signals reset on a dual-frequency geometry-free /
+    /// Melbourne–Wübbena slip (`navfuse_core::gnss::slip`).
+    pub resets_dual_slip: u32,
     pub resets_reference: u32,
 }
 
@@ -606,6 +609,7 @@ impl From<RtkSatCounts> for SatJson {
             ambiguity_frees_set: c.sets,
             resets_loss_of_lock: c.lli_resets,
             resets_ins_slip: c.slips,
+            resets_dual_slip: c.dual_slips,
             resets_reference: c.ref_resets,
         }
     }

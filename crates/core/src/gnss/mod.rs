@@ -17,6 +17,7 @@
 //! - [`glonass`]: GLONASS broadcast ephemeris (RK4 in PZ-90, ICD 5.1 A.3.1.2).
 //! - [`iono`]: Klobuchar broadcast ionosphere (IS-GPS-200 Fig. 20-4).
 //! - [`spp`]: single-point positioning (WLS, RAIM FDE, DOPs, Doppler velocity).
+//! - [`slip`]: dual-frequency geometry-free and Melbourne–Wübbena cycle-slip tests.
 //!
 //! Time: GPS seconds since the GPS epoch (`week · 604800 + tow`).
 
@@ -33,6 +34,7 @@ pub mod glonass;
 pub mod iono;
 pub mod orbit_gnss;
 pub mod raw;
+pub mod slip;
 pub mod spp;
 pub mod tropo;
 

@@ -92,6 +92,13 @@
 //! uncertainty common to both epochs does not count) with the χ²₁ quantile
 //! of [`RtkConfig::slip_probability`]. Needs ≥ 3 records with a
 //! previous epoch (a median of two cannot tell which slipped).
+//! Not run in [`RtkConfig::gnss_only`] mode.
+//!
+//! **Dual-frequency slips**: then, for each satellite with both signals in
+//! slots and neither reset this epoch, the geometry-free and
+//! Melbourne–Wübbena tests of [`crate::gnss::slip`] on the single
+//! differences (thresholds and sources there); a slip re-initialises both
+//! signals ([`RtkSatCounts::dual_slips`]).
 //!
 //! **Fixing** (Teunissen 1995 LAMBDA, [`crate::lambda`]): DD float
 //! ambiguities `â = D a`, `Q = D P_aa Dᵀ` of the phase DDs used this epoch;
@@ -129,6 +136,8 @@ use crate::lambda;
 use crate::prelude::*;
 use crate::{Mat3, Vec3};
 use nalgebra::{SMatrix, SVector};
+
+mod gnss_only;
 
 /// Ambiguity slots (module documentation).
 pub const NAMB: usize = MAX_RAW_SATS;
@@ -220,11 +229,13 @@ pub struct RtkConfig {
     pub min_fix: usize,
     /// Feed the fixed DDs back into the float filter.
     pub fix_and_hold: bool,
-    /// GNSS-only kinematic mode: before each update the position and
-    /// velocity lose their INS prediction (rows/columns zeroed, variance
-    /// `(gnss_only_sigma)²` per axis, m and m/s; the position restarts from
-    /// the last epoch's solution), as RTKLIB kinematic mode without
-    /// dynamics re-initialises the position each epoch. For comparison runs.
+    /// GNSS-only kinematic mode, for comparison runs: position, velocity
+    /// and ambiguities follow their own constant-velocity model (RTKLIB
+    /// kinematic with dynamics), not the INS, and the INS-predicted slip
+    /// test is off (`rtk/gnss_only.rs`). `gnss_only_sigma`: σ of the
+    /// position [m] and velocity [m/s] at a (re)start from the code
+    /// solution, and the posterior position σ beyond which it restarts
+    /// (RTKLIB `VAR_POS`).
     pub gnss_only: bool,
     pub gnss_only_sigma: f64,
 }
@@ -434,6 +445,9 @@ pub struct RtkSatCounts {
     pub lli_resets: u32,
     /// Re-initialisations on an INS-detected cycle slip.
     pub slips: u32,
+    /// Re-initialisations (of both signals) on a dual-frequency
+    /// geometry-free or Melbourne–Wübbena slip ([`crate::gnss::slip`]).
+    pub dual_slips: u32,
     /// Re-initialisations because the reference's DDs failed their gates.
     pub ref_resets: u32,
 }
@@ -509,6 +523,7 @@ impl RtkStats {
                 sets: a.sets + s.sets,
                 lli_resets: a.lli_resets + s.lli_resets,
                 slips: a.slips + s.slips,
+                dual_slips: a.dual_slips + s.dual_slips,
                 ref_resets: a.ref_resets + s.ref_resets,
             })
     }
@@ -606,8 +621,6 @@ pub(super) struct Rtk {
     p_aa: SMatrix<f64, NK, NK>,
     /// The clone holds a previous epoch's position error.
     clone_set: bool,
-    /// Posterior IMU position (lat, lon, h) of the last epoch.
-    last_pos: Option<(f64, f64, f64)>,
     slots: [Slot; NAMB],
     /// Ionosphere slots: satellite, seen this epoch.
     ion: [(Option<(GnssSystem, u8)>, bool); NION],
@@ -618,6 +631,12 @@ pub(super) struct Rtk {
     refs: [(Option<(GnssSystem, Signal)>, u8); NGROUP],
     gate: f64,
     slip_gate: f64,
+    /// GNSS-only mode: the constant-velocity model's last posterior.
+    cv: Option<gnss_only::CvPosterior>,
+    /// GNSS-only mode: the INS attitude rows of `P` during the update.
+    att_aside: Option<gnss_only::AttRows>,
+    /// Dual-frequency slip detectors on the single differences.
+    dual: crate::gnss::slip::DualFreqSlip,
     pub(super) stats: RtkStats,
 }
 
@@ -655,7 +674,6 @@ impl Rtk {
             p_xa: SMatrix::zeros(),
             p_aa: SMatrix::zeros(),
             clone_set: false,
-            last_pos: None,
             slots: [Slot::default(); NAMB],
             ion: [(None, false); NION],
             ion_t: f64::NAN,
@@ -663,6 +681,9 @@ impl Rtk {
             refs: [(None, 0); NGROUP],
             gate: kalman::chi2_quantile(1, cfg.gate_probability),
             slip_gate: kalman::chi2_quantile(1, cfg.slip_probability),
+            cv: None,
+            att_aside: None,
+            dual: Default::default(),
             stats: RtkStats::default(),
         })
     }
@@ -855,6 +876,65 @@ impl Rtk {
         }
     }
 
+    /// Geometry-free and Melbourne–Wübbena tests ([`crate::gnss::slip`])
+    /// on the single differences of each satellite with both signals in a
+    /// slot: the receiver clocks cancel in both combinations and the
+    /// ionosphere mostly, and one test covers a slip at either receiver.
+    /// Variances: the records' SD phase and code variances. A slip
+    /// re-initialises both signals' slots (GF cannot tell which one
+    /// slipped; RTKLIB flags both too); a record already reset (rise,
+    /// loss of lock) restarts the satellite's arc.
+    fn dual_slip_tests(&mut self, recs: &mut [Rec], t: f64) {
+        for i in 0..recs.len() {
+            let r1 = recs[i];
+            if r1.slot == usize::MAX || !r1.key_sig.is_first() {
+                continue;
+            }
+            let Some(sig2) = Signal::second_of(r1.key_sys) else {
+                continue;
+            };
+            let Some(j) = recs.iter().position(|r| {
+                r.key_sys == r1.key_sys
+                    && r.key_prn == r1.key_prn
+                    && r.key_sig == sig2
+                    && r.slot != usize::MAX
+            }) else {
+                continue;
+            };
+            let r2 = recs[j];
+            let key = (r1.key_sys, r1.key_prn);
+            if r1.reset || r2.reset {
+                self.dual.restart(key);
+            }
+            let o = crate::gnss::slip::DualObs {
+                t,
+                f1_hz: r1.key_sig.frequency_hz(0),
+                f2_hz: sig2.frequency_hz(0),
+                l1_m: r1.sd_phi,
+                l2_m: r2.sd_phi,
+                p1_m: r1.sd_code,
+                p2_m: r2.sd_code,
+                var_l1: r1.v_phi,
+                var_l2: r2.v_phi,
+                var_p1: r1.v_code,
+                var_p2: r2.v_code,
+            };
+            if self.dual.update(key, &o).slip() {
+                for k in [i, j] {
+                    let r = &mut recs[k];
+                    if !r.reset {
+                        let a0 = (r.sd_phi - r.sd_code) / r.lambda;
+                        self.init_slot(r.slot, (r.key_sys, r.key_prn, r.key_sig), r.lambda, a0);
+                        self.slots[r.slot].seen = true;
+                        r.reset = true;
+                    }
+                }
+                self.stats.per_sat[r1.key_sys.index() * 64 + r1.key_prn as usize % 64]
+                    .dual_slips += 1;
+            }
+        }
+    }
+
     /// Float ambiguities [cycles] and their covariance (for tests and
     /// diagnostics): `(key, value, σ)` of slot `k`.
     fn slot_estimate(&self, k: usize) -> Option<(AmbKey, f64, f64)> {
@@ -1026,28 +1106,8 @@ impl Eskf {
             .map(|r| r.cfg)
             .ok_or(RtkError::NotEnabled)?;
         if cfg.gnss_only {
-            // No INS prediction: the position restarts from the last
-            // epoch's (RTKLIB kinematic without dynamics restarts from the
-            // epoch's single-point position with σ 30 m, `udpos`).
-            if let Some((lat, lon, h)) = self.rtk.as_ref().and_then(|r| r.last_pos) {
-                self.nav.lat = lat;
-                self.nav.lon = lon;
-                self.nav.h = h;
-            }
-            self.recentre_on_code(rover, base, base_e, &cfg);
-            let s2 = cfg.gnss_only_sigma * cfg.gnss_only_sigma;
-            for k in I_POS..I_VEL + 3 {
-                for j in 0..NX {
-                    self.p[(k, j)] = 0.0;
-                    self.p[(j, k)] = 0.0;
-                }
-                self.p[(k, k)] = s2;
-                if let Some(r) = &mut self.rtk {
-                    for j in 0..NK {
-                        r.p_xa[(k, j)] = 0.0;
-                    }
-                }
-            }
+            // No INS: constant-velocity prediction (rtk/gnss_only.rs).
+            self.gnss_only_predict(rover, base, base_e, &cfg);
         }
         let bg = crate::geodesy::ecef_to_geodetic(base_e);
         let cen_b = c_en(bg.lat, bg.lon);
@@ -1218,8 +1278,8 @@ impl Eskf {
                 }
             }
         }
-        // 3. INS-predicted cycle-slip test.
-        {
+        // 3a. INS-predicted cycle-slip test (not in GNSS-only mode).
+        if !cfg.gnss_only {
             let mut d = [0.0f64; MAX_RAW_SATS];
             let mut dv = [0.0f64; MAX_RAW_SATS];
             let mut nd = 0usize;
@@ -1260,6 +1320,10 @@ impl Eskf {
                 rt.stats.slip_untestable += 1;
             }
         }
+        // 3b. Dual-frequency GF / MW slip tests (no INS needed) on the
+        // satellites the INS test left alone: it resets only the signal
+        // that slipped, GF / MW both.
+        rt.dual_slip_tests(&mut recs[..nr], rover.t);
         // 4. Reference per (system, signal): highest elevation.
         let mut groups: [Option<(GnssSystem, Signal)>; NGROUP] = [None; NGROUP];
         let mut gref = [usize::MAX; NGROUP];
@@ -1480,8 +1544,8 @@ impl Eskf {
             sl.prev_var = r.v_phi;
         }
         rt.set_clone(&self.p);
-        if n_code + n_phase > 0 {
-            rt.last_pos = Some((self.nav.lat, self.nav.lon, self.nav.h));
+        if cfg.gnss_only {
+            self.gnss_only_store();
         }
         sol.t = self.t;
         sol.n_code = n_code;
@@ -1490,17 +1554,23 @@ impl Eskf {
     }
 
     /// GNSS-only mode: move the position onto the code-DD least-squares
-    /// solution (unweighted, 4 Gauss–Newton steps; the relative-mode analogue
-    /// of RTKLIB's single-point prior), so a car that moved while the
-    /// satellites were gone does not start hundreds of metres off.
+    /// solution (unweighted Gauss–Newton, the relative-mode analogue of
+    /// RTKLIB's single-point prior), so a car that moved while the
+    /// satellites were gone does not start hundreds of metres off. DDs
+    /// grouped as the update groups them ([`RtkConfig::inter_system`]).
+    /// Refused (position restored, `false`) without redundancy — fewer than
+    /// 4 DDs for the 3 unknowns: an exactly determined code solution has no
+    /// check and, with 4 satellites, a DOP that put it 300 m off (seed 12 of
+    /// `experiment rtk`) — or when it does not converge to 1 cm in 6 steps.
     fn recentre_on_code(
         &mut self,
         rover: &RawEpoch,
         base: &RawEpoch,
         base_e: &Vec3,
         cfg: &RtkConfig,
-    ) {
-        for _ in 0..4 {
+    ) -> bool {
+        let saved = (self.nav.lat, self.nav.lon, self.nav.h);
+        for _ in 0..6 {
             let a = self.rtk_antenna();
             let doy = day_of_year(rover.t);
             let bg = crate::geodesy::ecef_to_geodetic(base_e);
@@ -1536,12 +1606,12 @@ impl Eskf {
                 let t_r = slant_delay(el, a.lat, a.h, doy, cfg.humidity);
                 let t_b = slant_delay(el, bg.lat, bg.h, doy, cfg.humidity);
                 let pred = (rho_r - s.sat.clock_m + t_r) - (rho_b - b.sat.clock_m + t_b);
-                rows[n] = (
-                    (o.system, o.signal),
-                    el,
-                    u_n,
-                    (o.pseudorange_m - b.obs.pseudorange_m) - pred,
-                );
+                let grp = match (cfg.inter_system, o.signal) {
+                    (true, Signal::GalE1) => (GnssSystem::Gps, Signal::GpsL1Ca),
+                    (true, Signal::BdsB2I) => (GnssSystem::Galileo, Signal::GalE5b),
+                    _ => (o.system, o.signal),
+                };
+                rows[n] = (grp, el, u_n, (o.pseudorange_m - b.obs.pseudorange_m) - pred);
                 n += 1;
             }
             let mut nm = Mat3::zeros();
@@ -1564,22 +1634,23 @@ impl Eskf {
                 rhs += hrow * dz;
                 m += 1;
             }
-            if m < 3 {
-                return;
-            }
-            let Some(inv) = nm.try_inverse() else { return };
+            let Some(inv) = nm.try_inverse().filter(|_| m >= 4) else {
+                break;
+            };
             let dr = inv * rhs;
             if !dr.iter().all(|v| v.is_finite()) {
-                return;
+                break;
             }
             let (rm, rn) = earth::radii(self.nav.lat);
             self.nav.lat -= dr[0] / (rm + self.nav.h);
             self.nav.lon -= dr[1] / ((rn + self.nav.h) * self.nav.lat.cos());
             self.nav.h += dr[2];
             if dr.norm() < 0.01 {
-                return;
+                return true;
             }
         }
+        (self.nav.lat, self.nav.lon, self.nav.h) = saved;
+        false
     }
 
     /// LAMBDA with partial ambiguity resolution on the DD ambiguities of

@@ -435,3 +435,49 @@ fn differential_ionosphere_estimated_not_averaged_into_the_fix() {
     assert!(err[0] < 0.005, "{err:?}");
     assert!(err[1] > 2.0 * err[0], "{err:?}");
 }
+
+/// GNSS-only mode ([`RtkConfig::gnss_only`]) does not use the INS: an IMU
+/// with a 0.5 m/s² accelerometer bias (its free-inertial position drifts
+/// 0.25 m per second and 225 m over 30 s) gives the same RTK positions,
+/// to 1 mm, as a perfect one, and both fix the static baseline to 1 cm.
+#[test]
+fn gnss_only_mode_ignores_the_ins() {
+    let g = crate::earth::gravity(LAT, H);
+    let mk = || {
+        let mut f = filter();
+        let c = RtkConfig {
+            gnss_only: true,
+            ..f.rtk_config().unwrap()
+        };
+        f.rtk_set_config(c).unwrap();
+        f
+    };
+    let (mut a, mut b) = (mk(), mk());
+    let mut worst = 0.0f64;
+    let mut last = None;
+    for k in 1..=30 * 100 {
+        let t = T0 + k as f64 * 0.01;
+        for (f, bias) in [(&mut a, 0.0), (&mut b, 0.5)] {
+            f.push(&Event::Imu(ImuSample {
+                t,
+                dt: 0.01,
+                dtheta_b: Vec3::zeros(),
+                dvel_b: Vec3::new(bias * 0.01, 0.0, -g * 0.01),
+            }));
+        }
+        if k % 100 == 0 {
+            let (r, bs) = clean(k / 100, t);
+            let sa = a.rtk_update(&r, &bs, &base()).unwrap();
+            let sb = b.rtk_update(&r, &bs, &base()).unwrap();
+            let d = geodetic_to_ecef(&sa.float_pos) - geodetic_to_ecef(&sb.float_pos);
+            worst = worst.max(d.norm());
+            last = Some((sa, sb));
+        }
+    }
+    assert!(worst < 1e-3, "{worst}");
+    let (sa, sb) = last.unwrap();
+    for s in [sa, sb] {
+        assert!(s.fixed, "{s:?}");
+        assert!((geodetic_to_ecef(&s.pos) - rover()).norm() < 0.01, "{s:?}");
+    }
+}
