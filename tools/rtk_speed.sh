@@ -19,6 +19,8 @@
 # Measured 2026-11-27 (N = 5, shared 2-core machine at load ≈ 7): GEONET 1.38,
 # sim GNSS-only 1.05, sim RTK/INS run 1.09 (0.77 / 0.77 on the simulated hour
 # before the speed commits of that day; outputs byte-identical across them).
+# Then, with the per-satellite ionosphere states (RTK block 51 → 75) and
+# Galileo/BeiDou second frequencies in `run` (N = 3): 0.98 / 0.77 / 0.58.
 # Usage: NAVFUSE_DATA=../shared/data tools/rtk_speed.sh [NAVFUSE_BIN] [N] [SIM_EXAMPLE_BIN]
 set -eu
 here=$(cd "$(dirname "$0")" && pwd)
