@@ -86,8 +86,6 @@ fn base_without_overlapping_epochs_is_an_error() {
 /// to `dir` as RINEX 3 + nav + `imu.csv` + `rtk.toml` (`navfuse run` with
 /// `coupling = "rtk"`, `.nav` and `.pos` output). Returns the simulation.
 fn write_sim_rtk_car(dir: &Path, seed: u64, duration: f64, slip_rate: f64) -> navfuse_sim::SimRun {
-    use navfuse_core::geodesy::{c_en, geodetic_to_ecef, Geodetic};
-    use navfuse_core::ins::mech::q_bn_from_rpy;
     use navfuse_core::Vec3;
     use navfuse_sim::multi_gnss::constellations;
     use navfuse_sim::platform::{platform_run, GnssGrade, ImuGrade, Platform, PlatformOptions};
@@ -103,18 +101,7 @@ fn write_sim_rtk_car(dir: &Path, seed: u64, duration: f64, slip_rate: f64) -> na
     let t0 = sim.traj.truth[0].t;
     let lever = Vec3::from(sim.scenario.gnss.lever_arm_m);
     let traj = &sim.traj;
-    let antenna = |t: f64| {
-        let s = traj.at(t);
-        let c_bn = q_bn_from_rpy(&s.rpy).to_rotation_matrix().into_inner();
-        let p = geodetic_to_ecef(&Geodetic {
-            lat: s.lat,
-            lon: s.lon,
-            h: s.h,
-        });
-        let cne = c_en(s.lat, s.lon).transpose();
-        let v_n = s.v_n + c_bn * s.w_ib_b.cross(&lever);
-        (p + cne * (c_bn * lever), cne * v_n)
-    };
+    let antenna = |t: f64| traj.antenna_ecef(t, &lever);
     let t_oe = ((t0 - 1.0) / 960.0).floor() * 960.0;
     let (nav_gps, _) = constellations(t_oe, seed);
     let sats = SceneSat::from_broadcast(&nav_gps, &[]);

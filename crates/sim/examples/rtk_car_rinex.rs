@@ -19,8 +19,6 @@
 //! added and the length chosen here (nothing tuned on results).
 //! Usage: cargo run --release -p navfuse-sim --example rtk_car_rinex -- OUT [SEED] [SECONDS]
 
-use navfuse_core::geodesy::{c_en, geodetic_to_ecef, Geodetic};
-use navfuse_core::ins::mech::q_bn_from_rpy;
 use navfuse_core::Vec3;
 use navfuse_sim::multi_gnss::constellations;
 use navfuse_sim::platform::{platform_run, GnssGrade, ImuGrade, Platform, PlatformOptions};
@@ -72,18 +70,7 @@ fn main() {
     let lever = Vec3::from(sim.scenario.gnss.lever_arm_m);
     let traj = &sim.traj;
     // Antenna position and velocity (ECEF) from the true IMU trajectory.
-    let antenna = |t: f64| {
-        let s = traj.at(t);
-        let c_bn = q_bn_from_rpy(&s.rpy).to_rotation_matrix().into_inner();
-        let p = geodetic_to_ecef(&Geodetic {
-            lat: s.lat,
-            lon: s.lon,
-            h: s.h,
-        });
-        let c_ne = c_en(s.lat, s.lon).transpose();
-        let v_n = s.v_n + c_bn * s.w_ib_b.cross(&lever);
-        (p + c_ne * (c_bn * lever), c_ne * v_n)
-    };
+    let antenna = |t: f64| traj.antenna_ecef(t, &lever);
     let t_oe = ((t0 - 1.0) / 960.0).floor() * 960.0;
     let (nav_gps, nav_other) = constellations(t_oe, seed);
     let sats = SceneSat::from_broadcast(&nav_gps, &nav_other);

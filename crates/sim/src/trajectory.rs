@@ -572,6 +572,27 @@ impl Trajectory {
     /// Truth position/velocity/attitude at any time inside the trajectory:
     /// cubic Hermite on position (with the velocity as derivative), linear on
     /// velocity, nearest epoch for attitude. Exact at IMU epochs.
+    /// True antenna position and velocity, ECEF [m, m/s], at time `t` for
+    /// the lever arm `lever_b` (body FRD, from the IMU [m]):
+    /// `p_e + C_ne C_bn l`, `C_ne (v_n + C_bn (ω_ib × l))` (Groves 2nd ed.
+    /// eqs. 2.150 and 2.158, the earth-rate term of the lever velocity
+    /// neglected: < 1 mm/s for a 2 m lever).
+    pub fn antenna_ecef(&self, t: f64, lever_b: &Vec3) -> (Vec3, Vec3) {
+        use navfuse_core::geodesy::{c_en, geodetic_to_ecef, Geodetic};
+        let s = self.at(t);
+        let c_bn = navfuse_core::ins::mech::q_bn_from_rpy(&s.rpy)
+            .to_rotation_matrix()
+            .into_inner();
+        let p = geodetic_to_ecef(&Geodetic {
+            lat: s.lat,
+            lon: s.lon,
+            h: s.h,
+        });
+        let c_ne = c_en(s.lat, s.lon).transpose();
+        let v_n = s.v_n + c_bn * s.w_ib_b.cross(lever_b);
+        (p + c_ne * (c_bn * lever_b), c_ne * v_n)
+    }
+
     pub fn at(&self, t: f64) -> TruthEpoch {
         let t0 = self.truth[0].t;
         let x = ((t - t0) / self.imu_dt).clamp(0.0, (self.truth.len() - 1) as f64);

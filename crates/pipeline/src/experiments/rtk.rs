@@ -183,7 +183,6 @@ use navfuse_core::geodesy::{c_en, ecef_to_geodetic, geodetic_to_ecef, Geodetic};
 use navfuse_core::gnss::raw::{GnssSystem, Signal};
 use navfuse_core::gnss::tropo::{day_of_year, slant_delay};
 use navfuse_core::gnss::{sat_at_receive, KeplerOrbit, C_LIGHT};
-use navfuse_core::ins::mech::q_bn_from_rpy;
 use navfuse_core::{Estimator, Event, Vec3};
 use navfuse_sim::platform::{platform_run, GnssGrade, ImuGrade, Platform, PlatformOptions};
 use navfuse_sim::raw_gnss::{simulate_raw, MaskWindow, RawConfig, RawTruthEpoch, SkyMask};
@@ -378,20 +377,6 @@ fn car_filter(traj: &Trajectory, lever: Vec3, grade: ImuGrade) -> Result<Eskf, S
     super::aiding::car_filter_at_truth(traj, lever, grade, Default::default())
 }
 
-/// Truth antenna position and velocity (ECEF) of a drive at true time `t`.
-fn antenna_truth(traj: &Trajectory, lever: &Vec3, t: f64) -> (Vec3, Vec3) {
-    let s = traj.at(t);
-    let c_bn = q_bn_from_rpy(&s.rpy).to_rotation_matrix().into_inner();
-    let p = geodetic_to_ecef(&Geodetic {
-        lat: s.lat,
-        lon: s.lon,
-        h: s.h,
-    });
-    let cne = c_en(s.lat, s.lon).transpose();
-    let v_n = s.v_n + c_bn * s.w_ib_b.cross(lever);
-    (p + cne * (c_bn * lever), cne * v_n)
-}
-
 /// The simulated integer ambiguity of each PRN in one receiver's epoch
 /// (module documentation; common-mode errors off).
 fn truth_integers(
@@ -576,7 +561,7 @@ fn slip_satellite(
     t0: f64,
 ) -> Option<(GnssSystem, u8)> {
     rover.iter().find(|e| e.t >= t0 + SLIP_AT_S).and_then(|e| {
-        let (ra, _) = antenna_truth(traj, lever, e.t);
+        let (ra, _) = traj.antenna_ecef(e.t, lever);
         let g = ecef_to_geodetic(&ra);
         let cen = c_en(g.lat, g.lon);
         let mut v: Vec<(f64, (GnssSystem, u8))> = e
@@ -623,7 +608,7 @@ fn drive_dual_with(
     cfg.raw.seed = seed.wrapping_mul(7919).wrapping_add(17);
     cfg.slip_rate_per_epoch = SLIP_RATE;
     tweak(&mut cfg);
-    let (a0, _) = antenna_truth(traj, &lever, t0);
+    let (a0, _) = traj.antenna_ecef(t0, &lever);
     let [bn, be, bu] = DEFAULT_BASE_OFFSET_NEU_M;
     let base_e = offset_position(&a0, bn, be, bu);
     let t_end = traj.truth.last().map_or(t0, |s| s.t);
@@ -635,7 +620,7 @@ fn drive_dual_with(
         &cfg,
         &sats,
         &times,
-        |t| antenna_truth(traj, &lever, t),
+        |t| traj.antenna_ecef(t, &lever),
         base_e,
     );
     let slip_prn = slip_satellite(&sc.rover, traj, &lever, t0);
@@ -788,7 +773,7 @@ fn drive_l1<'a>(
         .iter()
         .zip(&base)
         .map(|(r, b)| {
-            let (ra, _) = antenna_truth(traj, &lever, r.t);
+            let (ra, _) = traj.antenna_ecef(r.t, &lever);
             let nr = truth_integers(r, &ra, orbits, orbit_offset);
             let nb = truth_integers(b, &base_e, orbits, orbit_offset);
             nr.iter()

@@ -212,7 +212,7 @@ fn rtk_fixed_error_budget_diagnostic() {
             let (n, e) = super::super::h_error_ne(sol.pos.lat, sol.pos.lon, &tr);
             let (fnn, fe) = super::super::h_error_ne(sol.float_pos.lat, sol.float_pos.lon, &tr);
             // Truth DD errors at the true antenna.
-            let (ra, _) = antenna_truth(d.traj, &d.lever, re.t);
+            let (ra, _) = d.traj.antenna_ecef(re.t, &d.lever);
             let g = ecef_to_geodetic(&ra);
             let cen = c_en(g.lat, g.lon);
             let bg = ecef_to_geodetic(&d.base_e);

@@ -31,7 +31,6 @@ use navfuse_core::geodesy::{c_en, ecef_to_geodetic, geodetic_to_ecef, Geodetic};
 use navfuse_core::gnss::raw::{geometric_range, geometric_range_rate, RawEpoch};
 use navfuse_core::gnss::tropo::{day_of_year, slant_delay};
 use navfuse_core::gnss::KeplerOrbit;
-use navfuse_core::ins::mech::q_bn_from_rpy;
 use navfuse_core::{Estimator, Event, GnssFix, Mat3, Vec3};
 use navfuse_sim::carrier_phase::synthetic_constellation;
 use navfuse_sim::platform::{platform_run, GnssGrade, ImuGrade, Platform, PlatformOptions};
@@ -299,19 +298,7 @@ pub fn simulate_drive_raw(
         .map(|k| t0 + k as f64)
         .take_while(|t| *t <= t_end - 1.0)
         .collect();
-    let antenna = |t: f64| {
-        let s = traj.at(t);
-        let c_bn = q_bn_from_rpy(&s.rpy).to_rotation_matrix().into_inner();
-        let p = geodetic_to_ecef(&Geodetic {
-            lat: s.lat,
-            lon: s.lon,
-            h: s.h,
-        });
-        let cne = c_en(s.lat, s.lon).transpose();
-        let l_n = c_bn * lever;
-        let v_n = s.v_n + c_bn * s.w_ib_b.cross(&lever);
-        (p + cne * l_n, cne * v_n)
-    };
+    let antenna = |t: f64| traj.antenna_ecef(t, &lever);
     simulate_raw(cfg, orbits, &times, antenna)
 }
 
