@@ -30,6 +30,7 @@ pub mod counter_clock;
 pub mod csv_imu;
 pub mod data;
 pub mod error;
+pub mod fixed_fmt;
 pub mod galileo_inav;
 pub mod glonass_str;
 pub mod gps_lnav;

@@ -19,6 +19,7 @@
 //! itself writes 0 — which would claim a perfectly known position.
 //! [`crate::pos::PosReader`] reads the file back (σ and cross terms).
 
+use crate::fixed_fmt::{fx0, fxw};
 use crate::time::{calendar_from_gps, TimeSystem};
 use crate::writers::{lon_deg, TrajectoryWriter};
 use navfuse_core::types::{NavSolution, Vec3};
@@ -126,16 +127,16 @@ impl<W: Write> PosWriter<W> {
         let c = calendar_from_gps(s.t, TimeSystem::Gpst, 6);
         write!(
             self.w,
-            "{:04}/{:02}/{:02} {:02}:{:02}:{:09.6} {:14.9} {:14.9} {:10.4} {:3} {:3}",
+            "{:04}/{:02}/{:02} {:02}:{:02}:{} {} {} {} {:3} {:3}",
             c.year,
             c.month,
             c.day,
             c.hour,
             c.minute,
-            c.second,
-            s.lat.to_degrees(),
-            lon_deg(s.lon),
-            s.h,
+            fx0(c.second, 9, 6),
+            fxw(s.lat.to_degrees(), 14, 9),
+            fxw(lon_deg(s.lon), 14, 9),
+            fxw(s.h, 10, 4),
             e.q,
             e.ns
         )?;
@@ -143,12 +144,18 @@ impl<W: Write> PosWriter<W> {
         let x = rtklib_cross(e.pos_cross_ned);
         for v in [sd.x, sd.y, sd.z, x[0], x[1], x[2]] {
             if v.is_finite() {
-                write!(self.w, " {v:8.4}")?;
+                write!(self.w, " {}", fxw(v, 8, 4))?;
             } else {
                 self.w.write_all(b"      nan")?;
             }
         }
-        writeln!(self.w, " {:6.2} {:6.1}", e.age_s, e.ratio)
+        // f32 → f64 is exact and `{:.P}` formats the exact value: same text.
+        writeln!(
+            self.w,
+            " {} {}",
+            fxw(f64::from(e.age_s), 6, 2),
+            fxw(f64::from(e.ratio), 6, 1)
+        )
     }
 }
 

@@ -27,7 +27,8 @@ struct F(f64, usize, bool);
 impl fmt::Display for F {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         if self.0.is_finite() {
-            write!(f, "{:.*}", self.1, self.0)
+            // `{:.P}`, byte-identical, without core's exact float formatter.
+            fmt::Display::fmt(&crate::fixed_fmt::fx(self.0, self.1), f)
         } else if self.2 {
             f.write_str("null")
         } else if self.0.is_nan() {

@@ -97,20 +97,29 @@ fn ltdl(q: &[f64], n: usize, l: &mut Mat, d: &mut [f64; MAX_N]) -> Result<(), La
     Ok(())
 }
 
-/// Decorrelation (de Jonge & Tiberius 1996, §3): updates L, D and the
-/// transformation `z` (`Q_z = Zᵀ Q Z`) and its inverse `zi`.
-fn reduce(n: usize, l: &mut Mat, d: &mut [f64; MAX_N], z: &mut Mat, zi: &mut Mat) {
+/// Decorrelation (de Jonge & Tiberius 1996, §3): updates L, D, the
+/// transformation `Z` (`Q_z = Zᵀ Q Z`), held transposed in `zt` (row `j` =
+/// column `j` of Z, so its column operations are contiguous), and its
+/// inverse `zi`.
+fn reduce(n: usize, l: &mut Mat, d: &mut [f64; MAX_N], zt: &mut Mat, zi: &mut Mat) {
     if n < 2 {
         return;
     }
-    let gauss = |l: &mut Mat, z: &mut Mat, zi: &mut Mat, i: usize, j: usize| {
+    let gauss = |l: &mut Mat, zt: &mut Mat, zi: &mut Mat, i: usize, j: usize| {
         let mu = l.a[i][j].round();
         if mu != 0.0 {
             for r in i..n {
                 l.a[r][j] -= mu * l.a[r][i];
             }
-            for r in 0..n {
-                z.a[r][j] -= mu * z.a[r][i];
+            let (zi_row, zj_row) = if i < j {
+                let (lo, hi) = zt.a.split_at_mut(j);
+                (&lo[i], &mut hi[0])
+            } else {
+                let (lo, hi) = zt.a.split_at_mut(i);
+                (&hi[0], &mut lo[j])
+            };
+            for (zj, zi) in zj_row[..n].iter_mut().zip(&zi_row[..n]) {
+                *zj -= mu * zi;
             }
             // Z⁻¹ ← G⁻¹ Z⁻¹, G⁻¹ = I + μ e_i e_jᵀ: row i += μ · row j.
             for c in 0..n {
@@ -124,7 +133,7 @@ fn reduce(n: usize, l: &mut Mat, d: &mut [f64; MAX_N], z: &mut Mat, zi: &mut Mat
         let ju = j as usize;
         if j <= k {
             for i in ju + 1..n {
-                gauss(l, z, zi, i, ju);
+                gauss(l, zt, zi, i, ju);
             }
         }
         let del = d[ju] + l.a[ju + 1][ju] * l.a[ju + 1][ju] * d[ju + 1];
@@ -144,9 +153,7 @@ fn reduce(n: usize, l: &mut Mat, d: &mut [f64; MAX_N], z: &mut Mat, zi: &mut Mat
             for r in ju + 2..n {
                 l.a[r].swap(ju, ju + 1);
             }
-            for r in 0..n {
-                z.a[r].swap(ju, ju + 1);
-            }
+            zt.a.swap(ju, ju + 1);
             zi.a.swap(ju, ju + 1);
             k = j;
             j = n as isize - 2;
@@ -239,8 +246,12 @@ fn search(
 /// LAMBDA: the `m` (1 or 2) best integer vectors for float ambiguities `a`
 /// (length `n`) with row-major covariance `q` (`n×n`), by integer least squares.
 pub fn lambda(a: &[f64], q: &[f64], n: usize, m: usize) -> Result<LambdaResult, LambdaError> {
-    lambda_with_limit(a, q, n, m, 10_000_000)
+    lambda_with_limit(a, q, n, m, MAX_NODES)
 }
+
+/// The default bound on search nodes of [`lambda`] (an ill-conditioned
+/// problem is reported as [`LambdaError::SearchLimit`], not searched forever).
+pub const MAX_NODES: u64 = 10_000_000;
 
 /// [`lambda`] with a bound on the number of search nodes.
 pub fn lambda_with_limit(
@@ -250,56 +261,100 @@ pub fn lambda_with_limit(
     m: usize,
     max_nodes: u64,
 ) -> Result<LambdaResult, LambdaError> {
-    if n == 0 || n > MAX_N || !(1..=2).contains(&m) || a.len() < n || q.len() < n * n {
-        return Err(LambdaError::BadSize);
-    }
-    let mut l = Mat {
-        a: [[0.0; MAX_N]; MAX_N],
-    };
-    let mut d = [0.0f64; MAX_N];
-    ltdl(q, n, &mut l, &mut d)?;
-    let mut z = Mat {
-        a: [[0.0; MAX_N]; MAX_N],
-    };
-    let mut zi = Mat {
-        a: [[0.0; MAX_N]; MAX_N],
-    };
-    for i in 0..n {
-        z.a[i][i] = 1.0;
-        zi.a[i][i] = 1.0;
-    }
-    reduce(n, &mut l, &mut d, &mut z, &mut zi);
-    // Shift to the nearest integers first for numerical range (a may be ~1e9).
-    let mut shift = [0.0f64; MAX_N];
-    let mut zhat = [0.0f64; MAX_N];
-    for i in 0..n {
-        let mut acc = 0.0;
-        for r in 0..n {
-            acc += z.a[r][i] * a[r];
+    Decorrelated::new(q, n)?.search(a, m, max_nodes)
+}
+
+/// `Q = Lᵀ D L` decorrelated once (steps 1–2 of the module documentation),
+/// for the success rate and the search of the same `Q` (the RTK filter asks
+/// both at every fix attempt; the reduction is the costly part).
+pub struct Decorrelated {
+    n: usize,
+    l: Mat,
+    d: [f64; MAX_N],
+    /// `Zᵀ` (row `j` = column `j` of Z) and `Z⁻¹`.
+    zt: Mat,
+    zi: Mat,
+}
+
+impl Decorrelated {
+    /// Factor and decorrelate the row-major `n×n` covariance `q` [cycles²].
+    pub fn new(q: &[f64], n: usize) -> Result<Self, LambdaError> {
+        if n == 0 || n > MAX_N || q.len() < n * n {
+            return Err(LambdaError::BadSize);
         }
-        shift[i] = acc.round();
-        zhat[i] = acc - shift[i];
+        let mut r = Decorrelated {
+            n,
+            l: Mat {
+                a: [[0.0; MAX_N]; MAX_N],
+            },
+            d: [0.0f64; MAX_N],
+            zt: Mat {
+                a: [[0.0; MAX_N]; MAX_N],
+            },
+            zi: Mat {
+                a: [[0.0; MAX_N]; MAX_N],
+            },
+        };
+        ltdl(q, n, &mut r.l, &mut r.d)?;
+        for i in 0..n {
+            r.zt.a[i][i] = 1.0;
+            r.zi.a[i][i] = 1.0;
+        }
+        reduce(n, &mut r.l, &mut r.d, &mut r.zt, &mut r.zi);
+        Ok(r)
     }
-    let mut cand = [[0.0f64; MAX_N]; 2];
-    let mut s = [f64::INFINITY; 2];
-    let found = search(n, m, &l, &d, &zhat, &mut cand, &mut s, max_nodes)?;
-    let mut res = LambdaResult {
-        n,
-        m: found,
-        fixed: [[0.0; MAX_N]; 2],
-        sqnorm: s,
-    };
-    for k in 0..found {
-        // ž_a = Z⁻ᵀ (ž + shift).
+
+    /// Bootstrapped success rate of the decorrelated problem (Teunissen
+    /// 1998): `P = Π_i (2 Φ(1 / (2 √D_i)) − 1)`, a sharp lower bound of the
+    /// ILS success rate.
+    pub fn success_rate(&self) -> f64 {
+        let mut p = 1.0;
+        for di in self.d.iter().take(self.n) {
+            p *= 2.0 * phi(1.0 / (2.0 * di.sqrt())) - 1.0;
+        }
+        p
+    }
+
+    /// Steps 3–4: the `m` (1 or 2) best integer vectors for the float
+    /// ambiguities `a` (length `n`), at most `max_nodes` search nodes.
+    pub fn search(&self, a: &[f64], m: usize, max_nodes: u64) -> Result<LambdaResult, LambdaError> {
+        let n = self.n;
+        if !(1..=2).contains(&m) || a.len() < n {
+            return Err(LambdaError::BadSize);
+        }
+        let (l, d, zt, zi) = (&self.l, &self.d, &self.zt, &self.zi);
+        // Shift to the nearest integers first for numerical range (a may be ~1e9).
+        let mut shift = [0.0f64; MAX_N];
+        let mut zhat = [0.0f64; MAX_N];
         for i in 0..n {
             let mut acc = 0.0;
             for r in 0..n {
-                acc += zi.a[r][i] * (cand[k][r] + shift[r]);
+                acc += zt.a[i][r] * a[r];
             }
-            res.fixed[k][i] = acc.round();
+            shift[i] = acc.round();
+            zhat[i] = acc - shift[i];
         }
+        let mut cand = [[0.0f64; MAX_N]; 2];
+        let mut s = [f64::INFINITY; 2];
+        let found = search(n, m, l, d, &zhat, &mut cand, &mut s, max_nodes)?;
+        let mut res = LambdaResult {
+            n,
+            m: found,
+            fixed: [[0.0; MAX_N]; 2],
+            sqnorm: s,
+        };
+        for k in 0..found {
+            // ž_a = Z⁻ᵀ (ž + shift).
+            for i in 0..n {
+                let mut acc = 0.0;
+                for r in 0..n {
+                    acc += zi.a[r][i] * (cand[k][r] + shift[r]);
+                }
+                res.fixed[k][i] = acc.round();
+            }
+        }
+        Ok(res)
     }
-    Ok(res)
 }
 
 /// Standard normal CDF Φ(x).
@@ -310,26 +365,7 @@ fn phi(x: f64) -> f64 {
 /// Bootstrapped success rate of the decorrelated problem (Teunissen 1998):
 /// `P = Π_i (2 Φ(1 / (2 √D_i)) − 1)`, a sharp lower bound of the ILS success rate.
 pub fn bootstrap_success_rate(q: &[f64], n: usize) -> Result<f64, LambdaError> {
-    if n == 0 || n > MAX_N || q.len() < n * n {
-        return Err(LambdaError::BadSize);
-    }
-    let mut l = Mat {
-        a: [[0.0; MAX_N]; MAX_N],
-    };
-    let mut d = [0.0f64; MAX_N];
-    ltdl(q, n, &mut l, &mut d)?;
-    let mut z = Mat {
-        a: [[0.0; MAX_N]; MAX_N],
-    };
-    let mut zi = Mat {
-        a: [[0.0; MAX_N]; MAX_N],
-    };
-    reduce(n, &mut l, &mut d, &mut z, &mut zi);
-    let mut p = 1.0;
-    for di in d.iter().take(n) {
-        p *= 2.0 * phi(1.0 / (2.0 * di.sqrt())) - 1.0;
-    }
-    Ok(p)
+    Ok(Decorrelated::new(q, n)?.success_rate())
 }
 
 #[cfg(test)]
