@@ -84,59 +84,16 @@ fn base_without_overlapping_epochs_is_an_error() {
 /// model, cycle slips at `slip_rate` per satellite-frequency and epoch at
 /// the rover, base 5.4 km away at its true position in the header), written
 /// to `dir` as RINEX 3 + nav + `imu.csv` + `rtk.toml` (`navfuse run` with
-/// `coupling = "rtk"`, `.nav` and `.pos` output). Returns the simulation.
+/// `coupling = "rtk"`, `.nav` and `.pos` output) by
+/// [`navfuse_sim::rtk_car::write_rtk_car`]. Returns the simulation.
 fn write_sim_rtk_car(dir: &Path, seed: u64, duration: f64, slip_rate: f64) -> navfuse_sim::SimRun {
-    use navfuse_core::Vec3;
-    use navfuse_sim::multi_gnss::constellations;
-    use navfuse_sim::platform::{platform_run, GnssGrade, ImuGrade, Platform, PlatformOptions};
-    use navfuse_sim::rtk_scene::{offset_position, simulate_rtk, RtkSceneConfig, SceneSat};
-    let opts = PlatformOptions {
+    let o = navfuse_sim::rtk_car::RtkCarOptions {
+        seed,
         duration_s: duration,
-        static_start: true,
-        imu: ImuGrade::Consumer,
-        gnss: GnssGrade::Consumer,
-        ..Default::default()
+        slip_rate,
+        multi_gnss: false,
     };
-    let sim = platform_run(Platform::Car, seed, &opts).unwrap().run;
-    let t0 = sim.traj.truth[0].t;
-    let lever = Vec3::from(sim.scenario.gnss.lever_arm_m);
-    let traj = &sim.traj;
-    let antenna = |t: f64| traj.antenna_ecef(t, &lever);
-    let t_oe = ((t0 - 1.0) / 960.0).floor() * 960.0;
-    let (nav_gps, _) = constellations(t_oe, seed);
-    let sats = SceneSat::from_broadcast(&nav_gps, &[]);
-    let base = offset_position(&antenna(t0).0, 5000.0, 2000.0, 20.0);
-    let mut cfg = RtkSceneConfig::default();
-    cfg.raw.seed = seed * 7919 + 17;
-    cfg.slip_rate_per_epoch = slip_rate;
-    let times: Vec<f64> = (1..duration as usize - 1).map(|k| t0 + k as f64).collect();
-    let sc = simulate_rtk(&cfg, &sats, &times, antenna, base);
-    let (rover_text, base_text) = sc.obs_texts();
-    std::fs::write(dir.join("rover.obs"), rover_text).unwrap();
-    std::fs::write(dir.join("base.obs"), base_text).unwrap();
-    std::fs::write(
-        dir.join("nav.rnx"),
-        navfuse_io::rinex_write::nav3_text(&nav_gps, &[]),
-    )
-    .unwrap();
-    navfuse_sim::output::write_run(&sim, dir).unwrap();
-    let toml = format!(
-        "formats = [\"nav\", \"pos\"]\n\
-         [input]\nimu = \"imu.csv\"\nimu_rate = {}\ngnss = \"rover.obs\"\nnav = \"nav.rnx\"\n\
-         base = \"base.obs\"\n\
-         [input.csv]\ntime = \"t_gps_s\"\ntime_base = \"gps_seconds\"\n\
-         gyro = [\"dtheta_x_rad\", \"dtheta_y_rad\", \"dtheta_z_rad\"]\n\
-         accel = [\"dvel_x_m_s\", \"dvel_y_m_s\", \"dvel_z_m_s\"]\n\
-         gyro_unit = \"rad\"\naccel_unit = \"m/s2\"\nform = \"increment\"\n\
-         [filter]\nimu_preset = \"{}\"\nlever_arm = [{}, {}, {}]\ncoupling = \"rtk\"\nsmooth = false\n",
-        sim.scenario.imu.rate_hz,
-        ImuGrade::Consumer.preset(),
-        lever.x,
-        lever.y,
-        lever.z
-    );
-    std::fs::write(dir.join("rtk.toml"), toml).unwrap();
-    sim
+    navfuse_sim::rtk_car::write_rtk_car(dir, &o).unwrap().sim
 }
 
 /// End to end, simulated (scenario fixed before any run): the car of

@@ -2,8 +2,8 @@
 //! [`navfuse_sim::rtk_scene`] as RINEX 3.04 files (issue 15, must-show 4):
 //! `OUT/rover.obs`, `OUT/base.obs` (its true position in the header),
 //! `OUT/nav.rnx` (the broadcast GPS, Galileo, BeiDou records that generated
-//! the scene) and the truth `OUT/truth.csv` (true GPS time [s], rover tag
-//! [s], rover ECEF x, y, z [m]). GPS L1 C/A + L2C, Galileo E1 + E5b, BeiDou
+//! the scene) and the truth `OUT/antenna_truth.csv` (true GPS time [s], rover tag
+//! [s], rover ECEF x, y, z [m]; written by [`navfuse_sim::rtk_car::write_scene`]). GPS L1 C/A + L2C, Galileo E1 + E5b, BeiDou
 //! B1I + B2I at 1 Hz; the rover drives the 500 m circle at 10 m/s of
 //! [`navfuse_sim::multi_gnss::MultiGnssConfig`]'s default (near Tokyo), the
 //! base stands [`navfuse_sim::rtk_scene::DEFAULT_BASE_OFFSET_NEU_M`] from
@@ -13,7 +13,7 @@
 //!
 //! RTKLIB 2.4.3 b34 reads the pair and fixes (measured 2026-11-27, 1 h,
 //! `rnx2rtkp -p 2 -f 2 -sys G,E,C -m 15 -e -r <base.obs header XYZ>
-//! -o kin.pos rover.obs base.obs nav.rnx`, truth from `truth.csv`; both
+//! -o kin.pos rover.obs base.obs nav.rnx`, truth from `antenna_truth.csv` (then named `truth.csv`); both
 //! frequencies of all three systems used): seed 1 first fix at epoch 9,
 //! 82.2 % fixed, fixed horizontal RMS 6.8 mm (max 16 mm), 0 fixed epochs
 //! off by > 10 cm, 6.3 s; seed 2 first fix at epoch 14, 72.7 % fixed,
@@ -27,7 +27,6 @@ use navfuse_sim::multi_gnss::{constellations, MultiGnssConfig};
 use navfuse_sim::rtk_scene::{
     offset_position, simulate_rtk, RtkSceneConfig, SceneSat, DEFAULT_BASE_OFFSET_NEU_M,
 };
-use std::fmt::Write as _;
 
 fn arg<T: std::str::FromStr>(a: Option<String>, default: T, name: &str) -> T
 where
@@ -74,29 +73,10 @@ fn main() {
     cfg.slip_rate_per_epoch = slip_rate;
     let times: Vec<f64> = (0..seconds).map(|k| m.t0 + k as f64).collect();
     let sc = simulate_rtk(&cfg, &sats, &times, rover, base);
-    let (rover_text, base_text) = sc.obs_texts();
-    let mut truth = String::from("t_s,tag_s,x_m,y_m,z_m\n");
-    for (ep, p) in sc.rover.iter().zip(&sc.rover_pos_e) {
-        let _ = writeln!(
-            truth,
-            "{:.7},{:.9},{:.4},{:.4},{:.4}",
-            ep.t, ep.epoch.t, p.x, p.y, p.z
-        );
-    }
-    let write = |name: &str, text: String| {
-        let p = dir.join(name);
-        if let Err(e) = std::fs::create_dir_all(dir).and_then(|_| std::fs::write(&p, text)) {
-            eprintln!("{}: {e}", p.display());
-            std::process::exit(1);
-        }
-    };
-    write("rover.obs", rover_text);
-    write("base.obs", base_text);
-    write(
-        "nav.rnx",
-        navfuse_io::rinex_write::nav3_text(&nav_gps, &nav_other),
-    );
-    write("truth.csv", truth);
+    navfuse_sim::rtk_car::write_scene(dir, &sc, &nav_gps, &nav_other).unwrap_or_else(|e| {
+        eprintln!("{}: {e}", dir.display());
+        std::process::exit(1);
+    });
     let recs = |v: &[navfuse_sim::raw_gnss::RawTruthEpoch]| {
         v.iter().map(|e| e.epoch.n).sum::<usize>() as f64 / v.len().max(1) as f64
     };

@@ -18,6 +18,7 @@ pub mod output;
 pub mod platform;
 pub mod raw_gnss;
 pub mod rot;
+pub mod rtk_car;
 pub mod rtk_scene;
 pub mod scenario;
 pub mod trajectory;
