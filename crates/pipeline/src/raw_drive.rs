@@ -158,12 +158,9 @@ pub fn write_raw_drive_imu(
         "# A simulated car drive ({duration_s} s, seed {seed}): consumer MEMS IMU\n\
          # (imu.csv) and raw GNSS (raw.ubx: RXM-RAWX + RXM-SFRBX), tightly coupled.\n\
          [input]\nimu = \"imu.csv\"\nimu_rate = {}\ngnss = \"raw.ubx\"\n\
-         [input.csv]\ntime = \"t_gps_s\"\ntime_base = \"gps_seconds\"\n\
-         gyro = [\"dtheta_x_rad\", \"dtheta_y_rad\", \"dtheta_z_rad\"]\n\
-         accel = [\"dvel_x_m_s\", \"dvel_y_m_s\", \"dvel_z_m_s\"]\n\
-         gyro_unit = \"rad\"\naccel_unit = \"m/s2\"\nform = \"increment\"\n\
-         [filter]\nimu_preset = \"{}\"\nlever_arm = [{}, {}, {}]\ncoupling = \"tight\"\n",
+         {}[filter]\nimu_preset = \"{}\"\nlever_arm = [{}, {}, {}]\ncoupling = \"tight\"\n",
         sim.scenario.imu.rate_hz,
+        navfuse_sim::output::IMU_CSV_TOML,
         imu.preset(),
         l[0],
         l[1],

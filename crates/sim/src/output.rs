@@ -45,6 +45,14 @@ fn imu_txt(s: &[navfuse_core::ImuSample]) -> String {
 }
 
 /// Write every output file of `run` into `dir` (created if missing).
+/// The `[input.csv]` table of a `navfuse run` configuration that reads the
+/// `imu.csv` of [`write_run`] (its column names, GPS-seconds time base,
+/// increments in rad and m/s).
+pub const IMU_CSV_TOML: &str = "[input.csv]\ntime = \"t_gps_s\"\ntime_base = \"gps_seconds\"\n\
+     gyro = [\"dtheta_x_rad\", \"dtheta_y_rad\", \"dtheta_z_rad\"]\n\
+     accel = [\"dvel_x_m_s\", \"dvel_y_m_s\", \"dvel_z_m_s\"]\n\
+     gyro_unit = \"rad\"\naccel_unit = \"m/s2\"\nform = \"increment\"\n";
+
 pub fn write_run(run: &SimRun, dir: &Path) -> Result<(), SimError> {
     std::fs::create_dir_all(dir).map_err(|e| SimError::Io(format!("{}: {e}", dir.display())))?;
     write(dir, "imu.txt", &imu_txt(&run.imu))?;

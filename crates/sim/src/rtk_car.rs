@@ -122,12 +122,9 @@ pub fn write_rtk_car(dir: &Path, o: &RtkCarOptions) -> Result<RtkCar, SimError> 
         "formats = [\"nav\", \"pos\"]\n\
          [input]\nimu = \"imu.csv\"\nimu_rate = {}\ngnss = \"rover.obs\"\nnav = \"nav.rnx\"\n\
          base = \"base.obs\"\n\
-         [input.csv]\ntime = \"t_gps_s\"\ntime_base = \"gps_seconds\"\n\
-         gyro = [\"dtheta_x_rad\", \"dtheta_y_rad\", \"dtheta_z_rad\"]\n\
-         accel = [\"dvel_x_m_s\", \"dvel_y_m_s\", \"dvel_z_m_s\"]\n\
-         gyro_unit = \"rad\"\naccel_unit = \"m/s2\"\nform = \"increment\"\n\
-         [filter]\nimu_preset = \"{}\"\nlever_arm = [{}, {}, {}]\ncoupling = \"rtk\"\nsmooth = false\n",
+         {}[filter]\nimu_preset = \"{}\"\nlever_arm = [{}, {}, {}]\ncoupling = \"rtk\"\nsmooth = false\n",
         sim.scenario.imu.rate_hz,
+        crate::output::IMU_CSV_TOML,
         ImuGrade::Consumer.preset(),
         lever.x,
         lever.y,
