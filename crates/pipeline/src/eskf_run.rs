@@ -730,6 +730,18 @@ pub(crate) fn run_eskf_span(
         g = gnss.len();
     }
     if let Some(r) = rtk {
+        // A yaw bank was aided by the single-point fixes, whose errors are
+        // correlated over minutes (atmosphere, multipath) but were weighted
+        // as white: its position σ is then far below its error. Before the
+        // carrier phase ties the ambiguities to that position, its σ is
+        // raised to the last fix's own (measured: a walker's bank handed
+        // over 2 m E / 3 m U off with decimetre σ, and the RTK float took
+        // minutes to recover and never fixed; `rtk_run_tests`).
+        if gnss_fed > 0 {
+            if let Some(f) = gnss[..g].last() {
+                m.eskf.floor_position_std(&f.std_ned);
+            }
+        }
         make_rtk(cfg, &mut m.eskf, r.cfg)?;
         g = gnss.len();
     }

@@ -50,6 +50,8 @@ fn main() {
         duration_s: duration,
         slip_rate: 0.0,
         multi_gnss: true,
+        platform: navfuse_sim::platform::Platform::Car,
+        profile: None,
     };
     let car = write_rtk_car(dir, &o).unwrap_or_else(|e| {
         eprintln!("{}: {e}", dir.display());

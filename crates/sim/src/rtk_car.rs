@@ -1,4 +1,5 @@
-//! A simulated car with an IMU and a dual-frequency rover + base pair,
+//! A simulated car (or another platform) with an IMU and a dual-frequency
+//! rover + base pair,
 //! written as the files `navfuse run` (`coupling = "rtk"`), `navfuse
 //! baseline` and RTKLIB `rnx2rtkp` read: one writer for the example
 //! `rtk_car_rinex` (the speed comparison of `tools/rtk_speed.sh`) and the
@@ -38,6 +39,11 @@ pub struct RtkCarOptions {
     pub slip_rate: f64,
     /// Galileo and BeiDou beside GPS.
     pub multi_gnss: bool,
+    /// What moves ([`Platform::Car`] in the example and the run tests).
+    pub platform: Platform,
+    /// The `[filter] platform` written into `rtk.toml` (`None`: no line,
+    /// `navfuse run`'s default of no motion constraints).
+    pub profile: Option<Platform>,
 }
 
 /// What was written, for the caller's checks.
@@ -97,7 +103,7 @@ pub fn write_rtk_car(dir: &Path, o: &RtkCarOptions) -> Result<RtkCar, SimError> 
         gnss: GnssGrade::Consumer,
         ..Default::default()
     };
-    let sim = platform_run(Platform::Car, o.seed, &opts)?.run;
+    let sim = platform_run(o.platform, o.seed, &opts)?.run;
     let t0 = sim.traj.truth[0].t;
     let lever = Vec3::from(sim.scenario.gnss.lever_arm_m);
     let traj = &sim.traj;
@@ -122,9 +128,11 @@ pub fn write_rtk_car(dir: &Path, o: &RtkCarOptions) -> Result<RtkCar, SimError> 
         "formats = [\"nav\", \"pos\"]\n\
          [input]\nimu = \"imu.csv\"\nimu_rate = {}\ngnss = \"rover.obs\"\nnav = \"nav.rnx\"\n\
          base = \"base.obs\"\n\
-         {}[filter]\nimu_preset = \"{}\"\nlever_arm = [{}, {}, {}]\ncoupling = \"rtk\"\nsmooth = false\n",
+         {}[filter]\n{}imu_preset = \"{}\"\nlever_arm = [{}, {}, {}]\ncoupling = \"rtk\"\nsmooth = false\n",
         sim.scenario.imu.rate_hz,
         crate::output::IMU_CSV_TOML,
+        o.profile
+            .map_or(String::new(), |p| format!("platform = \"{p}\"\n")),
         ImuGrade::Consumer.preset(),
         lever.x,
         lever.y,

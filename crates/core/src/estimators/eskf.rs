@@ -1302,6 +1302,27 @@ impl Eskf {
     pub fn covariance(&self) -> &Cov {
         &self.p
     }
+    /// Raise the position σ (NED [m], the error state's frame) to at
+    /// least `std_ned` per axis by adding the missing variance to the
+    /// diagonal; the rest of the covariance is kept, so it stays positive
+    /// semi-definite. For a hand-over where earlier updates treated a
+    /// correlated error as white (a yaw bank aided by single-point fixes,
+    /// then RTK: the bank's position σ shrinks as 1/√n while the fixes
+    /// share a slowly varying error of their own σ). Only the 21 INS
+    /// states; call it before adding side blocks. Returns the variance
+    /// added per axis [m²].
+    pub fn floor_position_std(&mut self, std_ned: &Vec3) -> Vec3 {
+        let mut added = Vec3::zeros();
+        for k in 0..3 {
+            let want = std_ned[k] * std_ned[k];
+            let have = self.p[(I_POS + k, I_POS + k)];
+            if want.is_finite() && want > have {
+                self.p[(I_POS + k, I_POS + k)] = want;
+                added[k] = want - have;
+            }
+        }
+        added
+    }
     /// The error state `δx` that [`apply_correction`] would need to move
     /// this filter's nominal state onto `(nav, errors)`: position NED [m]
     /// (nominal − other, linearised at this filter's position), velocity
@@ -2335,6 +2356,32 @@ mod tests {
             sa_std: Vec3::repeat(1e-3),
             corr_time: 3600.0,
         }
+    }
+
+    /// `floor_position_std` raises only the position diagonal that is below
+    /// the floor, by exactly the missing variance, and leaves every other
+    /// element (and a position σ already above the floor) as it was.
+    #[test]
+    fn floor_position_std_adds_only_the_missing_position_variance() {
+        let nav = NavState {
+            lat: LAT,
+            lon: 0.3,
+            h: H,
+            v_n: Vec3::new(3.0, -1.0, 0.0),
+            q_bn: q_bn_from_rpy(&Vec3::new(0.02, -0.01, 0.5)),
+        };
+        let mut e = Eskf::new(config(), nav, ImuErrors::default(), &std0());
+        let p0 = *e.covariance();
+        let s0 = p0[(I_POS + 1, I_POS + 1)].sqrt();
+        let floor = Vec3::new(2.0, 0.5 * s0, f64::NAN);
+        let added = e.floor_position_std(&floor);
+        let p1 = *e.covariance();
+        assert_eq!(p1[(I_POS, I_POS)], 4.0);
+        assert_eq!(added.x, 4.0 - p0[(I_POS, I_POS)]);
+        assert_eq!((added.y, added.z), (0.0, 0.0));
+        let mut d = p1 - p0;
+        d[(I_POS, I_POS)] = 0.0;
+        assert_eq!(d.abs().max(), 0.0);
     }
 
     /// `error_state_to` is what `apply_correction` needs: applying it to
