@@ -185,9 +185,10 @@ fn run_and_score_rtk(dir: &Path, sim: &navfuse_sim::SimRun) -> (f64, f64, usize)
 
 /// RTK/INS on platforms other than the car it was developed on (scenario
 /// and bounds written before any run): the simulator's walker, slow robot
-/// and UAV (seed 3, 300 s, static start, consumer MEMS, their lever arms),
-/// the same dual-frequency GPS scene and base, `[filter] platform` set to
-/// the platform (no NHC for the walker and the UAV). Expected as for the
+/// and UAV, and (added after those passed) the small craft in waves (seed
+/// 3, 300 s, static start, consumer MEMS, their lever arms), the same
+/// dual-frequency GPS scene and base, `[filter] platform` set to the
+/// platform (no NHC for the walker, the UAV and the boat). Expected as for the
 /// car: everything accounted for, at least half of the epochs fixed, the
 /// fixed rows within 5 cm horizontal RMS and 0.2 m of the truth.
 /// First run: the walker and the UAV never fixed (ratio ≈ 1.4 for 257
@@ -195,9 +196,14 @@ fn run_and_score_rtk(dir: &Path, sim: &navfuse_sim::SimRun) -> (f64, f64, usize)
 /// errors were white, handed over 2 m E / 3 m U off with a decimetre σ
 /// (mended in `eskf_run`: the position σ raised to the fix's own first).
 #[test]
-fn simulated_rtk_run_on_walker_robot_and_uav() {
+fn simulated_rtk_run_on_walker_robot_uav_and_boat() {
     use navfuse_sim::platform::Platform;
-    for p in [Platform::Pedestrian, Platform::Robot, Platform::Uav] {
+    for p in [
+        Platform::Pedestrian,
+        Platform::Robot,
+        Platform::Uav,
+        Platform::Marine,
+    ] {
         let dir = crate::test_dir(&format!("rtk-run-sim-{p}"));
         let o = navfuse_sim::rtk_car::RtkCarOptions {
             seed: 3,
