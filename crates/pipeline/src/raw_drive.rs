@@ -88,6 +88,20 @@ pub fn write_raw_drive_imu(
     duration_s: f64,
     imu: ImuGrade,
 ) -> Result<RawDrive, String> {
+    write_raw_drive_on(dir, seed, duration_s, imu, Platform::Car, false)
+}
+
+/// [`write_raw_drive_imu`] on another platform of the simulator; with
+/// `profile`, `tight.toml` also names it (`[filter] platform`), so the run
+/// uses that platform's motion constraints and alignment.
+pub fn write_raw_drive_on(
+    dir: &Path,
+    seed: u64,
+    duration_s: f64,
+    imu: ImuGrade,
+    platform: Platform,
+    profile: bool,
+) -> Result<RawDrive, String> {
     let opts = PlatformOptions {
         duration_s,
         static_start: true,
@@ -95,7 +109,7 @@ pub fn write_raw_drive_imu(
         gnss: GnssGrade::Consumer,
         ..Default::default()
     };
-    let sim = platform_run(Platform::Car, seed, &opts)
+    let sim = platform_run(platform, seed, &opts)
         .map_err(|e| e.to_string())?
         .run;
     let (orbits, cfg) = drive_sky(&sim, seed, duration_s);
@@ -158,9 +172,14 @@ pub fn write_raw_drive_imu(
         "# A simulated car drive ({duration_s} s, seed {seed}): consumer MEMS IMU\n\
          # (imu.csv) and raw GNSS (raw.ubx: RXM-RAWX + RXM-SFRBX), tightly coupled.\n\
          [input]\nimu = \"imu.csv\"\nimu_rate = {}\ngnss = \"raw.ubx\"\n\
-         {}[filter]\nimu_preset = \"{}\"\nlever_arm = [{}, {}, {}]\ncoupling = \"tight\"\n",
+         {}[filter]\n{}imu_preset = \"{}\"\nlever_arm = [{}, {}, {}]\ncoupling = \"tight\"\n",
         sim.scenario.imu.rate_hz,
         navfuse_sim::output::IMU_CSV_TOML,
+        if profile {
+            format!("platform = \"{platform}\"\n")
+        } else {
+            String::new()
+        },
         imu.preset(),
         l[0],
         l[1],
