@@ -415,6 +415,9 @@ struct WindowRun {
     epochs: usize,
     /// Epochs whose horizontal error is inside the reported 95 % ellipse.
     inside95: usize,
+    /// The full outage (no satellite, INS alone): epochs, epochs inside the
+    /// 95 % ellipse, the largest horizontal error and σ at its last epoch.
+    outage: (usize, usize, f64, f64),
     n_phase: (usize, usize, usize),
     short: usize,
     /// Counter totals before and at the end of the window.
@@ -504,7 +507,9 @@ fn window_rows(
 /// - per filter: the largest horizontal error, its time, the reported
 ///   horizontal σ there (F fixed, f float), |cos| of the error against the
 ///   weak eigenvector's horizontal direction (b), fixed share, the share of
-///   window epochs inside the reported 95 % ellipse, phase DDs used per epoch
+///   window epochs inside the reported 95 % ellipse, the same for the 30 s
+///   full outage (INS alone: its largest error, σ at its end, share inside
+///   the 95 % ellipse — the INS model's own consistency), phase DDs used per epoch
 ///   (min–max / the records' allowance), epochs short of the allowance;
 /// - the filter counters' increments over the window (phase gated, code
 ///   gated, INS slips, GF/MW slips, loss-of-lock resets, reference resets,
@@ -512,6 +517,38 @@ fn window_rows(
 ///
 /// Run: `cargo test --release -p navfuse-pipeline
 /// rtk_partial_window_geometry_diagnostic -- --ignored --nocapture`.
+///
+/// **Measured** (seeds 1–20, `RAYON_NUM_THREADS=2`; the means equal the
+/// experiment JSON's `partial_sky_h_m`: 0.615 / 0.555 m phone with the INS
+/// / with hold, 0.276 / 0.253 m industrial): geometry-limited, no defect
+/// of the phase processing found.
+/// - The 4 highest satellites are all at 56–89° elevation, a cap around
+///   the zenith, often two near-coincident pairs (seeds 12–14: E04/C14 and
+///   C20/E10 1–4° apart). The filter's DDs have a condition number of
+///   3.7e3–3.4e5 and a unit-weight HDOP of 11–349 (median ≈ 80): with the
+///   ≈ 7 mm of a DD phase that is 0.08–2.4 m per epoch. Seeds 19 and 20
+///   (GPS + BeiDou only, no shared frequency) give rank 2, but their
+///   unobserved direction is nearly vertical (HDOP 1.8 with the height
+///   known) and their errors are the smallest (0.03–0.15 m).
+/// - The largest error lies along the weakest eigenvector's horizontal
+///   direction (|cos| ≥ 0.9 in 17–20 of 20 seeds per grade and filter).
+/// - Every epoch of the window uses all the phase DDs its records allow
+///   (4, or 5 in seeds 12–14), hold holds them all; no phase or code
+///   gating, no reference resets, no loss-of-lock resets; one INS slip
+///   reset (seed 20) and one reference change (seed 4, SD states: no
+///   reset). With the scene's ionosphere removed (`RTK_DIAG_SCENE=noiono`)
+///   the means are 0.609 / 0.558 / 0.251 / 0.228 m: the ionosphere states
+///   do not cause it.
+/// - Industrial: the error follows the reported σ (median error/σ 1.06 /
+///   1.21; ≥ 90 % of the window inside the 95 % ellipse in 18 / 20 of 20
+///   seeds). Phone: median error/σ 1.97 / 1.73, only 12 of 20 seeds: the
+///   phone INS, which carries the weak direction, is over-confident
+///   (< 90 % in seeds 1, 3, 6, 7, 8, 16, 20, and 2 with hold); its own 30 s
+///   outage shows it too (coverage 3–73 % in seeds 1, 8, 11; the
+///   industrial's is 100 % in every seed). The phone
+///   preset's 5 mrad axis misalignment and gyro g-sensitivity are not
+///   ESKF states (`sensors::imu_noise_preset`): the likely cause, not
+///   verified here.
 #[test]
 #[ignore = "diagnostic: prints the 4-satellite window's geometry per seed"]
 fn rtk_partial_window_geometry_diagnostic() {
@@ -541,7 +578,10 @@ fn rtk_partial_window_geometry_diagnostic() {
         .iter()
         .flat_map(|&s| grades.iter().map(move |&g| (s, g)))
         .collect();
-    let lines: Vec<(u64, ImuGrade, String)> = jobs
+    // Per job: the line, and per filter (largest error, its σ, window
+    // epochs inside the 95 % ellipse / epochs).
+    #[allow(clippy::type_complexity)]
+    let lines: Vec<(u64, ImuGrade, String, [(f64, f64, usize, usize); 2])> = jobs
         .par_iter()
         .map(|&(seed, grade)| {
             let pr = platform_run(Platform::Car, seed, &platform_options(grade, o.duration))
@@ -559,6 +599,14 @@ fn rtk_partial_window_geometry_diagnostic() {
             let mut runs = [WindowRun::default(), WindowRun::default()];
             for (f, w) in [with, hold].into_iter().zip(runs.iter_mut()) {
                 run_filter_observed(&d, f, |k, sol, f, (n, e)| {
+                    if d.rover[k].epoch.n == 0 {
+                        let s = sol.float_std_ned;
+                        let o = &mut w.outage;
+                        o.0 += 1;
+                        o.1 += usize::from((n / s.x).powi(2) + (e / s.y).powi(2) <= 5.991);
+                        o.2 = o.2.max(n.hypot(e));
+                        o.3 = s.x.hypot(s.y);
+                    }
                     if !in_window(k) {
                         if d.rover[k].t < p0 {
                             w.before = f.rtk_stats().copied();
@@ -646,7 +694,7 @@ fn rtk_partial_window_geometry_diagnostic() {
                 let (b, a) = (w.before.unwrap_or_default(), w.after.unwrap_or_default());
                 let (tb, ta) = (b.total(), a.total());
                 s += &format!(
-                    " | {name} {:.3}m@{:>3.0}s σ{:.3}{} cos{:.2} fix{:>3.0}% in95 {:>3.0}% nφ{}-{}/{} short{} Δ[pg{} cg{} sl{} mw{} lli{} rr{} rc{} held{}]",
+                    " | {name} {:.3}m@{:>3.0}s σ{:.3}{} cos{:.2} fix{:>3.0}% in95 {:>3.0}% outage {:.2}m σ{:.2} in95 {:>3.0}% nφ{}-{}/{} short{} Δ[pg{} cg{} sl{} mw{} lli{} rr{} rc{} held{}]",
                     w.max_h,
                     d.rover[w.k_max].t - d.t0,
                     w.sigma_h,
@@ -654,6 +702,9 @@ fn rtk_partial_window_geometry_diagnostic() {
                     cos,
                     100.0 * w.fixed as f64 / w.epochs.max(1) as f64,
                     100.0 * w.inside95 as f64 / w.epochs.max(1) as f64,
+                    w.outage.2,
+                    w.outage.3,
+                    100.0 * w.outage.1 as f64 / w.outage.0.max(1) as f64,
                     w.n_phase.0,
                     w.n_phase.1,
                     allow,
@@ -668,15 +719,32 @@ fn rtk_partial_window_geometry_diagnostic() {
                     a.held - b.held,
                 );
             }
-            (seed, grade, s)
+            let sum = |w: &WindowRun| (w.max_h, w.sigma_h, w.inside95, w.epochs);
+            (seed, grade, s, [sum(&runs[0]), sum(&runs[1])])
         })
         .collect();
     for g in grades {
         println!("== {} ==", g.preset());
-        for (_, gg, s) in &lines {
+        for (_, gg, s, _) in &lines {
             if *gg == g {
                 println!("{s}");
             }
+        }
+        for (j, name) in ["with_ins", "with_ins_hold"].iter().enumerate() {
+            let v: Vec<_> = lines.iter().filter(|x| x.1 == g).map(|x| x.3[j]).collect();
+            let n = v.len().max(1) as f64;
+            let mut ratio: Vec<f64> = v.iter().map(|x| x.0 / x.1).collect();
+            ratio.sort_by(f64::total_cmp);
+            println!(
+                "{} {name}: mean largest error {:.3} m (the JSON's partial_sky_h_m), seeds > 0.3 m {}, \
+                 median error/σ {:.2}, seeds with ≥ 90 % of the window inside the 95 % ellipse {} of {}",
+                g.preset(),
+                v.iter().map(|x| x.0).sum::<f64>() / n,
+                v.iter().filter(|x| x.0 > 0.3).count(),
+                ratio.get(ratio.len() / 2).copied().unwrap_or(f64::NAN),
+                v.iter().filter(|x| x.2 * 10 >= x.3 * 9).count(),
+                v.len()
+            );
         }
     }
 }
