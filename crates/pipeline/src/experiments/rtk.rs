@@ -429,7 +429,18 @@ struct Drive<'a> {
     slip_prn: Option<(GnssSystem, u8)>,
 }
 
-fn run_filter(d: &Drive, mut f: Eskf) -> Result<RunOut, String> {
+fn run_filter(d: &Drive, f: Eskf) -> Result<RunOut, String> {
+    run_filter_observed(d, f, |_, _, _, _| {})
+}
+
+/// [`run_filter`] calling `on_epoch(k, solution, filter, (north, east)
+/// horizontal error [m])` after each rover epoch `k`'s update
+/// (diagnostics).
+fn run_filter_observed(
+    d: &Drive,
+    mut f: Eskf,
+    mut on_epoch: impl FnMut(usize, &RtkSolution, &Eskf, (f64, f64)),
+) -> Result<RunOut, String> {
     let mut out = RunOut::default();
     let mut i = 0usize;
     let dt_imu = d.imu.get(1).map_or(0.01, |s| s.t - d.imu[0].t);
@@ -463,6 +474,7 @@ fn run_filter(d: &Drive, mut f: Eskf) -> Result<RunOut, String> {
         let tr = d.traj.at(sol.t);
         let (n, e) = super::h_error_ne(sol.pos.lat, sol.pos.lon, &tr);
         let h_err = n.hypot(e);
+        on_epoch(k, &sol, &f, (n, e));
         let (fnn, fe) = super::h_error_ne(sol.float_pos.lat, sol.float_pos.lon, &tr);
         let inside = |n: f64, e: f64, s: &Vec3| (n / s.x).powi(2) + (e / s.y).powi(2) <= 5.991;
         if re.epoch.n > 0 {
@@ -682,20 +694,36 @@ fn run_seed(
     rc: RtkConfig,
     single_frequency: bool,
 ) -> Result<[RunOut; 3], String> {
-    let opts = PlatformOptions {
-        duration_s: duration,
-        static_start: true,
-        imu: grade,
-        gnss: GnssGrade::Consumer,
-        ..Default::default()
-    };
-    let pr = platform_run(Platform::Car, seed, &opts).map_err(|e| e.to_string())?;
+    let pr = platform_run(Platform::Car, seed, &platform_options(grade, duration))
+        .map_err(|e| e.to_string())?;
     let run = &pr.run;
     let d = if single_frequency {
         drive_l1(seed, run, orbits)?
     } else {
         drive_dual(seed, run)?
     };
+    let [with, without, hold] = seed_filters(&d, grade, rc)?;
+    Ok([
+        run_filter(&d, with)?,
+        run_filter(&d, without)?,
+        run_filter(&d, hold)?,
+    ])
+}
+
+/// The car drive of one seed: static start, `grade`'s IMU.
+fn platform_options(grade: ImuGrade, duration: f64) -> PlatformOptions {
+    PlatformOptions {
+        duration_s: duration,
+        static_start: true,
+        imu: grade,
+        gnss: GnssGrade::Consumer,
+        ..Default::default()
+    }
+}
+
+/// The three filters of a drive: with the INS, without (GNSS-only), with
+/// the INS and fix-and-hold (module documentation).
+fn seed_filters(d: &Drive, grade: ImuGrade, rc: RtkConfig) -> Result<[Eskf; 3], String> {
     let with = car_filter(d.traj, d.lever, grade)?
         .with_rtk(rc)
         .map_err(|e| e.to_string())?;
@@ -711,11 +739,7 @@ fn run_seed(
             ..rc
         })
         .map_err(|e| e.to_string())?;
-    Ok([
-        run_filter(&d, with)?,
-        run_filter(&d, without)?,
-        run_filter(&d, hold)?,
-    ])
+    Ok([with, without, hold])
 }
 
 /// The single-frequency GPS L1 drive (module documentation).
@@ -870,15 +894,8 @@ fn scores(v: &[RunOut]) -> Scores {
     s
 }
 
-/// Run the experiment over seeds `seed0 …` for both IMU grades.
-pub fn run_rtk(o: &Options) -> Result<RtkReport, ExperimentError> {
-    let min = PARTIAL_START_S + PARTIAL_S + 10.0;
-    if o.seeds == 0 || !(o.duration.is_finite() && o.duration >= min) {
-        return Err(ExperimentError::Options(format!(
-            "rtk: need --seeds >= 1 and --duration >= {min} s"
-        )));
-    }
-    let (orbits, orbit_name) = super::tight::load_orbits(o.almanac.as_ref());
+/// The filters' RTK configuration for the options `o`.
+fn filter_config(o: &Options) -> RtkConfig {
     let mut rc = RtkConfig::consumer();
     rc.inter_system = !(o.single_frequency || o.intra_system_only);
     if o.single_frequency {
@@ -896,6 +913,19 @@ pub fn run_rtk(o: &Options) -> Result<RtkReport, ExperimentError> {
         // 0 = off: any success rate passes.
         rc.success_min = p.max(f64::MIN_POSITIVE);
     }
+    rc
+}
+
+/// Run the experiment over seeds `seed0 …` for both IMU grades.
+pub fn run_rtk(o: &Options) -> Result<RtkReport, ExperimentError> {
+    let min = PARTIAL_START_S + PARTIAL_S + 10.0;
+    if o.seeds == 0 || !(o.duration.is_finite() && o.duration >= min) {
+        return Err(ExperimentError::Options(format!(
+            "rtk: need --seeds >= 1 and --duration >= {min} s"
+        )));
+    }
+    let (orbits, orbit_name) = super::tight::load_orbits(o.almanac.as_ref());
+    let rc = filter_config(o);
     let ids: Vec<u64> = (o.seed0..o.seed0 + o.seeds).collect();
     let grades = [ImuGrade::Industrial, ImuGrade::Consumer];
     let jobs: Vec<(u64, ImuGrade)> = ids

@@ -348,3 +348,403 @@ fn rtk_fixed_error_budget_diagnostic() {
         );
     }
 }
+
+/// DD geometry of the line-of-sight rows `rows` (NED, unit weights):
+/// condition number of the 3×3 normal matrix, HDOP- and VDOP-like
+/// `√(N⁻¹)` numbers (∞ when singular), rank (eigenvalues above 1e-9 of the
+/// largest), and the weakest eigenvector (NED).
+struct DdGeometry {
+    cond: f64,
+    hdop: f64,
+    /// HDOP with the height known (the horizontal 2×2 block inverted).
+    hdop_h_known: f64,
+    vdop: f64,
+    rank: usize,
+    weak: Vec3,
+}
+
+fn dd_geometry(rows: &[Vec3]) -> DdGeometry {
+    let n: navfuse_core::Mat3 = rows.iter().map(|h| h * h.transpose()).sum();
+    let eig = n.symmetric_eigen();
+    let (mut imin, mut imax) = (0, 0);
+    for i in 1..3 {
+        if eig.eigenvalues[i] < eig.eigenvalues[imin] {
+            imin = i;
+        }
+        if eig.eigenvalues[i] > eig.eigenvalues[imax] {
+            imax = i;
+        }
+    }
+    let (lmin, lmax) = (eig.eigenvalues[imin].max(0.0), eig.eigenvalues[imax]);
+    let rank = eig.eigenvalues.iter().filter(|l| **l > 1e-9 * lmax).count();
+    let (hdop, vdop) = match (rank == 3).then(|| n.try_inverse()).flatten() {
+        Some(q) => ((q[(0, 0)] + q[(1, 1)]).sqrt(), q[(2, 2)].sqrt()),
+        None => (f64::INFINITY, f64::INFINITY),
+    };
+    let nh = n.fixed_view::<2, 2>(0, 0).into_owned();
+    let hdop_h_known = nh
+        .try_inverse()
+        .map_or(f64::INFINITY, |q| (q[(0, 0)] + q[(1, 1)]).max(0.0).sqrt());
+    DdGeometry {
+        hdop_h_known,
+        cond: if rank == 3 {
+            lmax / lmin
+        } else {
+            f64::INFINITY
+        },
+        hdop,
+        vdop,
+        rank,
+        weak: eig.eigenvectors.column(imin).into_owned(),
+    }
+}
+
+/// One filter's 4-satellite window, from the per-epoch observer.
+#[derive(Default)]
+struct WindowRun {
+    /// Largest horizontal error [m], its epoch index, NE error and the
+    /// reported horizontal σ √(σn² + σe²) there, fixed there.
+    max_h: f64,
+    k_max: usize,
+    ne_max: (f64, f64),
+    sigma_h: f64,
+    fixed_at_max: bool,
+    /// Fixed epochs / epochs; phase DDs min / max / sum; epochs whose
+    /// phase DD count is below what the records allow.
+    fixed: usize,
+    epochs: usize,
+    /// Epochs whose horizontal error is inside the reported 95 % ellipse.
+    inside95: usize,
+    /// The full outage (no satellite, INS alone): epochs, epochs inside the
+    /// 95 % ellipse, the largest horizontal error and σ at its last epoch.
+    outage: (usize, usize, f64, f64),
+    n_phase: (usize, usize, usize),
+    short: usize,
+    /// Counter totals before and at the end of the window.
+    before: Option<RtkStats>,
+    after: Option<RtkStats>,
+}
+
+/// The phase DDs the records of a rover epoch allow with the filter's
+/// grouping (groups of n records: n − 1 each), and their LOS-difference
+/// rows against each group's highest satellite; the window's satellites
+/// (first signal) with elevation, azimuth [°] and signal count.
+#[allow(clippy::type_complexity)]
+fn window_rows(
+    d: &Drive,
+    k: usize,
+    rc: &RtkConfig,
+) -> (
+    usize,
+    Vec<Vec3>,
+    Vec<(GnssSystem, u8, f64, f64, usize, Vec3)>,
+) {
+    use navfuse_core::gnss::raw::geometric_range;
+    let re = &d.rover[k];
+    let (ra, _) = d.traj.antenna_ecef(re.t, &d.lever);
+    let g = ecef_to_geodetic(&ra);
+    let cen = c_en(g.lat, g.lon);
+    // (group, prn/system key, el, u)
+    let mut recs = Vec::new();
+    let mut sats: Vec<(GnssSystem, u8, f64, f64, usize, Vec3)> = Vec::new();
+    for s in re.epoch.sats() {
+        if !d.base[k].epoch.sats().iter().any(|b| {
+            b.obs.system == s.obs.system && b.obs.prn == s.obs.prn && b.obs.signal == s.obs.signal
+        }) {
+            continue;
+        }
+        let u = cen * geometric_range(&s.sat.pos_e, &ra).1;
+        let el = (-u.z).asin();
+        if el < rc.elevation_mask_rad {
+            continue;
+        }
+        recs.push((rc.dd_group(s.obs.system, s.obs.signal), el, u));
+        match sats
+            .iter_mut()
+            .find(|x| x.0 == s.obs.system && x.1 == s.obs.prn)
+        {
+            Some(x) => x.4 += 1,
+            None => sats.push((
+                s.obs.system,
+                s.obs.prn,
+                el.to_degrees(),
+                u.y.atan2(u.x).to_degrees().rem_euclid(360.0),
+                1,
+                u,
+            )),
+        }
+    }
+    sats.sort_by(|a, b| b.2.total_cmp(&a.2));
+    let mut rows = Vec::new();
+    let mut n = 0;
+    for r in &recs {
+        let rf = recs
+            .iter()
+            .filter(|x| x.0 == r.0)
+            .max_by(|a, b| a.1.total_cmp(&b.1))
+            .unwrap();
+        if rf.1 != r.1 {
+            rows.push(r.2 - rf.2);
+            n += 1;
+        }
+    }
+    (n, rows, sats)
+}
+
+/// Diagnostic of the 4-satellite window (issue 15, "fixed solution kept or
+/// float ≤ 0.3 m"), not an assertion: per seed (`RTK_DIAG_SEEDS`, default
+/// 1–20) and IMU grade, the experiment's own drive and filters (with the
+/// INS; with the INS and fix-and-hold) observed epoch by epoch. Printed:
+/// - the window's satellites at the with-INS filter's worst epoch
+///   (system+PRN elevation/azimuth [°], the signal count);
+/// - the DD geometry there, unit weights, LOS differences `u_i − u_ref`:
+///   (a) "1ref": the 4 satellites against the highest (the brief's
+///   idealisation), (b) "grp": the filter's own DDs, each (system, signal)
+///   group ([`RtkConfig::dd_group`]) against its highest satellite, both
+///   frequencies — rank, condition number, HDOP/VDOP-like `√diag(N⁻¹)`,
+///   "H|v" the HDOP were the height known (the horizontal 2×2 block), the
+///   weakest eigenvector's horizontal share and azimuth (mod 180°);
+/// - per filter: the largest horizontal error, its time, the reported
+///   horizontal σ there (F fixed, f float), |cos| of the error against the
+///   weak eigenvector's horizontal direction (b), fixed share, the share of
+///   window epochs inside the reported 95 % ellipse, the same for the 30 s
+///   full outage (INS alone: its largest error, σ at its end, share inside
+///   the 95 % ellipse — the INS model's own consistency), phase DDs used per epoch
+///   (min–max / the records' allowance), epochs short of the allowance;
+/// - the filter counters' increments over the window (phase gated, code
+///   gated, INS slips, GF/MW slips, loss-of-lock resets, reference resets,
+///   reference changes, held DDs).
+///
+/// Run: `cargo test --release -p navfuse-pipeline
+/// rtk_partial_window_geometry_diagnostic -- --ignored --nocapture`.
+///
+/// **Measured** (seeds 1–20, `RAYON_NUM_THREADS=2`; the means equal the
+/// experiment JSON's `partial_sky_h_m`: 0.615 / 0.555 m phone with the INS
+/// / with hold, 0.276 / 0.253 m industrial): geometry-limited, no defect
+/// of the phase processing found.
+/// - The 4 highest satellites are all at 56–89° elevation, a cap around
+///   the zenith, often two near-coincident pairs (seeds 12–14: E04/C14 and
+///   C20/E10 1–4° apart). The filter's DDs have a condition number of
+///   3.7e3–3.4e5 and a unit-weight HDOP of 11–349 (median ≈ 80): with the
+///   ≈ 7 mm of a DD phase that is 0.08–2.4 m per epoch. Seeds 19 and 20
+///   (GPS + BeiDou only, no shared frequency) give rank 2, but their
+///   unobserved direction is nearly vertical (HDOP 1.8 with the height
+///   known) and their errors are the smallest (0.03–0.15 m).
+/// - The largest error lies along the weakest eigenvector's horizontal
+///   direction (|cos| ≥ 0.9 in 17–20 of 20 seeds per grade and filter).
+/// - Every epoch of the window uses all the phase DDs its records allow
+///   (4, or 5 in seeds 12–14), hold holds them all; no phase or code
+///   gating, no reference resets, no loss-of-lock resets; one INS slip
+///   reset (seed 20) and one reference change (seed 4, SD states: no
+///   reset). With the scene's ionosphere removed (`RTK_DIAG_SCENE=noiono`)
+///   the means are 0.609 / 0.558 / 0.251 / 0.228 m: the ionosphere states
+///   do not cause it.
+/// - Industrial: the error follows the reported σ (median error/σ 1.06 /
+///   1.21; ≥ 90 % of the window inside the 95 % ellipse in 18 / 20 of 20
+///   seeds). Phone: median error/σ 1.97 / 1.73, only 12 of 20 seeds: the
+///   phone INS, which carries the weak direction, is over-confident
+///   (< 90 % in seeds 1, 3, 6, 7, 8, 16, 20, and 2 with hold); its own 30 s
+///   outage shows it too (coverage 3–73 % in seeds 1, 8, 11; the
+///   industrial's is 100 % in every seed). The phone
+///   preset's 5 mrad axis misalignment and gyro g-sensitivity are not
+///   ESKF states (`sensors::imu_noise_preset`): the likely cause, not
+///   verified here.
+#[test]
+#[ignore = "diagnostic: prints the 4-satellite window's geometry per seed"]
+fn rtk_partial_window_geometry_diagnostic() {
+    let seeds: Vec<u64> = std::env::var("RTK_DIAG_SEEDS")
+        .map(|v| v.split(',').filter_map(|x| x.trim().parse().ok()).collect())
+        .unwrap_or_else(|_| (1..=20).collect());
+    let o = Options {
+        seeds: 1,
+        seed0: 1,
+        duration: 600.0,
+        almanac: None,
+        json: None,
+        single_frequency: false,
+        intra_system_only: false,
+        success_min: None,
+        white_iono: false,
+        iono_ppm: None,
+    };
+    let rc = filter_config(&o);
+    // Ablation (diagnosis only, never the experiment's scenario):
+    // `RTK_DIAG_SCENE=noiono` removes the scene's ionosphere, so the DDs
+    // carry no differential ionosphere.
+    let ablation = std::env::var("RTK_DIAG_SCENE").unwrap_or_default();
+    println!("scene ablation: {ablation:?}");
+    let grades = [ImuGrade::Consumer, ImuGrade::Industrial];
+    let jobs: Vec<(u64, ImuGrade)> = seeds
+        .iter()
+        .flat_map(|&s| grades.iter().map(move |&g| (s, g)))
+        .collect();
+    // Per job: the line, and per filter (largest error, its σ, window
+    // epochs inside the 95 % ellipse / epochs).
+    #[allow(clippy::type_complexity)]
+    let lines: Vec<(u64, ImuGrade, String, [(f64, f64, usize, usize); 2])> = jobs
+        .par_iter()
+        .map(|&(seed, grade)| {
+            let pr = platform_run(Platform::Car, seed, &platform_options(grade, o.duration))
+                .unwrap();
+            let (d, _) = drive_dual_with(seed, &pr.run, |c| {
+                if ablation == "noiono" {
+                    c.iono_gradient_ppm = 0.0;
+                    c.raw.iono_zenith_m = 0.0;
+                }
+            })
+            .unwrap();
+            let [with, _, hold] = seed_filters(&d, grade, rc).unwrap();
+            let (p0, p1) = (d.t0 + PARTIAL_START_S, d.t0 + PARTIAL_START_S + PARTIAL_S);
+            let in_window = |k: usize| d.rover[k].t >= p0 && d.rover[k].t < p1;
+            let mut runs = [WindowRun::default(), WindowRun::default()];
+            for (f, w) in [with, hold].into_iter().zip(runs.iter_mut()) {
+                run_filter_observed(&d, f, |k, sol, f, (n, e)| {
+                    if d.rover[k].epoch.n == 0 {
+                        let s = sol.float_std_ned;
+                        let o = &mut w.outage;
+                        o.0 += 1;
+                        o.1 += usize::from((n / s.x).powi(2) + (e / s.y).powi(2) <= 5.991);
+                        o.2 = o.2.max(n.hypot(e));
+                        o.3 = s.x.hypot(s.y);
+                    }
+                    if !in_window(k) {
+                        if d.rover[k].t < p0 {
+                            w.before = f.rtk_stats().copied();
+                        }
+                        return;
+                    }
+                    w.after = f.rtk_stats().copied();
+                    w.epochs += 1;
+                    w.fixed += usize::from(sol.fixed);
+                    let sd = if sol.fixed { sol.std_ned } else { sol.float_std_ned };
+                    if (n / sd.x).powi(2) + (e / sd.y).powi(2) <= 5.991 {
+                        w.inside95 += 1;
+                    }
+                    let np = sol.n_phase;
+                    w.n_phase = if w.epochs == 1 {
+                        (np, np, np)
+                    } else {
+                        (w.n_phase.0.min(np), w.n_phase.1.max(np), w.n_phase.2 + np)
+                    };
+                    if np < window_rows(&d, k, &rc).0 {
+                        w.short += 1;
+                    }
+                    let h = n.hypot(e);
+                    if h >= w.max_h {
+                        let s = if sol.fixed { sol.std_ned } else { sol.float_std_ned };
+                        *w = WindowRun {
+                            max_h: h,
+                            k_max: k,
+                            ne_max: (n, e),
+                            sigma_h: s.x.hypot(s.y),
+                            fixed_at_max: sol.fixed,
+                            ..std::mem::take(w)
+                        };
+                    }
+                })
+                .unwrap();
+            }
+            let k = runs[0].k_max;
+            let (allow, rows, sats) = window_rows(&d, k, &rc);
+            let sys = |s: GnssSystem| match s {
+                GnssSystem::Gps => 'G',
+                GnssSystem::Galileo => 'E',
+                GnssSystem::BeiDou => 'C',
+                _ => '?',
+            };
+            let sat_txt: Vec<String> = sats
+                .iter()
+                .map(|s| format!("{}{:02} {:>2.0}/{:>3.0}{}", sys(s.0), s.1, s.2, s.3, if s.4 == 2 { "" } else { "*" }))
+                .collect();
+            let one: Vec<Vec3> = sats[1..].iter().map(|s| s.5 - sats[0].5).collect();
+            let ga = dd_geometry(&one);
+            let gb = dd_geometry(&rows);
+            let weak = |g: &DdGeometry| {
+                format!(
+                    "h{:>3.0}% az{:>4.0}",
+                    100.0 * g.weak.x.hypot(g.weak.y),
+                    g.weak.y.atan2(g.weak.x).to_degrees().rem_euclid(180.0)
+                )
+            };
+            let wh = Vec3::new(gb.weak.x, gb.weak.y, 0.0);
+            let num = |x: f64| if x.is_finite() { format!("{x:>6.1}") } else { "   inf".into() };
+            let mut s = format!(
+                "{:>2} {:<10} {} | 1ref c{} H{} V{} {} | grp r{} c{} H{} V{} H|v{} {}",
+                seed,
+                grade.preset(),
+                sat_txt.join(" "),
+                num(ga.cond),
+                num(ga.hdop),
+                num(ga.vdop),
+                weak(&ga),
+                gb.rank,
+                num(gb.cond),
+                num(gb.hdop),
+                num(gb.vdop),
+                num(gb.hdop_h_known),
+                weak(&gb),
+            );
+            for (name, w) in ["ins", "hold"].iter().zip(&runs) {
+                let (en, ee) = w.ne_max;
+                let cos = if wh.norm() > 1e-9 && w.max_h > 0.0 {
+                    (en * wh.x + ee * wh.y).abs() / (wh.norm() * w.max_h)
+                } else {
+                    f64::NAN
+                };
+                let (b, a) = (w.before.unwrap_or_default(), w.after.unwrap_or_default());
+                let (tb, ta) = (b.total(), a.total());
+                s += &format!(
+                    " | {name} {:.3}m@{:>3.0}s σ{:.3}{} cos{:.2} fix{:>3.0}% in95 {:>3.0}% outage {:.2}m σ{:.2} in95 {:>3.0}% nφ{}-{}/{} short{} Δ[pg{} cg{} sl{} mw{} lli{} rr{} rc{} held{}]",
+                    w.max_h,
+                    d.rover[w.k_max].t - d.t0,
+                    w.sigma_h,
+                    if w.fixed_at_max { "F" } else { "f" },
+                    cos,
+                    100.0 * w.fixed as f64 / w.epochs.max(1) as f64,
+                    100.0 * w.inside95 as f64 / w.epochs.max(1) as f64,
+                    w.outage.2,
+                    w.outage.3,
+                    100.0 * w.outage.1 as f64 / w.outage.0.max(1) as f64,
+                    w.n_phase.0,
+                    w.n_phase.1,
+                    allow,
+                    w.short,
+                    ta.phase_gated - tb.phase_gated,
+                    ta.code_gated - tb.code_gated,
+                    ta.slips - tb.slips,
+                    ta.dual_slips - tb.dual_slips,
+                    ta.lli_resets - tb.lli_resets,
+                    ta.ref_resets - tb.ref_resets,
+                    a.reference_changes - b.reference_changes,
+                    a.held - b.held,
+                );
+            }
+            let sum = |w: &WindowRun| (w.max_h, w.sigma_h, w.inside95, w.epochs);
+            (seed, grade, s, [sum(&runs[0]), sum(&runs[1])])
+        })
+        .collect();
+    for g in grades {
+        println!("== {} ==", g.preset());
+        for (_, gg, s, _) in &lines {
+            if *gg == g {
+                println!("{s}");
+            }
+        }
+        for (j, name) in ["with_ins", "with_ins_hold"].iter().enumerate() {
+            let v: Vec<_> = lines.iter().filter(|x| x.1 == g).map(|x| x.3[j]).collect();
+            let n = v.len().max(1) as f64;
+            let mut ratio: Vec<f64> = v.iter().map(|x| x.0 / x.1).collect();
+            ratio.sort_by(f64::total_cmp);
+            println!(
+                "{} {name}: mean largest error {:.3} m (the JSON's partial_sky_h_m), seeds > 0.3 m {}, \
+                 median error/σ {:.2}, seeds with ≥ 90 % of the window inside the 95 % ellipse {} of {}",
+                g.preset(),
+                v.iter().map(|x| x.0).sum::<f64>() / n,
+                v.iter().filter(|x| x.0 > 0.3).count(),
+                ratio.get(ratio.len() / 2).copied().unwrap_or(f64::NAN),
+                v.iter().filter(|x| x.2 * 10 >= x.3 * 9).count(),
+                v.len()
+            );
+        }
+    }
+}

@@ -346,6 +346,18 @@ impl RtkConfig {
             && self.base_mp_tau_s >= 0.0
     }
 
+    /// The DD group (system, signal) of a record: its own, or with
+    /// [`RtkConfig::inter_system`] the group of the system sharing its
+    /// frequency (Galileo E1 with GPS L1, BeiDou B2I with Galileo E5b).
+    /// Each group's DDs are formed against its own highest satellite.
+    pub fn dd_group(&self, system: GnssSystem, signal: Signal) -> (GnssSystem, Signal) {
+        match (self.inter_system, signal) {
+            (true, Signal::GalE1) => (GnssSystem::Gps, Signal::GpsL1Ca),
+            (true, Signal::BdsB2I) => (GnssSystem::Galileo, Signal::GalE5b),
+            _ => (system, signal),
+        }
+    }
+
     /// Undifferenced phase variance [m²] at elevation `el`.
     pub fn phase_var(&self, el: f64) -> f64 {
         let s = el.sin().max(0.05);
@@ -1318,11 +1330,7 @@ impl Eskf {
                 key_sys: o.system,
                 key_prn: o.prn,
                 key_sig: o.signal,
-                grp: match (cfg.inter_system, o.signal) {
-                    (true, Signal::GalE1) => (GnssSystem::Gps, Signal::GpsL1Ca),
-                    (true, Signal::BdsB2I) => (GnssSystem::Galileo, Signal::GalE5b),
-                    _ => (o.system, o.signal),
-                },
+                grp: cfg.dd_group(o.system, o.signal),
                 slot: usize::MAX,
                 el,
                 lambda: o.wavelength_m(),
