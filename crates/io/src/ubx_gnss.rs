@@ -207,9 +207,11 @@ pub struct UbxGnssReport {
 /// Everything a UBX log gives for raw GNSS processing.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct UbxGnss {
-    /// GPS L1 C/A epochs (one per RAWX message).
+    /// GPS L1 C/A and L2C epochs (one per RAWX message; RINEX 2 types
+    /// `C1 L1 D1 S1 C2 L2 D2 S2`).
     pub obs: ObsFile,
-    /// Galileo E1 and BeiDou B1I observations, epoch by epoch parallel to
+    /// Galileo E1 + E5b, BeiDou B1I + B2I and GLONASS L1OF observations,
+    /// epoch by epoch parallel to
     /// `obs.epochs` (GPS is in `obs` only), with their RINEX 3 codes.
     pub gnss: GnssObs,
     /// GPS ephemerides, URA and the Klobuchar coefficients (subframe 4 page 18).
