@@ -564,7 +564,8 @@ const SIGNALS: [SignalCodes; 7] = [
 /// 1, 3, 5, IOD_nav = index mod 1024, health ≠ 0 → E1-B HS 1) or D1
 /// subframes 1–3 / D2 pages 1–10 (AODE = index mod 32), and `glonass` as
 /// strings 1–4 (frame identifier = index), all sent after the first epoch.
-/// Errors: a field that does not fit its bits (names it).
+/// Errors: a field that does not fit its bits (names it), an epoch of
+/// more than 255 measurements (RAWX `numMeas`; they were cut before).
 pub fn write_ubx_multi(
     obs: &ObsFile,
     gnss: &GnssObs,
@@ -616,6 +617,13 @@ pub fn write_ubx_multi(
                 let sig = sig + u8::from(s == 'C' && bds::is_geo(*prn));
                 meas.push(rawx_meas(gid, *prn, sig, q, ep.t, &mut locks));
             }
+        }
+        if meas.len() > usize::from(u8::MAX) {
+            return Err(format!(
+                "epoch {}: {} measurements, more than RAWX numMeas holds (255)",
+                ep.t,
+                meas.len()
+            ));
         }
         out.extend(encode(&UbxMessage::RxmRawx(RxmRawx {
             rcv_tow: tow,
@@ -869,6 +877,26 @@ mod tests {
                 }
             }
         }
+    }
+
+    /// An epoch of more measurements than RAWX `numMeas` holds (200 GPS
+    /// satellites with L1 and L2: 400) is an error naming the epoch and the
+    /// count, not a silently cut epoch; 127 satellites (254) are written.
+    #[test]
+    fn too_many_measurements_is_an_error() {
+        let (mut o, _) = dual_obs();
+        let row = o.epochs[0].sats[0].1.clone();
+        o.epochs.truncate(1);
+        o.epochs[0].sats = (1..=127).map(|p| (p, row.clone())).collect();
+        let b = write_ubx_multi(&o, &GnssObs::default(), &NavData::default(), &[], &[]).unwrap();
+        let u = read_ubx_gnss(&b[..], "t").unwrap();
+        // PRN 33–127 are no GPS satellites: counted, not read.
+        assert_eq!((u.report.gps_meas, u.report.gps_l2_meas), (32, 32));
+        assert_eq!(u.report.other_signal_meas, 2 * 95);
+        o.epochs[0].sats = (1..=200).map(|p| (p, row.clone())).collect();
+        let e =
+            write_ubx_multi(&o, &GnssObs::default(), &NavData::default(), &[], &[]).unwrap_err();
+        assert!(e.contains("400 measurements") && e.contains("255"), "{e}");
     }
 
     fn meas(gnss_id: u8, sv_id: u8, sig_id: u8, pr: f64, lock: u16) -> RawxMeas {
