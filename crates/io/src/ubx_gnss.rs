@@ -458,7 +458,7 @@ fn subframe(m: &RxmSfrbx, week: u16, rx_t: f64, dec: &mut Decoders, out: &mut Ub
 
 /// Write `obs` (GPS `C1 L1 D1 S1` as L1 C/A, and `C2 L2 D2 S2` where
 /// present as L2 CL, `sigId` 3; the phase's LLI as the lock time and
-/// half-cycle bit of [`rawx_meas`]) as RXM-RAWX epochs and
+/// half-cycle bit of `rawx_meas`) as RXM-RAWX epochs and
 /// `nav` as RXM-SFRBX subframes 1–3 per ephemeris (issue of data = its
 /// index mod 256) plus subframe 4 page 18 for the ionosphere, sent after the
 /// first epoch (the reader's week), transmitted at that epoch's time.
