@@ -1,24 +1,53 @@
-//! Raw GNSS from a UBX log: UBX-RXM-RAWX epochs (GPS L1 C/A, Galileo E1,
-//! BeiDou B1I code, carrier, Doppler) and UBX-RXM-SFRBX navigation data
-//! (GPS LNAV [`crate::gps_lnav`], Galileo I/NAV [`crate::galileo_inav`],
-//! BeiDou D1/D2 [`crate::beidou_d1d2`]) read into the same structures as a
-//! RINEX observation and navigation file ([`ObsFile`] with RINEX 2 codes
-//! `C1`, `L1`, `D1`, `S1` for GPS; [`GnssObs`] with RINEX 3 codes for
-//! Galileo and BeiDou; [`NavData`] and [`GnssEph`] records as
-//! [`crate::rinex_nav3`] gives them), so a single `.ubx` log is
-//! self-contained for single-point positioning; and the inverse writers
-//! ([`write_ubx_gnss`], [`write_ubx_multi`]) for simulated logs and tests.
+//! Raw GNSS from a UBX log: UBX-RXM-RAWX epochs (code, carrier, Doppler,
+//! C/N0 of the signals in the table below) and UBX-RXM-SFRBX navigation
+//! data (GPS LNAV [`crate::gps_lnav`], Galileo I/NAV [`crate::galileo_inav`],
+//! BeiDou D1/D2 [`crate::beidou_d1d2`], GLONASS strings
+//! [`crate::glonass_str`]) read into the same structures as a RINEX
+//! observation and navigation file ([`ObsFile`] with RINEX 2 types for GPS;
+//! [`GnssObs`] with RINEX 3 codes for Galileo, BeiDou and GLONASS;
+//! [`NavData`] and [`GnssEph`] records as [`crate::rinex_nav3`] gives
+//! them), so a single `.ubx` log is self-contained for single-point
+//! positioning and, with its second frequencies, for dual-frequency RTK
+//! (the RINEX path of `navfuse_pipeline::raw_input` reads both alike); and
+//! the inverse writers ([`write_ubx_gnss`], [`write_ubx_multi`]) for
+//! simulated logs and tests.
 //!
-//! Conventions carried over unchanged: RAWX `prMes` [m] → `C1`, `cpMes`
-//! [cycles] → `L1`, `doMes` [Hz] (positive for an approaching satellite, as
-//! RINEX) → `D1`, `cno` [dB-Hz] → `S1`; a pseudorange or phase whose `trkStat` valid bit is clear
-//! is left blank. Galileo: `sigId` 0 (E1 C) → `C1C L1C D1C S1C`, 1 (E1 B)
-//! → `C1B L1B D1B S1B`; BeiDou: `sigId` 0/1 (B1I D1/D2) → `C2I L2I D2I S2I`
-//! (RINEX 3.02+ B1I codes). Epoch time: RAWX week and `rcvTow` (receiver
-//! time, GPS seconds), as a RINEX observation time tag. Ephemerides are
-//! collected over
-//! the whole log (as a navigation file holds the day's records); the
-//! broadcast week (GPS 10 bits, GST 12, BDT 13) is resolved with the week of the latest RAWX epoch, so
+//! Signals read (`gnssId`/`sigId` of the u-blox F9 interface description,
+//! UBX-RXM-RAWX and its table of GNSS signal identifiers; RINEX 3.04
+//! Table 4 observation codes; each signal's four values are code, phase,
+//! Doppler, C/N0):
+//!
+//! | system (`gnssId`) | `sigId` | signal | read as |
+//! |---|---|---|---|
+//! | GPS (0) | 0 | L1 C/A | `C1 L1 D1 S1` |
+//! | GPS (0) | 3 | L2 CL | `C2 L2 D2 S2` (RINEX 3 `C2L…`) |
+//! | GPS (0) | 4 | L2 CM | `C2 L2 D2 S2` (RINEX 3 `C2S…`; only without L2 CL) |
+//! | Galileo (2) | 0 | E1 C | `C1C L1C D1C S1C` |
+//! | Galileo (2) | 1 | E1 B | `C1B L1B D1B S1B` |
+//! | Galileo (2) | 5 | E5b I | `C7I L7I D7I S7I` |
+//! | Galileo (2) | 6 | E5b Q | `C7Q L7Q D7Q S7Q` |
+//! | BeiDou (3) | 0, 1 | B1I D1, D2 | `C2I L2I D2I S2I` (RINEX 3.02+ B1I) |
+//! | BeiDou (3) | 2, 3 | B2I D1, D2 | `C7I L7I D7I S7I` |
+//! | GLONASS (6) | 0 | L1OF (slots 1–24) | `C1C L1C D1C S1C` |
+//!
+//! GPS L2C goes into the RINEX 2 names that `crate::rinex::rinex2_name`
+//! gives a RINEX 3 file's `C2L`/`C2S`, so the RTK input takes a log's
+//! second frequencies (GPS L2C, Galileo E5b, BeiDou B2I) exactly as it
+//! takes a RINEX file's. Every other signal (GPS L5, Galileo E5a, BeiDou
+//! B1C/B2a, GLONASS L2OF, QZSS, SBAS, …) and satellite numbers out of
+//! range are counted in [`UbxGnssReport::other_signal_meas`], not read.
+//!
+//! Conventions: RAWX `prMes` [m] → code, `cpMes` [cycles of the signal] →
+//! phase, `doMes` [Hz] (positive for an approaching satellite, as RINEX) →
+//! Doppler, `cno` [dB-Hz] → C/N0; a pseudorange or phase whose `trkStat`
+//! valid bit is clear is left blank. The phase's LLI: bit 1 (half-cycle
+//! ambiguity) when `trkStat` bit 2 (half cycle valid) is clear; bit 0 (loss
+//! of lock) when its `locktime` restarted ([`lost_lock`]: RAWX has no
+//! loss-of-lock flag), for every signal alike. Epoch time: RAWX week and
+//! `rcvTow` (receiver time, GPS seconds), as a RINEX observation time tag.
+//! Ephemerides are collected over the whole log (as a navigation file
+//! holds the day's records); the broadcast week (GPS 10 bits, GST 12,
+//! BDT 13) is resolved with the week of the latest RAWX epoch, so
 //! subframes before the first epoch wait for it (at most
 //! [`MAX_PENDING_SUBFRAMES`]; more are rejected and counted).
 
@@ -33,33 +62,120 @@ use crate::ubx::{encode, RawxMeas, RxmRawx, RxmSfrbx, UbxMessage, UbxReader, SFR
 use navfuse_core::gnss::glonass::GlonassEph;
 use navfuse_core::gnss::orbit_gnss::BDT_MINUS_GPST;
 use navfuse_core::gnss::SECONDS_PER_WEEK;
+use std::collections::HashMap;
 use std::io::Read;
 
 /// Subframes held until the first RAWX epoch gives the week.
 pub const MAX_PENDING_SUBFRAMES: usize = 4096;
-/// RAWX/SFRBX `gnssId` of GPS, Galileo and BeiDou, and `sigId` of GPS L1 C/A.
+/// RAWX/SFRBX `gnssId` of GPS, Galileo, BeiDou and GLONASS.
 const GNSS_GPS: u8 = 0;
 const GNSS_GAL: u8 = 2;
 const GNSS_BDS: u8 = 3;
 const GNSS_GLO: u8 = 6;
-const SIG_L1CA: u8 = 0;
-/// RINEX 3 codes written for Galileo (E1 C, then E1 B) and BeiDou (B1I):
-/// code, phase, Doppler, C/N0 per signal.
-const GAL_CODES: [&str; 8] = ["C1C", "L1C", "D1C", "S1C", "C1B", "L1B", "D1B", "S1B"];
-const BDS_CODES: [&str; 4] = ["C2I", "L2I", "D2I", "S2I"];
+/// RAWX `sigId`s read (u-blox F9 interface description, UBX-RXM-RAWX and
+/// its signal identifier table): GPS L1 C/A, L2 CL, L2 CM; Galileo E1 C,
+/// E1 B, E5b I, E5b Q; BeiDou B1I D1, D2, B2I D1, D2; GLONASS L1OF.
+const SIG_GPS_L1CA: u8 = 0;
+const SIG_GPS_L2CL: u8 = 3;
+const SIG_GPS_L2CM: u8 = 4;
+const SIG_GAL_E1C: u8 = 0;
+const SIG_GAL_E1B: u8 = 1;
+const SIG_GAL_E5BI: u8 = 5;
+const SIG_GAL_E5BQ: u8 = 6;
+const SIG_BDS_B1I: u8 = 0;
+const SIG_BDS_B2I: u8 = 2;
+const SIG_GLO_L1OF: u8 = 0;
+/// RINEX 2 GPS types of the log's [`ObsFile`]: L1 C/A, then L2C (CL or CM,
+/// as `navfuse_io::rinex::rinex2_name` names RINEX 3 `C2L`/`C2S`).
+const GPS_TYPES: [&str; 8] = ["C1", "L1", "D1", "S1", "C2", "L2", "D2", "S2"];
+/// RINEX 3 codes written for Galileo (E1 C, E1 B, E5b I, E5b Q) and BeiDou
+/// (B1I, B2I): code, phase, Doppler, C/N0 per signal.
+const GAL_CODES: [&str; 16] = [
+    "C1C", "L1C", "D1C", "S1C", "C1B", "L1B", "D1B", "S1B", "C7I", "L7I", "D7I", "S7I", "C7Q",
+    "L7Q", "D7Q", "S7Q",
+];
+const BDS_CODES: [&str; 8] = ["C2I", "L2I", "D2I", "S2I", "C7I", "L7I", "D7I", "S7I"];
 /// GLONASS L1OF (u-blox sigId 0, C/A code) as RINEX 3 codes.
 const GLO_CODES: [&str; 4] = ["C1C", "L1C", "D1C", "S1C"];
+/// Largest RAWX `locktime` [ms] (the interface description's maximum).
+pub const MAX_LOCK_TIME_MS: u16 = 64_500;
+/// Lock-time slack [ms] of the loss-of-lock test ([`lost_lock`]).
+pub const LOCK_TIME_SLACK_MS: f64 = 10.0;
+
+/// Where a RAWX signal goes: system letter, offset of its four values
+/// (code, phase, Doppler, C/N0) in the satellite's row, rank (lower wins
+/// when two signals fill the same four), and whether it is a second
+/// frequency. None: not read (other signals, satellite numbers out of
+/// range).
+fn signal_slot(gnss_id: u8, sig_id: u8, sv_id: u8) -> Option<(char, usize, u8, bool)> {
+    let s = match gnss_id {
+        GNSS_GPS if (1..=32).contains(&sv_id) => match sig_id {
+            SIG_GPS_L1CA => ('G', 0, 0, false),
+            SIG_GPS_L2CL => ('G', 4, 0, true),
+            SIG_GPS_L2CM => ('G', 4, 1, true),
+            _ => return None,
+        },
+        GNSS_GAL if (1..=gal::MAX_SVID).contains(&sv_id) => match sig_id {
+            SIG_GAL_E1C => ('E', 0, 0, false),
+            SIG_GAL_E1B => ('E', 4, 0, false),
+            SIG_GAL_E5BI => ('E', 8, 0, true),
+            SIG_GAL_E5BQ => ('E', 12, 0, true),
+            _ => return None,
+        },
+        // D1 (MEO/IGSO) and D2 (GEO) of one band share their codes.
+        GNSS_BDS if (1..=bds::MAX_PRN).contains(&sv_id) => match sig_id {
+            0 | 1 => ('C', 0, sig_id - SIG_BDS_B1I, false),
+            2 | 3 => ('C', 4, sig_id - SIG_BDS_B2I, true),
+            _ => return None,
+        },
+        // svId 255: slot unknown (not used).
+        GNSS_GLO if (1..=24).contains(&sv_id) && sig_id == SIG_GLO_L1OF => ('R', 0, 0, false),
+        _ => return None,
+    };
+    Some(s)
+}
+
+/// Whether a carrier with lock time `lock_ms` at epoch `t` [s] lost lock
+/// since the signal's previous carrier `prev` (epoch, lock time), or, for
+/// a signal without one, since the previous RAWX epoch `prev_epoch`: its
+/// lock time is 0, or shorter (by more than [`LOCK_TIME_SLACK_MS`]) than
+/// the lock time continuous tracking would have reached (the previous lock
+/// time plus the time between, at most [`MAX_LOCK_TIME_MS`]; for a new
+/// signal the time since the previous epoch). RAWX has no loss-of-lock
+/// flag: the lock time restarting is how a u-blox receiver reports one.
+pub fn lost_lock(prev: Option<(f64, u16)>, prev_epoch: Option<f64>, t: f64, lock_ms: u16) -> bool {
+    let expect = match (prev, prev_epoch) {
+        (Some((t0, l0)), _) => f64::from(l0) + (t - t0) * 1e3,
+        (None, Some(tp)) => (t - tp) * 1e3,
+        (None, None) => 0.0,
+    };
+    lock_ms == 0
+        || f64::from(lock_ms) + LOCK_TIME_SLACK_MS < expect.min(f64::from(MAX_LOCK_TIME_MS))
+}
 
 /// What a log held besides what was used.
 #[derive(Clone, Debug, Default, PartialEq, serde::Serialize)]
 pub struct UbxGnssReport {
     /// RAWX epochs read.
     pub rawx_epochs: u64,
-    /// Measurements of other systems or signals (not used here).
+    /// Measurements of other systems or signals (not used here: GPS L5,
+    /// Galileo E5a, BeiDou B1C/B2a, GLONASS L2OF, QZSS, SBAS, …), and a
+    /// GPS L2 CM measurement of a satellite whose L2 CL is read (one L2C
+    /// per satellite).
     pub other_signal_meas: u64,
+    /// GPS L1 C/A measurements read into [`UbxGnss::obs`].
+    pub gps_meas: u64,
     /// Galileo E1 and BeiDou B1I measurements read into [`UbxGnss::gnss`].
     pub galileo_meas: u64,
     pub beidou_meas: u64,
+    /// Second-frequency measurements read: GPS L2C (into [`UbxGnss::obs`]),
+    /// Galileo E5b and BeiDou B2I (into [`UbxGnss::gnss`]).
+    pub gps_l2_meas: u64,
+    pub galileo_e5b_meas: u64,
+    pub beidou_b2i_meas: u64,
+    /// Carriers flagged as lost lock (LLI bit 0) from their lock time
+    /// ([`lost_lock`]), all signals.
+    pub loss_of_lock: u64,
     /// GLONASS L1OF measurements kept (slots 1–24; the frequency channel
     /// comes from the satellite's ephemeris).
     pub glonass_meas: u64,
@@ -91,9 +207,11 @@ pub struct UbxGnssReport {
 /// Everything a UBX log gives for raw GNSS processing.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct UbxGnss {
-    /// GPS L1 C/A epochs (one per RAWX message).
+    /// GPS L1 C/A and L2C epochs (one per RAWX message; RINEX 2 types
+    /// `C1 L1 D1 S1 C2 L2 D2 S2`).
     pub obs: ObsFile,
-    /// Galileo E1 and BeiDou B1I observations, epoch by epoch parallel to
+    /// Galileo E1 + E5b, BeiDou B1I + B2I and GLONASS L1OF observations,
+    /// epoch by epoch parallel to
     /// `obs.epochs` (GPS is in `obs` only), with their RINEX 3 codes.
     pub gnss: GnssObs,
     /// GPS ephemerides, URA and the Klobuchar coefficients (subframe 4 page 18).
@@ -130,7 +248,7 @@ pub fn read_ubx_gnss<R: Read>(rdr: R, name: &str) -> Result<UbxGnss, ReadError> 
             marker: name.to_string(),
             // S1: the measurement's C/N0 [dB-Hz] (RINEX 3.05 §5.7: signal
             // strength as C/N0 in dB-Hz), which the tight filter's weights use.
-            types: vec!["C1".into(), "L1".into(), "D1".into(), "S1".into()],
+            types: GPS_TYPES.iter().map(|c| c.to_string()).collect(),
             ..Default::default()
         },
         gnss: GnssObs {
@@ -147,6 +265,10 @@ pub fn read_ubx_gnss<R: Read>(rdr: R, name: &str) -> Result<UbxGnss, ReadError> 
     let mut week: Option<u16> = None;
     let mut rx_t = 0.0;
     let mut pending: Vec<RxmSfrbx> = Vec::new();
+    // Per (gnssId, svId, sigId): the epoch and lock time of its last
+    // carrier, and the previous epoch's time (loss of lock, lost_lock).
+    let mut locks: HashMap<(u8, u8, u8), (f64, u16)> = HashMap::new();
+    let mut prev_epoch_t: Option<f64> = None;
     for msg in r.by_ref() {
         match msg? {
             UbxMessage::RxmRawx(x) => {
@@ -162,55 +284,100 @@ pub fn read_ubx_gnss<R: Read>(rdr: R, name: &str) -> Result<UbxGnss, ReadError> 
                     sats: Vec::with_capacity(x.meas.len()),
                 };
                 let mut others: Vec<SatObs> = Vec::new();
+                // Per satellite row: the rank of the signal in each group
+                // of four values (u8::MAX: empty).
+                let mut ranks: Vec<(char, u8, [u8; 4])> = Vec::new();
                 for m in &x.meas {
+                    let Some((sys, off, rank, second)) = signal_slot(m.gnss_id, m.sig_id, m.sv_id)
+                    else {
+                        out.report.other_signal_meas += 1;
+                        continue;
+                    };
                     let v = |ok: bool, value: f64| {
                         (ok && value.is_finite() && value != 0.0)
                             .then_some(ObsValue { value, lli: 0 })
                     };
-                    let lli = u8::from(m.trk_stat & 0x04 == 0 && m.trk_stat & 0x02 != 0) << 1;
+                    let cp_ok = m.trk_stat & 0x02 != 0;
+                    let key = (m.gnss_id, m.sv_id, m.sig_id);
+                    let mut lli = u8::from(m.trk_stat & 0x04 == 0 && cp_ok) << 1;
+                    let cp = v(cp_ok, m.cp_mes);
+                    if cp.is_some() {
+                        let prev = locks.insert(key, (ep.t, m.locktime_ms));
+                        if lost_lock(prev, prev_epoch_t, ep.t, m.locktime_ms) {
+                            lli |= 1;
+                            out.report.loss_of_lock += 1;
+                        }
+                    }
                     let vals = [
                         v(m.trk_stat & 0x01 != 0, m.pr_mes),
-                        v(m.trk_stat & 0x02 != 0, m.cp_mes).map(|o| ObsValue { lli, ..o }),
+                        cp.map(|o| ObsValue { lli, ..o }),
                         v(true, f64::from(m.do_mes)),
                         v(true, f64::from(m.cno_dbhz)),
                     ];
-                    // (system, number of codes, offset of this signal's four).
-                    let slot = match (m.gnss_id, m.sig_id) {
-                        (GNSS_GPS, SIG_L1CA) if (1..=32).contains(&m.sv_id) => {
-                            ep.sats.push((m.sv_id, vals.to_vec()));
-                            continue;
-                        }
-                        (GNSS_GAL, s @ (0 | 1)) if (1..=gal::MAX_SVID).contains(&m.sv_id) => {
-                            out.report.galileo_meas += 1;
-                            ('E', GAL_CODES.len(), 4 * usize::from(s))
-                        }
-                        (GNSS_BDS, 0 | 1) if (1..=bds::MAX_PRN).contains(&m.sv_id) => {
-                            out.report.beidou_meas += 1;
-                            ('C', BDS_CODES.len(), 0)
-                        }
-                        // svId 255: slot unknown (not used).
-                        (GNSS_GLO, 0) if (1..=24).contains(&m.sv_id) => {
-                            out.report.glonass_meas += 1;
-                            ('R', GLO_CODES.len(), 0)
-                        }
-                        _ => {
-                            out.report.other_signal_meas += 1;
-                            continue;
-                        }
+                    let n = match sys {
+                        'G' => GPS_TYPES.len(),
+                        'E' => GAL_CODES.len(),
+                        'C' => BDS_CODES.len(),
+                        _ => GLO_CODES.len(),
                     };
-                    let (sys, n, off) = slot;
-                    let k = match others
+                    let g = off / 4;
+                    let r = match ranks
                         .iter()
                         .position(|(s, p, _)| *s == sys && *p == m.sv_id)
                     {
-                        Some(k) => k,
+                        Some(r) => r,
                         None => {
-                            others.push((sys, m.sv_id, vec![None; n]));
-                            others.len() - 1
+                            ranks.push((sys, m.sv_id, [u8::MAX; 4]));
+                            ranks.len() - 1
                         }
                     };
-                    others[k].2[off..off + 4].copy_from_slice(&vals);
+                    let held = ranks[r].2[g];
+                    if held <= rank {
+                        // A better (or the same) signal already fills these.
+                        out.report.other_signal_meas += 1;
+                        continue;
+                    }
+                    ranks[r].2[g] = rank;
+                    if held != u8::MAX {
+                        // The worse signal it replaces is not used.
+                        out.report.other_signal_meas += 1;
+                    } else {
+                        let c = &mut out.report;
+                        *match (sys, second) {
+                            ('G', true) => &mut c.gps_l2_meas,
+                            ('G', false) => &mut c.gps_meas,
+                            ('E', false) => &mut c.galileo_meas,
+                            ('E', true) => &mut c.galileo_e5b_meas,
+                            ('C', false) => &mut c.beidou_meas,
+                            ('C', true) => &mut c.beidou_b2i_meas,
+                            _ => &mut c.glonass_meas,
+                        } += 1;
+                    }
+                    let row: &mut Vec<Option<ObsValue>> = if sys == 'G' {
+                        let k = match ep.sats.iter().position(|(p, _)| *p == m.sv_id) {
+                            Some(k) => k,
+                            None => {
+                                ep.sats.push((m.sv_id, vec![None; n]));
+                                ep.sats.len() - 1
+                            }
+                        };
+                        &mut ep.sats[k].1
+                    } else {
+                        let k = match others
+                            .iter()
+                            .position(|(s, p, _)| *s == sys && *p == m.sv_id)
+                        {
+                            Some(k) => k,
+                            None => {
+                                others.push((sys, m.sv_id, vec![None; n]));
+                                others.len() - 1
+                            }
+                        };
+                        &mut others[k].2
+                    };
+                    row[off..off + 4].copy_from_slice(&vals);
                 }
+                prev_epoch_t = Some(ep.t);
                 out.obs.epochs.push(ep);
                 out.gnss.epochs.push(others);
             }
@@ -289,7 +456,9 @@ fn subframe(m: &RxmSfrbx, week: u16, rx_t: f64, dec: &mut Decoders, out: &mut Ub
     }
 }
 
-/// Write `obs` (GPS `C1`, `L1`, `D1` where present) as RXM-RAWX epochs and
+/// Write `obs` (GPS `C1 L1 D1 S1` as L1 C/A, and `C2 L2 D2 S2` where
+/// present as L2 CL, `sigId` 3; the phase's LLI as the lock time and
+/// half-cycle bit of `rawx_meas`) as RXM-RAWX epochs and
 /// `nav` as RXM-SFRBX subframes 1–3 per ephemeris (issue of data = its
 /// index mod 256) plus subframe 4 page 18 for the ionosphere, sent after the
 /// first epoch (the reader's week), transmitted at that epoch's time.
@@ -298,9 +467,44 @@ pub fn write_ubx_gnss(obs: &ObsFile, nav: &NavData) -> Result<Vec<u8>, String> {
     write_ubx_multi(obs, &GnssObs::default(), nav, &[], &[])
 }
 
-/// One RAWX measurement from a code/phase/Doppler/C/N0 quadruple.
-fn rawx_meas(gnss_id: u8, sv_id: u8, sig_id: u8, q: [Option<ObsValue>; 4]) -> RawxMeas {
+/// Lock times of the writer's carriers: per (gnssId, svId, sigId) the
+/// epoch and lock time [ms] of its last written carrier.
+type LockTimes = HashMap<(u8, u8, u8), (f64, u16)>;
+
+/// One RAWX measurement at epoch `t` from a code/phase/Doppler/C/N0
+/// quadruple. The carrier's lock time: 0 when its LLI bit 0 (loss of lock)
+/// is set, else the previous lock time of the signal plus the time since
+/// (at most [`MAX_LOCK_TIME_MS`]; a carrier without a previous one:
+/// the maximum, tracked long before), so that [`lost_lock`] gives the LLI
+/// back; LLI bit 1 (half-cycle ambiguity) clears `trkStat` bit 2.
+fn rawx_meas(
+    gnss_id: u8,
+    sv_id: u8,
+    sig_id: u8,
+    q: [Option<ObsValue>; 4],
+    t: f64,
+    locks: &mut LockTimes,
+) -> RawxMeas {
     let [c, l, d, sn] = q;
+    let mut locktime_ms = 0;
+    let mut half = 0x04;
+    if let Some(l) = l {
+        let key = (gnss_id, sv_id, sig_id);
+        locktime_ms = if l.lli & 1 != 0 {
+            0
+        } else {
+            match locks.get(&key) {
+                Some(&(t0, l0)) => (f64::from(l0) + ((t - t0) * 1e3).round())
+                    .clamp(1.0, f64::from(MAX_LOCK_TIME_MS))
+                    as u16,
+                None => MAX_LOCK_TIME_MS,
+            }
+        };
+        locks.insert(key, (t, locktime_ms));
+        if l.lli & 2 != 0 {
+            half = 0;
+        }
+    }
     RawxMeas {
         pr_mes: c.map_or(0.0, |o| o.value),
         cp_mes: l.map_or(0.0, |o| o.value),
@@ -308,33 +512,60 @@ fn rawx_meas(gnss_id: u8, sv_id: u8, sig_id: u8, q: [Option<ObsValue>; 4]) -> Ra
         gnss_id,
         sv_id,
         sig_id,
+        locktime_ms,
         // S1 when the observations carry it, else 45 dB-Hz
         // (a strong open-sky signal).
         cno_dbhz: sn.map_or(45, |o| o.value.round().clamp(1.0, 255.0) as u8),
-        trk_stat: u8::from(c.is_some()) | u8::from(l.is_some()) << 1 | 0x04,
+        trk_stat: u8::from(c.is_some()) | u8::from(l.is_some()) << 1 | half,
         ..Default::default()
     }
 }
 
 /// RINEX 3 code quadruples written as RAWX signals: (system, `gnssId`,
-/// `sigId` (BeiDou GEO: +1, D2), code, phase, Doppler, C/N0).
-const SIGNALS: [(char, u8, u8, [&str; 4]); 6] = [
-    ('E', GNSS_GAL, 0, ["C1C", "L1C", "D1C", "S1C"]),
-    ('E', GNSS_GAL, 0, ["C1X", "L1X", "D1X", "S1X"]),
-    ('E', GNSS_GAL, 1, ["C1B", "L1B", "D1B", "S1B"]),
-    ('C', GNSS_BDS, 0, ["C2I", "L2I", "D2I", "S2I"]),
-    ('C', GNSS_BDS, 0, ["C1I", "L1I", "D1I", "S1I"]),
-    ('R', GNSS_GLO, 0, GLO_CODES),
+/// `sigId` (BeiDou GEO: +1, D2), the code quadruples in preference order:
+/// the first with a code or a phase is written).
+type SignalCodes = (char, u8, u8, &'static [[&'static str; 4]]);
+const SIGNALS: [SignalCodes; 7] = [
+    (
+        'E',
+        GNSS_GAL,
+        SIG_GAL_E1C,
+        &[["C1C", "L1C", "D1C", "S1C"], ["C1X", "L1X", "D1X", "S1X"]],
+    ),
+    ('E', GNSS_GAL, SIG_GAL_E1B, &[["C1B", "L1B", "D1B", "S1B"]]),
+    ('E', GNSS_GAL, SIG_GAL_E5BI, &[["C7I", "L7I", "D7I", "S7I"]]),
+    (
+        'E',
+        GNSS_GAL,
+        SIG_GAL_E5BQ,
+        &[["C7Q", "L7Q", "D7Q", "S7Q"], ["C7X", "L7X", "D7X", "S7X"]],
+    ),
+    (
+        'C',
+        GNSS_BDS,
+        SIG_BDS_B1I,
+        &[["C2I", "L2I", "D2I", "S2I"], ["C1I", "L1I", "D1I", "S1I"]],
+    ),
+    (
+        'C',
+        GNSS_BDS,
+        SIG_BDS_B2I,
+        &[["C7I", "L7I", "D7I", "S7I"], ["C7X", "L7X", "D7X", "S7X"]],
+    ),
+    ('R', GNSS_GLO, SIG_GLO_L1OF, &[GLO_CODES]),
 ];
 
 /// [`write_ubx_gnss`] with Galileo and BeiDou: the observations of
-/// `gnss` (epochs parallel to `obs.epochs`; E1 C/X → `sigId` 0, E1 B → 1,
-/// B1I → 0, or 1 for a GEO's D2) as further RAWX measurements, and the
+/// `gnss` (epochs parallel to `obs.epochs`; E1 C (else X) → `sigId` 0,
+/// E1 B → 1, E5b I → 5, E5b Q (else X) → 6, B1I → 0 and B2I (else X) → 2,
+/// each +1 for a GEO's D2, GLONASS `1C` → 0) as further RAWX
+/// measurements, and the
 /// records of `other` as I/NAV page pairs (word types in E1-B order 2, 4,
 /// 1, 3, 5, IOD_nav = index mod 1024, health ≠ 0 → E1-B HS 1) or D1
 /// subframes 1–3 / D2 pages 1–10 (AODE = index mod 32), and `glonass` as
 /// strings 1–4 (frame identifier = index), all sent after the first epoch.
-/// Errors: a field that does not fit its bits (names it).
+/// Errors: a field that does not fit its bits (names it), an epoch of
+/// more than 255 measurements (RAWX `numMeas`; they were cut before).
 pub fn write_ubx_multi(
     obs: &ObsFile,
     gnss: &GnssObs,
@@ -343,40 +574,56 @@ pub fn write_ubx_multi(
     glonass: &[GlonassEph],
 ) -> Result<Vec<u8>, String> {
     let idx = |c: &str| obs.index(c);
-    let (ic, il, id, is) = (idx("C1"), idx("L1"), idx("D1"), idx("S1"));
+    // GPS L1 C/A, then L2C as L2 CL (P2, the P(Y) code, is no u-blox
+    // signal: not written).
+    let gps = [
+        (SIG_GPS_L1CA, ["C1", "L1", "D1", "S1"].map(idx)),
+        (SIG_GPS_L2CL, ["C2", "L2", "D2", "S2"].map(idx)),
+    ];
+    let mut locks = LockTimes::new();
     let mut out = Vec::new();
     for (k, ep) in obs.epochs.iter().enumerate() {
         let week = (ep.t / SECONDS_PER_WEEK).floor();
         let tow = ep.t - week * SECONDS_PER_WEEK;
-        let mut meas: Vec<RawxMeas> = ep
-            .sats
-            .iter()
-            .map(|(prn, vals)| {
-                let get = |i: Option<usize>| i.and_then(|i| vals.get(i).copied().flatten());
-                rawx_meas(
-                    GNSS_GPS,
-                    *prn,
-                    SIG_L1CA,
-                    [get(ic), get(il), get(id), get(is)],
-                )
-            })
-            .collect();
+        let mut meas: Vec<RawxMeas> = Vec::new();
+        for (prn, vals) in &ep.sats {
+            for (sig, ix) in gps {
+                let q = ix.map(|i| {
+                    i.and_then(|i| vals.get(i).copied().flatten())
+                        .filter(|o| o.value != 0.0)
+                });
+                // L1 C/A as before: always (its pseudorange may be blank).
+                if sig != SIG_GPS_L1CA && q[0].is_none() && q[1].is_none() {
+                    continue;
+                }
+                meas.push(rawx_meas(GNSS_GPS, *prn, sig, q, ep.t, &mut locks));
+            }
+        }
         for (sys, prn, vals) in gnss.epochs.get(k).into_iter().flatten() {
-            for (s, gid, sig, codes) in SIGNALS {
+            for (s, gid, sig, alternatives) in SIGNALS {
                 if *sys != s {
                     continue;
                 }
-                let q = codes.map(|c| {
-                    gnss.index(s, c)
-                        .and_then(|i| vals.get(i).copied().flatten())
-                        .filter(|o| o.value != 0.0)
-                });
-                if q[0].is_none() && q[1].is_none() {
+                let Some(q) = alternatives.iter().find_map(|codes| {
+                    let q = codes.map(|c| {
+                        gnss.index(s, c)
+                            .and_then(|i| vals.get(i).copied().flatten())
+                            .filter(|o| o.value != 0.0)
+                    });
+                    (q[0].is_some() || q[1].is_some()).then_some(q)
+                }) else {
                     continue;
-                }
+                };
                 let sig = sig + u8::from(s == 'C' && bds::is_geo(*prn));
-                meas.push(rawx_meas(gid, *prn, sig, q));
+                meas.push(rawx_meas(gid, *prn, sig, q, ep.t, &mut locks));
             }
+        }
+        if meas.len() > usize::from(u8::MAX) {
+            return Err(format!(
+                "epoch {}: {} measurements, more than RAWX numMeas holds (255)",
+                ep.t,
+                meas.len()
+            ));
         }
         out.extend(encode(&UbxMessage::RxmRawx(RxmRawx {
             rcv_tow: tow,
@@ -462,6 +709,347 @@ pub fn write_ubx_multi(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    fn ov(value: f64, lli: u8) -> Option<ObsValue> {
+        Some(ObsValue { value, lli })
+    }
+
+    /// Four epochs of both signals of each system: GPS L1 C/A + L2C
+    /// (G05, G12), Galileo E1 C + E1 B + E5b I + E5b Q (E11, E24), BeiDou
+    /// B1I + B2I (C03 a GEO: D2; C11: D1), GLONASS L1OF (R07); every
+    /// carrier acquired at the first epoch (LLI 1), a slip on G05's L2 only
+    /// at epoch 2, a half-cycle flag on E11's E5b Q at epoch 1, C11's B2I
+    /// code without its carrier at epoch 3.
+    fn dual_obs() -> (ObsFile, GnssObs) {
+        let t0 = 2_300.0 * SECONDS_PER_WEEK + 345_600.25;
+        let types: Vec<String> = GPS_TYPES.iter().map(|c| c.to_string()).collect();
+        let codes = |c: &[&str]| c.iter().map(|x| x.to_string()).collect::<Vec<_>>();
+        let sys_codes = vec![
+            ('E', codes(&GAL_CODES)),
+            ('C', codes(&BDS_CODES)),
+            ('R', codes(&GLO_CODES)),
+        ];
+        let mut epochs = Vec::new();
+        let mut gepochs = Vec::new();
+        for k in 0..4 {
+            let kf = k as f64;
+            let acq = u8::from(k == 0);
+            // One satellite's signals: (code, phase, Doppler, C/N0, LLI).
+            let row = |n: usize, base: f64, lli: &dyn Fn(usize) -> u8| {
+                let mut v = Vec::new();
+                for j in 0..n {
+                    let pr = base + 1234.5678901 * j as f64 + 812.3456789 * kf;
+                    v.push(ov(pr, 0));
+                    v.push(ov(pr / 0.19 + 0.123_456_7 * j as f64, lli(j)));
+                    v.push(ov(-1234.567 + 11.0 * j as f64 - 0.25 * kf, 0));
+                    v.push(ov(40.0 + j as f64 + kf, 0));
+                }
+                v
+            };
+            let g05 = row(2, 2.1e7, &|j| acq | u8::from(k == 2 && j == 1));
+            let g12 = row(2, 2.3e7, &|_| acq);
+            epochs.push(ObsEpoch {
+                t: t0 + kf,
+                flag: 0,
+                sats: vec![(5, g05), (12, g12)],
+            });
+            let e11 = row(4, 2.4e7, &|j| acq | if k == 1 && j == 3 { 2 } else { 0 });
+            let e24 = row(4, 2.5e7, &|_| acq);
+            let c03 = row(2, 3.7e7, &|_| acq);
+            let mut c11 = row(2, 2.2e7, &|_| acq);
+            if k == 3 {
+                c11[5] = None;
+            }
+            let r07 = row(1, 2.0e7, &|_| acq);
+            gepochs.push(vec![
+                ('E', 11, e11),
+                ('E', 24, e24),
+                ('C', 3, c03),
+                ('C', 11, c11),
+                ('R', 7, r07),
+            ]);
+        }
+        let o = ObsFile {
+            version: 3.04,
+            types,
+            epochs,
+            ..ObsFile::default()
+        };
+        (
+            o,
+            GnssObs {
+                sys_codes,
+                epochs: gepochs,
+            },
+        )
+    }
+
+    /// RAWX round trip of both signals of each system: written by
+    /// [`write_ubx_multi`], read by [`read_ubx_gnss`]. Expected: the same
+    /// satellites and values per epoch within the RAWX fields' resolution
+    /// (code and phase f64: exact; Doppler f32: 2⁻²³ relative; C/N0 whole
+    /// dB-Hz: exact here), the same LLI bits (loss of lock through the
+    /// lock time, half cycle through `trkStat`), each signal under its
+    /// `sigId` (GPS 0, 3; Galileo 0, 1, 5, 6; BeiDou 0 and 2 for a MEO, 1
+    /// and 3 for a GEO; GLONASS 0) and counted as read, nothing as other.
+    #[test]
+    fn dual_frequency_rawx_round_trip() {
+        let (o, g) = dual_obs();
+        let b = write_ubx_multi(&o, &g, &NavData::default(), &[], &[]).unwrap();
+        let mut sigs = std::collections::BTreeSet::new();
+        for m in UbxReader::new(&b[..], "t") {
+            if let UbxMessage::RxmRawx(x) = m.unwrap() {
+                sigs.extend(x.meas.iter().map(|m| (m.gnss_id, m.sv_id, m.sig_id)));
+            }
+        }
+        let want = [
+            (0, 5, 0),
+            (0, 5, 3),
+            (0, 12, 0),
+            (0, 12, 3),
+            (2, 11, 0),
+            (2, 11, 1),
+            (2, 11, 5),
+            (2, 11, 6),
+            (2, 24, 0),
+            (2, 24, 1),
+            (2, 24, 5),
+            (2, 24, 6),
+            (3, 3, 1),
+            (3, 3, 3),
+            (3, 11, 0),
+            (3, 11, 2),
+            (6, 7, 0),
+        ];
+        assert_eq!(sigs.into_iter().collect::<Vec<_>>(), want);
+        let u = read_ubx_gnss(&b[..], "t").unwrap();
+        let r = &u.report;
+        assert_eq!(r.rawx_epochs, 4);
+        assert_eq!((r.gps_meas, r.gps_l2_meas), (8, 8));
+        assert_eq!((r.galileo_meas, r.galileo_e5b_meas), (16, 16));
+        assert_eq!(
+            (r.beidou_meas, r.beidou_b2i_meas, r.glonass_meas),
+            (8, 8, 4)
+        );
+        assert_eq!(r.other_signal_meas, 0);
+        // 17 carriers acquired at epoch 0, one slip.
+        assert_eq!(r.loss_of_lock, 18);
+        let close = |a: Option<ObsValue>, b: Option<ObsValue>, code: &str| match (a, b) {
+            (None, None) => true,
+            (Some(a), Some(b)) => {
+                let tol = if code.starts_with('D') {
+                    a.value.abs() * f64::from(f32::EPSILON)
+                } else {
+                    0.0
+                };
+                a.lli == b.lli && (a.value - b.value).abs() <= tol
+            }
+            _ => false,
+        };
+        assert_eq!(u.obs.types, o.types);
+        assert_eq!(u.obs.epochs.len(), 4);
+        for (a, b) in o.epochs.iter().zip(&u.obs.epochs) {
+            assert_eq!(a.t, b.t);
+            assert_eq!(a.sats.len(), b.sats.len());
+            for ((pa, va), (pb, vb)) in a.sats.iter().zip(&b.sats) {
+                assert_eq!(pa, pb);
+                for (j, code) in o.types.iter().enumerate() {
+                    assert!(
+                        close(va[j], vb[j], code),
+                        "G{pa} {code} {:?} {:?}",
+                        va[j],
+                        vb[j]
+                    );
+                }
+            }
+        }
+        for (ea, eb) in g.epochs.iter().zip(&u.gnss.epochs) {
+            assert_eq!(ea.len(), eb.len());
+            for (sys, prn, va) in ea {
+                let (_, _, vb) = eb
+                    .iter()
+                    .find(|(s, p, _)| s == sys && p == prn)
+                    .unwrap_or_else(|| panic!("{sys}{prn} missing"));
+                let codes = &g.sys_codes.iter().find(|(s, _)| s == sys).unwrap().1;
+                for (code, x) in codes.iter().zip(va) {
+                    let y = u.gnss.index(*sys, code).and_then(|i| vb[i]);
+                    assert!(close(*x, y, code), "{sys}{prn} {code} {x:?} {y:?}");
+                }
+            }
+        }
+    }
+
+    /// An epoch of more measurements than RAWX `numMeas` holds (200 GPS
+    /// satellites with L1 and L2: 400) is an error naming the epoch and the
+    /// count, not a silently cut epoch; 127 satellites (254) are written.
+    #[test]
+    fn too_many_measurements_is_an_error() {
+        let (mut o, _) = dual_obs();
+        let row = o.epochs[0].sats[0].1.clone();
+        o.epochs.truncate(1);
+        o.epochs[0].sats = (1..=127).map(|p| (p, row.clone())).collect();
+        let b = write_ubx_multi(&o, &GnssObs::default(), &NavData::default(), &[], &[]).unwrap();
+        let u = read_ubx_gnss(&b[..], "t").unwrap();
+        // PRN 33–127 are no GPS satellites: counted, not read.
+        assert_eq!((u.report.gps_meas, u.report.gps_l2_meas), (32, 32));
+        assert_eq!(u.report.other_signal_meas, 2 * 95);
+        o.epochs[0].sats = (1..=200).map(|p| (p, row.clone())).collect();
+        let e =
+            write_ubx_multi(&o, &GnssObs::default(), &NavData::default(), &[], &[]).unwrap_err();
+        assert!(e.contains("400 measurements") && e.contains("255"), "{e}");
+    }
+
+    fn meas(gnss_id: u8, sv_id: u8, sig_id: u8, pr: f64, lock: u16) -> RawxMeas {
+        RawxMeas {
+            pr_mes: pr,
+            cp_mes: pr / 0.2,
+            do_mes: 100.0,
+            gnss_id,
+            sv_id,
+            sig_id,
+            locktime_ms: lock,
+            cno_dbhz: 40,
+            trk_stat: 0x07,
+            ..Default::default()
+        }
+    }
+
+    fn log(epochs: &[Vec<RawxMeas>]) -> Vec<u8> {
+        let mut b = Vec::new();
+        for (k, m) in epochs.iter().enumerate() {
+            b.extend(encode(&UbxMessage::RxmRawx(RxmRawx {
+                rcv_tow: 1000.0 + k as f64,
+                week: 2300,
+                version: 1,
+                meas: m.clone(),
+                ..Default::default()
+            })));
+        }
+        b
+    }
+
+    /// Signals not read are counted: GPS L5 I (sigId 6), Galileo E5a I
+    /// (3), BeiDou B2a (7), GLONASS L2OF (2), QZSS, a GPS svId 40; an L2
+    /// CM next to its satellite's L2 CL (either order) is not used (the CL
+    /// is); an L2 CM alone is read as L2C.
+    #[test]
+    fn other_signals_counted_and_l2_cl_preferred() {
+        let b = log(&[vec![
+            meas(0, 3, 0, 2.0e7, 5000),
+            meas(0, 3, 4, 2.0e7 + 4.0, 5000),
+            meas(0, 3, 3, 2.0e7 + 3.0, 5000),
+            meas(0, 8, 0, 2.1e7, 5000),
+            meas(0, 8, 3, 2.1e7 + 3.0, 5000),
+            meas(0, 8, 4, 2.1e7 + 4.0, 5000),
+            meas(0, 9, 4, 2.2e7 + 4.0, 5000),
+            meas(0, 9, 6, 2.2e7 + 6.0, 5000),
+            meas(0, 40, 0, 2.2e7, 5000),
+            meas(2, 4, 3, 2.3e7, 5000),
+            meas(3, 20, 7, 2.3e7, 5000),
+            meas(6, 2, 2, 2.3e7, 5000),
+            meas(5, 1, 0, 3.8e7, 5000),
+        ]]);
+        let u = read_ubx_gnss(&b[..], "t").unwrap();
+        // L5, CM ×2, svId 40, E5a, B2a, L2OF, QZSS.
+        assert_eq!(u.report.other_signal_meas, 8);
+        assert_eq!((u.report.gps_meas, u.report.gps_l2_meas), (2, 3));
+        let c2 = u.obs.index("C2").unwrap();
+        let got: Vec<(u8, f64)> = u.obs.epochs[0]
+            .sats
+            .iter()
+            .map(|(p, v)| (*p, v[c2].unwrap().value))
+            .collect();
+        assert_eq!(got, [(3, 2.0e7 + 3.0), (8, 2.1e7 + 3.0), (9, 2.2e7 + 4.0)]);
+        assert!(u.gnss.epochs[0].is_empty());
+    }
+
+    /// Loss of lock from the lock time ([`lost_lock`]), per signal: G03 L1
+    /// tracked 5 s, 6 s, then 0.3 s (slip), 1.3 s, absent for one epoch,
+    /// 3.3 s (continuous over the gap: no slip), then 3.0 s (slip); G03 L2
+    /// acquired at epoch 1 (lock 0.5 s < 1 s since the previous epoch:
+    /// slip) and continuous after; G07 at the first epoch with lock 0
+    /// (slip) and a saturated lock time staying saturated (no slip).
+    #[test]
+    fn loss_of_lock_follows_the_lock_time() {
+        let l1 = [
+            Some(5000),
+            Some(6000),
+            Some(300),
+            Some(1300),
+            None,
+            Some(3300),
+            Some(3000),
+        ];
+        let l2 = [
+            None,
+            Some(500),
+            Some(1500),
+            Some(2500),
+            Some(3500),
+            Some(4500),
+            Some(5500),
+        ];
+        let g7 = [
+            Some(0),
+            Some(1000),
+            Some(64_500),
+            Some(64_500),
+            Some(64_500),
+            Some(64_500),
+            Some(64_500),
+        ];
+        let epochs: Vec<Vec<RawxMeas>> = (0..7)
+            .map(|k| {
+                let mut v = Vec::new();
+                if let Some(l) = l1[k] {
+                    v.push(meas(0, 3, 0, 2.0e7, l));
+                }
+                if let Some(l) = l2[k] {
+                    v.push(meas(0, 3, 3, 2.0e7, l));
+                }
+                if let Some(l) = g7[k] {
+                    v.push(meas(0, 7, 0, 2.1e7, l));
+                }
+                v
+            })
+            .collect();
+        let u = read_ubx_gnss(&log(&epochs)[..], "t").unwrap();
+        let lli = |k: usize, prn: u8, t: &str| {
+            let i = u.obs.index(t).unwrap();
+            u.obs.epochs[k]
+                .sats
+                .iter()
+                .find(|(p, _)| *p == prn)
+                .and_then(|(_, v)| v[i])
+                .map(|o| o.lli & 1)
+        };
+        let got1: Vec<_> = (0..7).map(|k| lli(k, 3, "L1")).collect();
+        let got2: Vec<_> = (0..7).map(|k| lli(k, 3, "L2")).collect();
+        let got7: Vec<_> = (0..7).map(|k| lli(k, 7, "L1")).collect();
+        assert_eq!(
+            got1,
+            [Some(0), Some(0), Some(1), Some(0), None, Some(0), Some(1)]
+        );
+        assert_eq!(
+            got2,
+            [None, Some(1), Some(0), Some(0), Some(0), Some(0), Some(0)]
+        );
+        assert_eq!(
+            got7,
+            [
+                Some(1),
+                Some(0),
+                Some(0),
+                Some(0),
+                Some(0),
+                Some(0),
+                Some(0)
+            ]
+        );
+        assert_eq!(u.report.loss_of_lock, 4);
+        // The half-cycle bit stays where it was: trkStat bit 2 set here.
+        assert!(u.obs.epochs[0].sats[0].1[1].unwrap().lli & 2 == 0);
+    }
 
     /// A GLONASS ephemeris written as RXM-SFRBX strings next to a RAWX
     /// epoch comes back from the reader unchanged (values on the grid),

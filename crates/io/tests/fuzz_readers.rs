@@ -1275,8 +1275,8 @@ fn run_ubx_gnss(b: &[u8]) -> usize {
     n
 }
 
-/// Seeds: one RAWX epoch (GPS, Galileo E1, BeiDou B1I measurements) and
-/// the SFRBX of the RINEX 3 seed's Galileo (I/NAV, E1-B order) or BeiDou
+/// Seeds: RAWX epochs (GPS L1 C/A and L2 CL, Galileo E1 and E5b, BeiDou
+/// B1I and B2I measurements) and the SFRBX of the RINEX 3 seed's Galileo (I/NAV, E1-B order) or BeiDou
 /// (C01 as D2 pages, the same elements as C11 in D1 subframes) records,
 /// written by `write_ubx_multi`; each system alone and together.
 fn ubx_gnss_seeds(systems: &[char]) -> Vec<Vec<u8>> {
@@ -1306,12 +1306,24 @@ fn ubx_gnss_seeds(systems: &[char]) -> Vec<Vec<u8>> {
         .unwrap();
     let v = |x: f64| Some(ObsValue { value: x, lli: 0 });
     let obs = ObsFile {
-        types: vec!["C1".into(), "L1".into(), "D1".into(), "S1".into()],
+        types: ["C1", "L1", "D1", "S1", "C2", "L2"]
+            .map(String::from)
+            .to_vec(),
         epochs: (0..3)
             .map(|k| ObsEpoch {
                 t: t0 + k as f64,
                 flag: 0,
-                sats: vec![(5, vec![v(2.1e7), v(1.1e8), v(-1200.0), v(44.0)])],
+                sats: vec![(
+                    5,
+                    vec![
+                        v(2.1e7),
+                        v(1.1e8),
+                        v(-1200.0),
+                        v(44.0),
+                        v(2.1e7 + 3.0),
+                        v(8.6e7),
+                    ],
+                )],
             })
             .collect(),
         ..ObsFile::default()
@@ -1320,19 +1332,36 @@ fn ubx_gnss_seeds(systems: &[char]) -> Vec<Vec<u8>> {
         sys_codes: vec![
             (
                 'E',
-                vec!["C1C".into(), "L1C".into(), "D1C".into(), "S1C".into()],
+                ["C1C", "L1C", "D1C", "S1C", "C7Q", "L7Q"]
+                    .map(String::from)
+                    .to_vec(),
             ),
             (
                 'C',
-                vec!["C2I".into(), "L2I".into(), "D2I".into(), "S2I".into()],
+                ["C2I", "L2I", "D2I", "S2I", "C7I", "L7I"]
+                    .map(String::from)
+                    .to_vec(),
             ),
         ],
+        // Both frequencies of each system (RTK input, sigIds 3, 6, 2/3).
         epochs: (0..3)
             .map(|_| {
                 vec![
-                    ('E', 11, vec![v(2.4e7), v(1.2e8), v(300.0), v(41.0)]),
-                    ('C', 1, vec![v(3.7e7), v(1.9e8), v(5.0), v(38.0)]),
-                    ('C', 11, vec![v(2.2e7), v(1.15e8), v(-900.0), v(40.0)]),
+                    (
+                        'E',
+                        11,
+                        vec![v(2.4e7), v(1.2e8), v(300.0), v(41.0), v(2.4e7), v(9.6e7)],
+                    ),
+                    (
+                        'C',
+                        1,
+                        vec![v(3.7e7), v(1.9e8), v(5.0), v(38.0), v(3.7e7), v(1.5e8)],
+                    ),
+                    (
+                        'C',
+                        11,
+                        vec![v(2.2e7), v(1.15e8), v(-900.0), v(40.0), v(2.2e7), v(9.0e7)],
+                    ),
                 ]
             })
             .collect(),

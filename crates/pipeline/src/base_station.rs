@@ -207,8 +207,9 @@ pub fn load_base(obs: &Path, nav: &[PathBuf], spec: BasePositionSpec) -> Result<
     load_base_with(obs, nav, spec, false)
 }
 
-/// [`load_base`], with `second_frequency` the GPS L2 records too
-/// ([`crate::raw_input::raw_from_obs_with`]).
+/// [`load_base`], with `second_frequency` the second-frequency records too
+/// (GPS L2, Galileo E5b, BeiDou B2I of a RINEX file or a UBX log,
+/// [`crate::raw_input::raw_from_obs_with`]).
 pub fn load_base_with(
     obs: &Path,
     nav: &[PathBuf],

@@ -176,7 +176,10 @@ pub fn raw_from_obs(
 /// codes in [`rtk_codes`]) follows it with the same ephemeris, the
 /// Klobuchar delay scaled by (λ₂/λ₁)². The SPP, the fixes, the tight path and the account
 /// are those of the first signal (`second_frequency = false` gives
-/// exactly [`raw_from_obs`]).
+/// exactly [`raw_from_obs`]). A UBX log takes the same path: its reader
+/// ([`navfuse_io::ubx_gnss`]) names RAWX GPS L2 CL/CM `C2 L2 D2 S2`,
+/// Galileo E5b I/Q `C7I…`/`C7Q…` and BeiDou B2I `C7I…`, with the loss of
+/// lock from the RAWX lock time in LLI bit 0.
 pub fn raw_from_obs_with(
     o: &ObsFile,
     g: &GnssObs,

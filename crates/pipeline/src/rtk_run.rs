@@ -1,6 +1,8 @@
 //! RTK/INS in `navfuse run` (`[filter] coupling = "rtk"`, issue 15): the
 //! rover's raw records (`[input] gnss`, RINEX + `nav` or `.ubx`, with the
-//! GPS L2 records of a RINEX 2/3 file) and a base station's (`[input] base`,
+//! second-frequency records — GPS L2, Galileo E5b, BeiDou B2I — of a
+//! RINEX 2/3 file or a dual-frequency u-blox log's RXM-RAWX,
+//! [`navfuse_io::ubx_gnss`]) and a base station's (`[input] base`,
 //! `base_position`, [`crate::base_station`]) through
 //! [`Eskf::rtk_update`] after the alignment, which used the rover's
 //! single-point fixes as the tight path does.
