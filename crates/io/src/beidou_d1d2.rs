@@ -321,6 +321,15 @@ fn write(
 ) -> Result<(), BdsError> {
     let (signed, lsb, semi) = spec(*p);
     let n: u32 = parts.iter().map(|x| x.2).sum();
+    if matches!(p, P::M0 | P::Omega0 | P::Argp) {
+        // Angles of a circle: wrapped after rounding, as GPS and Galileo.
+        let mut v = u64::from(crate::gps_lnav::angle_field_32(value).ok_or(BdsError::Range(name))?);
+        for &(k, s, l) in parts.iter().rev() {
+            putu(&mut frames[k], s, l, v & ((1u64 << l) - 1));
+            v >>= l;
+        }
+        return Ok(());
+    }
     let x = (value / if semi { GPS_PI } else { 1.0 } / lsb).round();
     let (lo, hi) = if signed {
         (-(2f64.powi(n as i32 - 1)), 2f64.powi(n as i32 - 1))

@@ -332,6 +332,13 @@ fn q_signed(v: f64, e: i32, len: u32, name: &'static str) -> Result<u64, InavErr
     Ok((x as i64 as u64) & ((1u64 << len) - 1))
 }
 
+/// [`crate::gps_lnav::angle_field_32`]: the 32-bit angle fields wrapped.
+fn q_angle(angle: f64, name: &'static str) -> Result<u64, InavError> {
+    crate::gps_lnav::angle_field_32(angle)
+        .map(u64::from)
+        .ok_or(InavError::Range(name))
+}
+
 fn q_unsigned(v: f64, e: i32, len: u32, name: &'static str) -> Result<u64, InavError> {
     let x = (v / 2f64.powi(e)).round();
     if !x.is_finite() || x < 0.0 || x >= 2f64.powi(len as i32) {
@@ -379,9 +386,8 @@ pub fn encode_ephemeris(
         return Err(InavError::Range("GST week"));
     }
     let semi = |v: f64| v / GPS_PI;
-    // M0, Ω0 and ω are angles of a circle: written in [−π, π) (±1
-    // semicircle, the range of their 32-bit fields).
-    let wrap = |v: f64| v - (v / (2.0 * GPS_PI) + 0.5).floor() * 2.0 * GPS_PI;
+    // M0, Ω0 and ω are angles of a circle: `q_angle` wraps them after
+    // rounding (±1 semicircle, the range of their 32-bit fields).
     let iod = u64::from(iod_nav);
     let mut w = [Word(0), Word(0), Word(0), Word(0), Word(0)];
     for (i, x) in w.iter_mut().enumerate() {
@@ -395,12 +401,12 @@ pub fn encode_ephemeris(
         return Err(InavError::Range("t_oe (60 s grid)"));
     }
     w[0].put(16, 14, toe / 60);
-    w[0].put(30, 32, q_signed(semi(wrap(o.m0)), -31, 32, "M_0")?);
+    w[0].put(30, 32, q_angle(o.m0, "M_0")?);
     w[0].put(62, 32, q_unsigned(o.e, -33, 32, "e")?);
     w[0].put(94, 32, q_unsigned(o.sqrt_a, -19, 32, "√A")?);
-    w[1].put(16, 32, q_signed(semi(wrap(o.omega0)), -31, 32, "Ω_0")?);
+    w[1].put(16, 32, q_angle(o.omega0, "Ω_0")?);
     w[1].put(48, 32, q_signed(semi(o.i0), -31, 32, "i_0")?);
-    w[1].put(80, 32, q_signed(semi(wrap(o.argp)), -31, 32, "ω")?);
+    w[1].put(80, 32, q_angle(o.argp, "ω")?);
     w[1].put(112, 14, q_signed(semi(o.idot), -43, 14, "IDOT")?);
     w[2].put(16, 24, q_signed(semi(o.omega_dot), -43, 24, "Ω̇")?);
     w[2].put(40, 16, q_signed(semi(o.delta_n), -43, 16, "Δn")?);

@@ -401,6 +401,24 @@ fn q_signed(v: f64, e: i32, len: u32, name: &'static str) -> Result<u32, LnavErr
         })
 }
 
+/// An angle [rad] as its 32-bit two's-complement field of 2⁻³¹ semicircles
+/// (M_0, Ω_0, ω: IS-GPS-200 Table 20-III; the same scale in Galileo I/NAV
+/// and BeiDou D1/D2): rounded, then wrapped modulo one revolution, so an
+/// angle just below +π that rounds to +1 semicircle is written as −1 (the
+/// same direction) instead of being refused, and any angle outside ±π is
+/// brought in. `None` when not finite.
+pub(crate) fn angle_field_32(angle: f64) -> Option<u32> {
+    let x = (angle / GPS_PI * 2f64.powi(31)).round();
+    if !x.is_finite() || x.abs() >= 2f64.powi(62) {
+        return None;
+    }
+    Some((x as i64).rem_euclid(1i64 << 32) as u32)
+}
+
+fn q_angle(angle: f64, name: &'static str) -> Result<u32, LnavError> {
+    angle_field_32(angle).ok_or(LnavError::Range(name))
+}
+
 fn q_unsigned(v: f64, e: i32, len: u32, name: &'static str) -> Result<u32, LnavError> {
     let x = (v / 2f64.powi(e)).round();
     if !x.is_finite() || x < 0.0 || x >= 2f64.powi(len as i32) {
@@ -454,7 +472,7 @@ pub fn encode_ephemeris(
                 w.put(3, 1, 8, u32::from(iode));
                 w.put(3, 9, 16, q_signed(o.crs, -5, 16, "C_rs")?);
                 w.put(4, 1, 16, q_signed(semi(o.delta_n), -43, 16, "Δn")?);
-                w.put32(4, q_signed(semi(o.m0), -31, 32, "M_0")?);
+                w.put32(4, q_angle(o.m0, "M_0")?);
                 w.put(6, 1, 16, q_signed(o.cuc, -29, 16, "C_uc")?);
                 w.put32(6, q_unsigned(o.e, -33, 32, "e")?);
                 w.put(8, 1, 16, q_signed(o.cus, -29, 16, "C_us")?);
@@ -463,11 +481,11 @@ pub fn encode_ephemeris(
             }
             _ => {
                 w.put(3, 1, 16, q_signed(o.cic, -29, 16, "C_ic")?);
-                w.put32(3, q_signed(semi(o.omega0), -31, 32, "Ω_0")?);
+                w.put32(3, q_angle(o.omega0, "Ω_0")?);
                 w.put(5, 1, 16, q_signed(o.cis, -29, 16, "C_is")?);
                 w.put32(5, q_signed(semi(o.i0), -31, 32, "i_0")?);
                 w.put(7, 1, 16, q_signed(o.crc, -5, 16, "C_rc")?);
-                w.put32(7, q_signed(semi(o.argp), -31, 32, "ω")?);
+                w.put32(7, q_angle(o.argp, "ω")?);
                 w.put(9, 1, 24, q_signed(semi(o.omega_dot), -43, 24, "Ω̇")?);
                 w.put(10, 1, 8, u32::from(iode));
                 w.put(10, 9, 14, q_signed(semi(o.idot), -43, 14, "IDOT")?);
@@ -511,6 +529,31 @@ mod tests {
             af2: 0.0,
             tgd: -4.66e-9,
         }
+    }
+
+    /// Angles at and beyond ±π are written (wrapped), not refused, and
+    /// decode to the same direction: the simulator's orbits are not
+    /// wrapped, and an angle just below +π rounds to +1 semicircle.
+    #[test]
+    fn angles_at_and_beyond_pi_are_wrapped_not_refused() {
+        let mut o = orbit();
+        o.m0 = GPS_PI - 1e-12;
+        o.omega0 = 3.0 * GPS_PI + 0.25;
+        o.argp = -GPS_PI;
+        let sfs = encode_ephemeris(&o, 77, 2.0, 352_794.0).unwrap();
+        let mut a = Assembler::default();
+        let mut got = None;
+        for w in &sfs {
+            got = a.push(3, &decode_subframe(w).unwrap(), 1590);
+        }
+        let g = got.unwrap().orbit;
+        let same = |x: f64, y: f64| {
+            let d = (x - y).rem_euclid(2.0 * GPS_PI);
+            d.min(2.0 * GPS_PI - d) < 2f64.powi(-31) * GPS_PI
+        };
+        assert!(same(g.m0, o.m0) && same(g.omega0, o.omega0) && same(g.argp, o.argp));
+        assert_eq!(angle_field_32(GPS_PI - 1e-12), Some(1u32 << 31));
+        assert_eq!(angle_field_32(f64::NAN), None);
     }
 
     #[test]

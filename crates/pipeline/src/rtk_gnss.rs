@@ -216,7 +216,12 @@ pub fn rtk_gnss_only(
             )));
         }
         let (o, g, n) = crate::spp::load(p, nav)?;
-        let raw = raw_from_obs_with(&o, &g, &n, p, "rinex-obs", opts.l2)?;
+        let format = if crate::spp::is_ubx(p) {
+            "ubx-raw"
+        } else {
+            "rinex-obs"
+        };
+        let raw = raw_from_obs_with(&o, &g, &n, p, format, opts.l2)?;
         Ok((o.approx_pos, raw))
     };
     let (rover_hdr, rraw) = load(rover)?;

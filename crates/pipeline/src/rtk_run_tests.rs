@@ -486,29 +486,9 @@ fn simulated_rtk_run_from_ubx_logs_matches_rinex() {
     let traj = &sim.traj;
     let antenna = |t: f64| traj.antenna_ecef(t, &lever);
     let t_oe = ((t0 - 1.0) / 960.0).floor() * 960.0;
-    let (mut gps0, mut other0) = constellations(t_oe, seed);
-    // Angles into the navigation messages' [−π, π) (the same orbits up to
-    // 1 nrad: an angle within half a field step (2⁻³² semicircle) below +π
-    // rounds out of the 32-bit field, so it is set to −π; the scene is
-    // simulated with the orbits as decoded, whatever they are).
-    let w = |a: f64| {
-        use std::f64::consts::{PI, TAU};
-        let x = (a + PI).rem_euclid(TAU) - PI;
-        if x > PI - 1e-9 {
-            -PI
-        } else {
-            x
-        }
-    };
-    for o in gps0
-        .orbits
-        .iter_mut()
-        .chain(other0.iter_mut().map(|e| &mut e.orbit))
-    {
-        o.m0 = w(o.m0);
-        o.omega0 = w(o.omega0);
-        o.argp = w(o.argp);
-    }
+    let (gps0, other0) = constellations(t_oe, seed);
+    // The scene is simulated with the orbits as the navigation messages
+    // carry them (decoded below: quantised, angles wrapped into [−π, π)).
     // The broadcast records as the navigation messages carry them.
     let one = ObsFile {
         types: vec!["C1".into()],
