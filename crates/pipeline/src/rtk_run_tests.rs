@@ -118,6 +118,17 @@ fn simulated_car_rtk_run_fixes_and_writes_quality() {
     assert!(rms <= 0.05 && max <= 0.2, "rms {rms} max {max}");
 }
 
+/// The Q column of each row of `out/solution.pos` (same order as
+/// `solution.nav`).
+fn pos_quality(out: &Path) -> Vec<u8> {
+    std::fs::read_to_string(out.join("solution.pos"))
+        .unwrap()
+        .lines()
+        .filter(|l| !l.starts_with('%'))
+        .map(|l| l.split_whitespace().nth(5).unwrap().parse().unwrap())
+        .collect()
+}
+
 /// Run `dir/rtk.toml` (written by [`navfuse_sim::rtk_car::write_rtk_car`]
 /// for `sim`) and check what every RTK run must show: every rover epoch
 /// accounted for, none failed or unpaired, at least half of the applied
@@ -145,13 +156,7 @@ fn run_and_score_rtk(dir: &Path, sim: &navfuse_sim::SimRun) -> (f64, f64, usize)
     assert_eq!(n("rover_epochs_failed"), 0);
     assert_eq!(n("rover_epochs_unpaired_no_update"), 0);
     assert!(2 * n("fixed") >= n("rover_epochs_applied"), "{r}");
-    // Q of each .pos row (same order as solution.nav).
-    let pos = std::fs::read_to_string(out.join("solution.pos")).unwrap();
-    let q: Vec<u8> = pos
-        .lines()
-        .filter(|l| !l.starts_with('%'))
-        .map(|l| l.split_whitespace().nth(5).unwrap().parse().unwrap())
-        .collect();
+    let q = pos_quality(&out);
     assert_eq!(q.len(), sols.len());
     let mut e2 = Vec::new();
     for (s, q) in sols.iter().zip(&q) {
@@ -584,12 +589,7 @@ fn simulated_rtk_run_from_ubx_logs_matches_rinex() {
         let out = dir.join(format!("out-{name}"));
         let (sols, summary) =
             crate::run_tests::run_and_read(&dir.join(format!("{name}.toml")), &out, week);
-        let pos = std::fs::read_to_string(out.join("solution.pos")).unwrap();
-        let q: Vec<u8> = pos
-            .lines()
-            .filter(|l| !l.starts_with('%'))
-            .map(|l| l.split_whitespace().nth(5).unwrap().parse().unwrap())
-            .collect();
+        let q = pos_quality(&out);
         assert_eq!(q.len(), sols.len());
         (sols, q, summary["rtk"].clone())
     };

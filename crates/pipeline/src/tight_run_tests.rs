@@ -150,18 +150,7 @@ fn tight_run_on_a_ubx_log_meets_the_code_error_bound_and_loose() {
     let n_seeds = seeds.clone().count() as f64;
     for seed in seeds {
         let d = drive_seed("tight-run", 300.0, seed);
-        let tight = go(&d, &config(&d, "raw.ubx", "coupling = \"tight\""), "tight");
-        let loose = go(
-            &d,
-            &{
-                let mut c = config(&d, "raw.ubx", "");
-                c.input.gnss_format = Some("raw".into());
-                c
-            },
-            "loose",
-        );
-        let (rt, rl) = (h_rms(&d, &tight.trajectory), h_rms(&d, &loose.trajectory));
-        let (ct, cl) = (cov95(&d, &tight), cov95(&d, &loose));
+        let (tight, rt, rl, ct, cl) = tight_and_loose(&d);
         let hdop = median_hdop(&d);
         let bound = 2.0 * hdop * uere(&RawConfig::default(), 45f64.to_radians());
         eprintln!(
@@ -224,18 +213,7 @@ fn tight_run_on_walker_uav_and_boat() {
                 obs: r.obs,
                 nav: r.nav,
             };
-            let tight = go(&d, &config(&d, "raw.ubx", "coupling = \"tight\""), "tight");
-            let loose = go(
-                &d,
-                &{
-                    let mut c = config(&d, "raw.ubx", "");
-                    c.input.gnss_format = Some("raw".into());
-                    c
-                },
-                "loose",
-            );
-            let (rt, rl) = (h_rms(&d, &tight.trajectory), h_rms(&d, &loose.trajectory));
-            let (ct, cl) = (cov95(&d, &tight), cov95(&d, &loose));
+            let (_, rt, rl, ct, cl) = tight_and_loose(&d);
             let bound = 2.0 * median_hdop(&d) * uere(&RawConfig::default(), 45f64.to_radians());
             eprintln!(
                 "{p} seed {seed}: h RMS tight {rt:.3} m (σ cover {ct:.2}), loose {rl:.3} m \
@@ -250,6 +228,25 @@ fn tight_run_on_walker_uav_and_boat() {
         eprintln!("{p}: mean h RMS tight {mt:.3} m, loose {ml:.3} m");
         assert!(mt <= 1.10 * ml, "{p}: tight {mt} vs loose {ml}");
     }
+}
+
+/// The drive run tightly coupled and loosely on its single-point fixes:
+/// the tight outcome, the horizontal RMS of each ([`h_rms`]) and their 95 %
+/// σ coverage ([`cov95`]): `(tight, rms_t, rms_l, cover_t, cover_l)`.
+fn tight_and_loose(d: &Drive) -> (crate::run::RunOutcome, f64, f64, f64, f64) {
+    let tight = go(d, &config(d, "raw.ubx", "coupling = \"tight\""), "tight");
+    let loose = go(
+        d,
+        &{
+            let mut c = config(d, "raw.ubx", "");
+            c.input.gnss_format = Some("raw".into());
+            c
+        },
+        "loose",
+    );
+    let (rt, rl) = (h_rms(d, &tight.trajectory), h_rms(d, &loose.trajectory));
+    let (ct, cl) = (cov95(d, &tight), cov95(d, &loose));
+    (tight, rt, rl, ct, cl)
 }
 
 /// summary.json accounts for every observation and reports the clock; the
