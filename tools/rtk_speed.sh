@@ -24,7 +24,8 @@
 # Then sparse DD products and the block-wise joint update: 1.61 / 1.09 / 0.73;
 # then the tiled cross-covariance propagation, the column-wise rank-1
 # downdate, one LAMBDA decorrelation per attempt and the fast fixed-point
-# writers (2026-11-27, N = 3): 3.52 / 2.08 / 1.18.
+# writers (2026-11-27, N = 3): 3.52 / 2.08 / 1.18; N = 5, machine otherwise
+# idle: 3.22 / 1.95 / 1.16.
 # Usage: NAVFUSE_DATA=../shared/data tools/rtk_speed.sh [NAVFUSE_BIN] [N] [SIM_EXAMPLE_BIN]
 set -eu
 here=$(cd "$(dirname "$0")" && pwd)
