@@ -111,15 +111,16 @@ fn reduce(n: usize, l: &mut Mat, d: &mut [f64; MAX_N], zt: &mut Mat, zi: &mut Ma
             for r in i..n {
                 l.a[r][j] -= mu * l.a[r][i];
             }
-            let (zi_row, zj_row) = if i < j {
+            // Column j of Z −= μ · column i (rows of `zt`; i > j here).
+            let (row_i, row_j) = if i < j {
                 let (lo, hi) = zt.a.split_at_mut(j);
                 (&lo[i], &mut hi[0])
             } else {
                 let (lo, hi) = zt.a.split_at_mut(i);
                 (&hi[0], &mut lo[j])
             };
-            for (zj, zi) in zj_row[..n].iter_mut().zip(&zi_row[..n]) {
-                *zj -= mu * zi;
+            for (dst, src) in row_j[..n].iter_mut().zip(&row_i[..n]) {
+                *dst -= mu * src;
             }
             // Z⁻¹ ← G⁻¹ Z⁻¹, G⁻¹ = I + μ e_i e_jᵀ: row i += μ · row j.
             for c in 0..n {
