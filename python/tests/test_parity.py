@@ -36,8 +36,17 @@ def test_kf_gins_matches_the_cli_and_costs_at_most_10_percent_more(cli, data_dir
     # ~0.1 s: on wall time a scheduler hiccup is 10 %, and best-of-three wall
     # time failed CI once at 1.15 on a loaded 2-core runner while the same
     # build measured 0.88-0.99 on an idle one (CPU ratio 0.90-0.92 there).
+    # Then the ratio of the best-of-seven CPU times failed CI at 1.118, and
+    # the same build gave 1.007, 1.167 and, over four trials of 11 pairs,
+    # 0.99-1.16 on an idle machine whose CPU time per run drifted between
+    # 0.16 and 0.37 s: the two minima come from different moments. The
+    # statistic is now the median of the ratios of adjacent pairs (each CLI
+    # run against the Python call right after it), which the drift cancels
+    # out of: 0.99-1.05 over the same four trials, but 0.95-1.10 with 11
+    # pairs in the test itself; so 25 pairs after one warm-up pair (page
+    # faults and first-call set-up of both sides), not scored.
     w_cli, w_py, t_cli, t_py = [], [], [], []
-    for k in range(7):
+    for k in range(26):
         w, c = _cli_run(cli, yaml, tmp_path / f"cli{k}")
         w_cli.append(w)
         t_cli.append(c)
@@ -58,9 +67,11 @@ def test_kf_gins_matches_the_cli_and_costs_at_most_10_percent_more(cli, data_dir
     dh = np.abs(sol["h_m"].to_numpy() - nav[:, 4]).max()
     print(f"DataFrame vs CLI .nav: max |Δlat| {dlat:.2e} deg, max |Δh| {dh:.2e} m")
     assert dlat < 1e-8 and dh < 1e-3
-    ratio = min(t_py) / min(t_cli)
-    print(f"CPU time: CLI {min(t_cli):.3f} s, navfuse.kf_gins {min(t_py):.3f} s, "
-          f"ratio {ratio:.3f} (wall {min(w_py) / min(w_cli):.3f})")
+    t_cli, t_py, w_cli, w_py = t_cli[1:], t_py[1:], w_cli[1:], w_py[1:]
+    ratio = float(np.median(np.array(t_py) / np.array(t_cli)))
+    print(f"CPU time: CLI {min(t_cli):.3f} s, navfuse.kf_gins {min(t_py):.3f} s (best of 25), "
+          f"median paired ratio {ratio:.3f}, ratio of the best {min(t_py) / min(t_cli):.3f} "
+          f"(wall {np.median(np.array(w_py) / np.array(w_cli)):.3f})")
     assert ratio <= 1.10, f"Python overhead {100 * (ratio - 1):.1f} % > 10 %"
 
 
