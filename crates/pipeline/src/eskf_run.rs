@@ -739,7 +739,14 @@ pub(crate) fn run_eskf_span(
         // minutes to recover and never fixed; `rtk_run_tests`).
         if gnss_fed > 0 {
             if let Some(f) = gnss[..g].last() {
-                m.eskf.floor_position_std(&f.std_ned);
+                let added = m.eskf.floor_position_std(&f.std_ned);
+                if added.max() > 0.0 {
+                    a.description += &format!(
+                        "; at the switch to RTK the position σ raised to the last \
+                         single-point fix's ({:.2}, {:.2}, {:.2} m N, E, D)",
+                        f.std_ned.x, f.std_ned.y, f.std_ned.z
+                    );
+                }
             }
         }
         make_rtk(cfg, &mut m.eskf, r.cfg)?;
