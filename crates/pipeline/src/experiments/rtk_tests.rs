@@ -24,15 +24,8 @@ use super::*;
 fn dual_frequency_rtk_ins_fixes_fast_and_right() {
     let o = Options {
         seeds: 1,
-        seed0: 1,
         duration: 500.0,
-        almanac: None,
-        json: None,
-        single_frequency: false,
-        intra_system_only: false,
-        success_min: None,
-        white_iono: false,
-        iono_ppm: None,
+        ..Default::default()
     };
     let r = run_rtk(&o).unwrap();
     assert!(r.failed.is_empty(), "{:?}", r.failed);
@@ -58,15 +51,9 @@ fn rtk_ins_fixes_right_and_refixes_faster_than_gnss_only() {
     navfuse_io::data::require("gnss/almanac/yuma_week1011.alm");
     let o = Options {
         seeds: 2,
-        seed0: 1,
         duration: 500.0,
-        almanac: None,
-        json: None,
         single_frequency: true,
-        intra_system_only: false,
-        success_min: None,
-        white_iono: false,
-        iono_ppm: None,
+        ..Default::default()
     };
     let r = run_rtk(&o).unwrap();
     assert!(r.failed.is_empty(), "{:?}", r.failed);
@@ -557,15 +544,7 @@ fn rtk_partial_window_geometry_diagnostic() {
         .unwrap_or_else(|_| (1..=20).collect());
     let o = Options {
         seeds: 1,
-        seed0: 1,
-        duration: 600.0,
-        almanac: None,
-        json: None,
-        single_frequency: false,
-        intra_system_only: false,
-        success_min: None,
-        white_iono: false,
-        iono_ppm: None,
+        ..Default::default()
     };
     let rc = filter_config(&o);
     // Ablation (diagnosis only, never the experiment's scenario):
@@ -584,7 +563,7 @@ fn rtk_partial_window_geometry_diagnostic() {
     let lines: Vec<(u64, ImuGrade, String, [(f64, f64, usize, usize); 2])> = jobs
         .par_iter()
         .map(|&(seed, grade)| {
-            let pr = platform_run(Platform::Car, seed, &platform_options(grade, o.duration))
+            let pr = platform_run(Platform::Car, seed, &platform_options(grade, o.duration, o.imu_ideal()))
                 .unwrap();
             let (d, _) = drive_dual_with(seed, &pr.run, |c| {
                 if ablation == "noiono" {

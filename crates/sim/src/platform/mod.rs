@@ -238,6 +238,9 @@ pub struct PlatformOptions {
     /// The IMU output starts this long after the first GNSS epoch [s] (≥ 0;
     /// with `static_start = false` the run then starts in motion with GNSS first).
     pub gnss_lead_s: f64,
+    /// Diagnosis only: error terms removed from the IMU grade's
+    /// specification ([`crate::imu_model::ImuIdeal`]; default: none).
+    pub imu_ideal: crate::imu_model::ImuIdeal,
 }
 
 impl Default for PlatformOptions {
@@ -256,6 +259,7 @@ impl Default for PlatformOptions {
             outages: Outages::default(),
             imu_time_offset_s: 0.0,
             gnss_lead_s: 0.0,
+            imu_ideal: Default::default(),
         }
     }
 }
@@ -392,7 +396,7 @@ pub fn platform_run(
     opt: &PlatformOptions,
 ) -> Result<PlatformRun, SimError> {
     let (sc, info) = plan(p, seed, opt)?;
-    let imu = imu_preset(opt.imu.preset())?;
+    let imu = opt.imu_ideal.apply(imu_preset(opt.imu.preset())?);
     let gnss = gnss_preset(opt.gnss.preset())?;
     let mut run = simulate(&sc, seed, Some(imu), Some(gnss))?;
     let t0 = run.traj.truth[0].t;
