@@ -1311,6 +1311,14 @@ impl Eskf {
     /// share a slowly varying error of their own σ). Only the 21 INS
     /// states; call it before adding side blocks. Returns the variance
     /// added per axis [m²].
+    ///
+    /// Not the same rule as [`Eskf::forget_position_prior`] (tight
+    /// coupling): there the single-point fixes are least-squares images of
+    /// the very pseudoranges the filter then uses, so the position prior
+    /// would count their errors twice and is forgotten; the double
+    /// differences of RTK cancel the satellite errors those fixes carry,
+    /// so the position stays independent information and only its
+    /// understated σ is raised.
     pub fn floor_position_std(&mut self, std_ned: &Vec3) -> Vec3 {
         let mut added = Vec3::zeros();
         for k in 0..3 {
