@@ -489,7 +489,11 @@ fn load_inner(spec: &InputSpec) -> Result<Loaded, String> {
     let (mut gnss, gnss_report, mut raw) = if gnss_fmt == "raw" {
         let mut r = crate::raw_input::load_raw_with(spec.gnss, spec.nav, spec.raw_second)
             .map_err(|e| e.to_string())?;
-        let fixes = std::mem::take(&mut r.fixes);
+        let mut fixes = std::mem::take(&mut r.fixes);
+        if !spec.raw {
+            // Loosely coupled on its own single-point fixes.
+            crate::raw_input::loose_fix_sigma(&mut fixes, &r);
+        }
         (fixes, r.report.clone(), Some(r))
     } else {
         let (g, r) = read_gnss(spec.gnss, gnss_fmt)?;
