@@ -157,6 +157,12 @@ const ICL: usize = NAMB + NION;
 const NJ: usize = NX + NK;
 /// Most (system, signal) groups of an epoch.
 const NGROUP: usize = 12;
+/// Largest position DOP of the code-DD solution a GNSS-only (re)start
+/// accepts (RTKLIB `maxgdop` default 30; [`Eskf::recentre_on_code`]).
+const CODE_MAX_DOP: f64 = 30.0;
+/// Gauss–Newton steps of the code-DD solution (RTKLIB `pntpos` `MAXITR`
+/// 10): it starts at the base, kilometres away.
+const CODE_MAX_ITER: usize = 10;
 
 /// Configuration of the RTK updates.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -688,6 +694,9 @@ pub(super) struct Rtk {
     cv: Option<gnss_only::CvPosterior>,
     /// GNSS-only mode: the INS attitude rows of `P` during the update.
     att_aside: Option<gnss_only::AttRows>,
+    /// GNSS-only mode: every code DD of the last epoch failed its gate
+    /// (the filter has lost itself; `rtk/gnss_only.rs`).
+    lost: bool,
     /// Dual-frequency slip detectors on the single differences.
     dual: crate::gnss::slip::DualFreqSlip,
     pub(super) stats: RtkStats,
@@ -736,6 +745,7 @@ impl Rtk {
             slip_gate: kalman::chi2_quantile(1, cfg.slip_probability),
             cv: None,
             att_aside: None,
+            lost: false,
             dual: Default::default(),
             stats: RtkStats::default(),
         })
@@ -1523,6 +1533,7 @@ impl Eskf {
         let mut dxf = SVector::<f64, NJ>::zeros();
         let xamb = rt.x;
         let mut n_code = 0usize;
+        let mut n_code_gated = 0usize;
         let mut n_phase = 0usize;
         let mut nis = [(0.0f64, 0u64); 2];
         let mut used_phase = [false; MAX_RAW_SATS];
@@ -1606,6 +1617,7 @@ impl Eskf {
                     } else {
                         c.code_gated += 1;
                         recs[i].use_code = false;
+                        n_code_gated += 1;
                     }
                 }
                 if ref_suspect {
@@ -1661,6 +1673,11 @@ impl Eskf {
                     used_phase[ir] = true;
                 }
             }
+        }
+        // GNSS-only: lost when no code DD passed its gate and some were
+        // tried (rtk/gnss_only.rs; the INS-aided path is not changed).
+        if cfg.gnss_only {
+            rt.lost = n_code == 0 && n_code_gated > 0;
         }
         rt.stats.nis_code.0 += nis[0].0;
         rt.stats.nis_code.1 += nis[0].1;
@@ -1722,10 +1739,31 @@ impl Eskf {
     /// RTKLIB's single-point prior), so a car that moved while the
     /// satellites were gone does not start hundreds of metres off. DDs
     /// grouped as the update groups them ([`RtkConfig::inter_system`]).
+    ///
+    /// **Independent of the filter state**: the iteration starts at the
+    /// base antenna (the one position a relative-mode rover is known to be
+    /// near), as RTKLIB's `pntpos` starts from its own last solution, never
+    /// from the RTK filter's. Started from the filter's state, a filter
+    /// that had lost itself could not restart: 27 600 km off (seed 19 of
+    /// `experiment rtk` with a perturbed scene) the satellites' elevations
+    /// at the iterate or the 6 steps did not give a solution, and it
+    /// coasted for the rest of the run.
+    ///
     /// Refused (position restored, `false`) without redundancy — fewer than
     /// 4 DDs for the 3 unknowns: an exactly determined code solution has no
     /// check and, with 4 satellites, a DOP that put it 300 m off (seed 12 of
-    /// `experiment rtk`) — or when it does not converge to 1 cm in 6 steps.
+    /// `experiment rtk`) — when its geometry is too weak, or when it does not
+    /// converge to 1 cm in [`CODE_MAX_ITER`] steps. Geometry: RTKLIB's
+    /// `valsol` rejects a single-point solution whose GDOP exceeds
+    /// `maxgdop` (default 30, `pos2-rejgdop`; [`crate::gnss::spp`] the
+    /// same); here the clocks are differenced out, so the test is on the
+    /// position DOP of the code DDs with their unit-weight correlation
+    /// (`C = I + 1 1ᵀ` per group: the undifferenced PDOP with one clock per
+    /// group), `√tr N⁻¹ ≤` [`CODE_MAX_DOP`]. Counting DDs is not enough:
+    /// L1 and L2 of one satellite are two DDs along one line of sight, so 4
+    /// satellites of 2 systems give 4 DDs of rank 2, and the "solution"
+    /// moved along the unobserved (near-vertical) direction to a false
+    /// root 27 600 km below the base (seed 19 above, t = 449 s).
     fn recentre_on_code(
         &mut self,
         rover: &RawEpoch,
@@ -1734,7 +1772,9 @@ impl Eskf {
         cfg: &RtkConfig,
     ) -> bool {
         let saved = (self.nav.lat, self.nav.lon, self.nav.h);
-        for _ in 0..6 {
+        let b0 = crate::geodesy::ecef_to_geodetic(base_e);
+        (self.nav.lat, self.nav.lon, self.nav.h) = (b0.lat, b0.lon, b0.h);
+        for _ in 0..CODE_MAX_ITER {
             let a = self.rtk_antenna();
             let doy = day_of_year(rover.t);
             let bg = crate::geodesy::ecef_to_geodetic(base_e);
@@ -1781,6 +1821,9 @@ impl Eskf {
             let mut nm = Mat3::zeros();
             let mut rhs = Vec3::zeros();
             let mut m = 0usize;
+            // Per group (by its reference record): Σ h and the DD count,
+            // for the correlated normal matrix of the DOP test.
+            let mut grp_sum = [(Vec3::zeros(), 0usize); MAX_RAW_SATS];
             for i in 0..n {
                 // Reference of the group: its highest satellite.
                 let mut r = i;
@@ -1797,6 +1840,22 @@ impl Eskf {
                 nm += hrow * hrow.transpose();
                 rhs += hrow * dz;
                 m += 1;
+                grp_sum[r].0 += hrow;
+                grp_sum[r].1 += 1;
+            }
+            // N with the DD correlation: Σ_g H_gᵀ (I + 1 1ᵀ)⁻¹ H_g, and
+            // (I + 1 1ᵀ)⁻¹ = I − 1 1ᵀ / (m_g + 1).
+            let mut nc = nm;
+            for (sg, mg) in grp_sum[..n].iter() {
+                if *mg > 0 {
+                    nc -= sg * sg.transpose() / (*mg as f64 + 1.0);
+                }
+            }
+            let dop = nc
+                .cholesky()
+                .map_or(f64::INFINITY, |c| c.inverse().trace().max(0.0).sqrt());
+            if dop.is_nan() || dop > CODE_MAX_DOP {
+                break;
             }
             let Some(inv) = nm.try_inverse().filter(|_| m >= 4) else {
                 break;

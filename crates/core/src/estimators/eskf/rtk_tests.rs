@@ -121,10 +121,15 @@ fn filter() -> Eskf {
 }
 
 fn filter_with(rc: RtkConfig) -> Eskf {
+    filter_at(rc, LAT + 0.5 / 6.37e6, LON, H) // 0.5 m north
+}
+
+/// [`filter_with`] started at (`lat`, `lon`, `h`) with its position σ 1 m.
+fn filter_at(rc: RtkConfig, lat: f64, lon: f64, h: f64) -> Eskf {
     let nav = NavState {
-        lat: LAT + 0.5 / 6.37e6, // 0.5 m north
-        lon: LON,
-        h: H,
+        lat,
+        lon,
+        h,
         ..Default::default()
     };
     let std = InitStd {
@@ -480,4 +485,156 @@ fn gnss_only_mode_ignores_the_ins() {
         assert!(s.fixed, "{s:?}");
         assert!((geodetic_to_ecef(&s.pos) - rover()).norm() < 0.01, "{s:?}");
     }
+}
+
+fn gnss_only() -> RtkConfig {
+    RtkConfig {
+        gnss_only: true,
+        ..RtkConfig::rtklib()
+    }
+}
+
+/// Float horizontal+vertical error [m] of each solution against `truth(s)`
+/// (epoch `s` = index + 1).
+fn float_errors(sols: &[RtkSolution], truth: impl Fn(u32) -> Vec3) -> Vec<f64> {
+    sols.iter()
+        .enumerate()
+        .map(|(i, s)| (geodetic_to_ecef(&s.float_pos) - truth(i as u32 + 1)).norm())
+        .collect()
+}
+
+/// GNSS-only mode restarts from a code solution computed independently of
+/// its own state ([`RtkConfig::gnss_only`], `Eskf::recentre_on_code`):
+/// started on the far side of the earth (σ 1 m), from where no satellite
+/// is above the mask, its float is within 1 m of the rover from the first
+/// epoch on. Before, the
+/// code solution started at the filter's state, found no satellite there
+/// and was refused; every DD was then gated and the filter coasted
+/// 12 700 km off for good (the runaway of `experiment rtk` seed 19 with a
+/// perturbed scene, which went 27 600 km off).
+#[test]
+fn gnss_only_restart_does_not_depend_on_a_lost_state() {
+    let mut f = filter_at(gnss_only(), -LAT, LON + core::f64::consts::PI, H);
+    let sols = run(&mut f, 10, &clean);
+    let err = float_errors(&sols, |_| rover());
+    assert!(err.iter().all(|e| *e < 1.0), "{err:?}");
+}
+
+/// GNSS-only mode detects that it has lost itself — every code DD of an
+/// epoch beyond its gate — and restarts from the code solution at the next
+/// epoch: a rover whose data jump 2 km east after 10 s (a filter whose
+/// state is suddenly 2 km off with a σ of metres) is back within 1 m at
+/// the second epoch after the jump and fixed again. Before, it coasted on
+/// its constant-velocity prediction with every DD gated until the
+/// predicted σ had grown past 30 m (~7 epochs).
+#[test]
+fn gnss_only_restarts_when_every_code_dd_is_gated() {
+    let cen = c_en(LAT, LON).transpose();
+    let moved = rover() + cen * Vec3::new(0.0, 2000.0, 0.0);
+    let at = move |s: u32| if s <= 10 { rover() } else { moved };
+    let ep = move |s: u32, t: f64| {
+        (
+            epoch(t, &at(s), 8, n_rover, &[], &[], &[], 1.0e4),
+            epoch(t, &base(), 8, n_base, &[], &[], &[], -2.0e3),
+        )
+    };
+    let mut f = filter_with(gnss_only());
+    let sols = run(&mut f, 20, &ep);
+    let err = float_errors(&sols, at);
+    assert!(err[..10].iter().all(|e| *e < 0.1), "{err:?}");
+    assert!(err[10] > 1000.0, "{err:?}"); // the jump epoch: all gated
+    assert!(err[11..].iter().all(|e| *e < 1.0), "{err:?}");
+    let last = sols.last().unwrap();
+    assert!(
+        last.fixed && (geodetic_to_ecef(&last.pos) - moved).norm() < 0.01,
+        "{last:?}"
+    );
+}
+
+/// Dual-frequency epoch of satellites `ks` of [`sats`]`(8)`, GPS L1/L2 for
+/// `k < 4`, Galileo E1/E5b otherwise; no ionosphere.
+fn epoch_gal_gps(t: f64, rx: &Vec3, ks: &[usize], rover_side: bool) -> RawEpoch {
+    let g = crate::geodesy::ecef_to_geodetic(rx);
+    let cen = c_en(g.lat, g.lon);
+    let mut ep = RawEpoch::new(t);
+    for (k, p) in sats(8).iter().enumerate() {
+        if !ks.contains(&k) {
+            continue;
+        }
+        let (rho, los) = geometric_range(p, rx);
+        let el = (-(cen * los).z).asin();
+        let trop = slant_delay(el, g.lat, g.h, day_of_year(t), 0.0);
+        let (system, sigs) = if k < 4 {
+            (GnssSystem::Gps, [Signal::GpsL1Ca, Signal::GpsL2C])
+        } else {
+            (GnssSystem::Galileo, [Signal::GalE1, Signal::GalE5b])
+        };
+        for (j, signal) in sigs.into_iter().enumerate() {
+            let lam = signal.wavelength_m(0);
+            let n = if rover_side { n_rover(k) } else { n_base(k) } + 7.0 * j as f64;
+            ep.push(RawSat {
+                obs: RawObs {
+                    t,
+                    pseudorange_m: rho + trop,
+                    carrier_m: rho + trop + lam * n,
+                    cn0_dbhz: 45.0,
+                    system,
+                    prn: k as u8 + 1,
+                    signal,
+                    ..Default::default()
+                },
+                sat: SatState {
+                    pos_e: *p,
+                    valid: true,
+                    ..Default::default()
+                },
+            });
+        }
+    }
+    ep
+}
+
+/// The GNSS-only restart refuses a code solution of rank-deficient
+/// geometry although it has "enough" DDs: 2 GPS + 2 Galileo satellites on
+/// two frequencies give 4 code DDs along only 2 lines of sight (one DD per
+/// system and signal), so the position along the third direction is not
+/// observed (its DOP is infinite, `CODE_MAX_DOP`). Static rover: 10 s
+/// with 8 satellites, 60 s with those 4 (the unobserved direction's σ
+/// grows past the 30 m restart threshold), 20 s with 8 again: no restart
+/// in the window (the σ keeps growing, the prediction is kept), the float
+/// within 5 m throughout, fixed on the rover at the end. Before, each
+/// restart took the singular "solution" (σ back to 30 m every 3–6
+/// epochs); with noise-free code it stayed on the rover here, but in seed
+/// 19 of `experiment rtk` (GPS + BeiDou in its 4-satellite window, a
+/// perturbed scene) it went to a false root 27 600 km off.
+#[test]
+fn gnss_only_refuses_a_rank_deficient_code_restart() {
+    let ks = |s: u32| -> &'static [usize] {
+        if (11..=70).contains(&s) {
+            &[0, 1, 4, 5]
+        } else {
+            &[0, 1, 2, 3, 4, 5, 6, 7]
+        }
+    };
+    let ep = move |s: u32, t: f64| {
+        (
+            epoch_gal_gps(t, &rover(), ks(s), true),
+            epoch_gal_gps(t, &base(), ks(s), false),
+        )
+    };
+    let mut f = filter_with(gnss_only());
+    let sols = run(&mut f, 90, &ep);
+    let err = float_errors(&sols, |_| rover());
+    let worst = err.iter().cloned().fold(0.0, f64::max);
+    // No restart in the window: the σ of the unobserved direction keeps
+    // growing (an accepted restart would set it back to 30 m).
+    let sd: Vec<f64> = sols.iter().map(|s| s.float_std_ned.norm()).collect();
+    assert!(sd[69] > 100.0, "{sd:?}");
+    assert!(sd[10..70].windows(2).all(|w| w[1] >= 0.99 * w[0]), "{sd:?}");
+    assert!(worst < 5.0, "{worst} {err:?}");
+    let last = sols.last().unwrap();
+    assert!(
+        last.fixed && (geodetic_to_ecef(&last.pos) - rover()).norm() < 0.01,
+        "{last:?}"
+    );
 }

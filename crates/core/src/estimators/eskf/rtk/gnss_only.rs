@@ -28,6 +28,25 @@
 //! reinitialise"), provided the code solution is redundant
 //! ([`Eskf::recentre_on_code`]); otherwise the prediction is kept.
 //!
+//! **Lost**: when no code DD of an epoch passes its gate (some tried), the
+//! filter has lost itself — its position is inconsistent with every code
+//! DD, so it cannot be pulled back by them: each is gated, the phase DDs
+//! too (their ambiguities re-initialised), and the covariance grows only
+//! by `Q` while the error may be any size (seed 19 of `experiment rtk`
+//! with a perturbed scene coasted 2.7·10⁶ m off to the end of the run).
+//! The next epoch then restarts position and velocity as above, the
+//! velocity at 0 (RTKLIB `udpos`'s reset without Doppler), whatever the
+//! σ. False-alarm rate: a consistent filter fails all of `m ≥ 1` code DDs
+//! with probability ≤ that of failing any one of them, `1 −`
+//! [`RtkConfig::gate_probability`] (1e-4 per epoch by default), whatever
+//! their correlation; the cost of a false alarm is one restart from the
+//! code solution. It is RTKLIB's reset on rejected measurements (`relpos`
+//! gives no solution without a valid DD residual, and `udpos` then resets
+//! at the single-point position) without waiting for the variance to
+//! grow past [`RtkConfig::gnss_only_sigma`]. The restart point is computed
+//! independently of the lost state ([`Eskf::recentre_on_code`] starts at
+//! the base).
+//!
 //! **Kept out of it: the INS.** The IMU still drives the mechanisation
 //! between epochs (the caller pushes it), but at each epoch the position,
 //! velocity and ambiguities are restored from this model's own posterior of
@@ -153,12 +172,17 @@ impl Eskf {
         }
         // RTKLIB `udpos`: the test is on the last posterior, before the
         // prediction (testing the prediction would restart every epoch
-        // while the velocity is still at its initial σ).
+        // while the velocity is still at its initial σ). Lost (module
+        // documentation): restart now, the velocity too.
         let var = (s.p6[(0, 0)] + s.p6[(1, 1)] + s.p6[(2, 2)]) / 3.0;
-        if var > cfg.gnss_only_sigma * cfg.gnss_only_sigma
+        let lost = self.rtk.as_ref().is_some_and(|r| r.lost);
+        if (var > cfg.gnss_only_sigma * cfg.gnss_only_sigma || lost)
             && self.recentre_on_code(rover, base, base_e, cfg)
         {
             self.rtk_forget_position(cfg.gnss_only_sigma);
+            if lost {
+                self.nav.v_n = Vec3::zeros();
+            }
         }
     }
 
