@@ -765,21 +765,13 @@ fn rtk_gnss_only_trace_diagnostic() {
         .unwrap_or(520.0);
     let o = Options {
         seeds: 1,
-        seed0: 1,
-        duration: 600.0,
-        almanac: None,
-        json: None,
-        single_frequency: false,
-        intra_system_only: false,
-        success_min: None,
-        white_iono: false,
-        iono_ppm: None,
+        ..Default::default()
     };
     let rc = filter_config(&o);
     let pr = platform_run(
         Platform::Car,
         seed,
-        &platform_options(ImuGrade::Consumer, o.duration),
+        &platform_options(ImuGrade::Consumer, o.duration, o.imu_ideal()),
     )
     .unwrap();
     let d = drive_dual(seed, &pr.run).unwrap();
