@@ -191,28 +191,13 @@ fn tight_run_on_a_ubx_log_meets_the_code_error_bound_and_loose() {
 /// car test were taken before any other platform's result was read.
 #[test]
 fn tight_run_on_walker_uav_and_boat() {
-    use navfuse_sim::platform::{ImuGrade, Platform};
+    use navfuse_sim::platform::Platform;
     for p in [Platform::Pedestrian, Platform::Uav, Platform::Marine] {
         let (mut sum_t, mut sum_l) = (0.0, 0.0);
         let seeds = 1..=6u64;
         let n_seeds = seeds.clone().count() as f64;
         for seed in seeds {
-            let dir = crate::test_dir(&format!("tight-run-{p}-{seed}"));
-            let r = crate::raw_drive::write_raw_drive_on(
-                &dir,
-                seed,
-                300.0,
-                ImuGrade::Consumer,
-                p,
-                true,
-            )
-            .unwrap();
-            let d = Drive {
-                dir,
-                sim: r.sim,
-                obs: r.obs,
-                nav: r.nav,
-            };
+            let d = platform_drive(p, seed, "tight-run");
             let (_, rt, rl, ct, cl) = tight_and_loose(&d);
             let bound = 2.0 * median_hdop(&d) * uere(&RawConfig::default(), 45f64.to_radians());
             eprintln!(
@@ -227,6 +212,27 @@ fn tight_run_on_walker_uav_and_boat() {
         let (mt, ml) = (sum_t / n_seeds, sum_l / n_seeds);
         eprintln!("{p}: mean h RMS tight {mt:.3} m, loose {ml:.3} m");
         assert!(mt <= 1.10 * ml, "{p}: tight {mt} vs loose {ml}");
+    }
+}
+
+/// A 300 s consumer-IMU raw drive of platform `p` (its profile named in
+/// the run's TOML) in a test directory `{name}-{p}-{seed}`.
+fn platform_drive(p: navfuse_sim::platform::Platform, seed: u64, name: &str) -> Drive {
+    let dir = crate::test_dir(&format!("{name}-{p}-{seed}"));
+    let r = crate::raw_drive::write_raw_drive_on(
+        &dir,
+        seed,
+        300.0,
+        navfuse_sim::platform::ImuGrade::Consumer,
+        p,
+        true,
+    )
+    .unwrap();
+    Drive {
+        dir,
+        sim: r.sim,
+        obs: r.obs,
+        nav: r.nav,
     }
 }
 
@@ -536,25 +542,10 @@ fn tight_run_600_s_wall_time() {
 /// freedom the data's own scale applies.
 #[test]
 fn loose_run_on_own_fixes_is_not_overconfident() {
-    use navfuse_sim::platform::{ImuGrade, Platform};
+    use navfuse_sim::platform::Platform;
     for p in [Platform::Car, Platform::Pedestrian] {
         for seed in 1..=6u64 {
-            let dir = crate::test_dir(&format!("loose-own-fixes-{p}-{seed}"));
-            let r = crate::raw_drive::write_raw_drive_on(
-                &dir,
-                seed,
-                300.0,
-                ImuGrade::Consumer,
-                p,
-                true,
-            )
-            .unwrap();
-            let d = Drive {
-                dir,
-                sim: r.sim,
-                obs: r.obs,
-                nav: r.nav,
-            };
+            let d = platform_drive(p, seed, "loose-own-fixes");
             let mut c = config(&d, "raw.ubx", "");
             c.input.gnss_format = Some("raw".into());
             let loose = go(&d, &c, "loose");
