@@ -560,6 +560,7 @@ impl<'a> RtkDriver<'a> {
             rejected_ratio: stats.rejected_ratio,
             rejected_lambda: stats.rejected_lambda,
             reference_changes: stats.reference_changes,
+            position_resets: stats.position_resets,
             slip_untestable_epochs: stats.slip_untestable,
             mean_nis_code: stats.nis_code.0 / stats.nis_code.1.max(1) as f64,
             mean_nis_phase: stats.nis_phase.0 / stats.nis_phase.1.max(1) as f64,
@@ -669,6 +670,10 @@ pub struct RtkAccount {
     pub rejected_ratio: u64,
     pub rejected_lambda: u64,
     pub reference_changes: u64,
+    /// Epochs whose INS position the code DDs contradicted, reset to the
+    /// code solution with every ambiguity (core
+    /// `Eskf::rtk_test_position_on_code`).
+    pub position_resets: u64,
     pub slip_untestable_epochs: u64,
     pub mean_nis_code: f64,
     pub mean_nis_phase: f64,

@@ -495,6 +495,10 @@ pub struct RtkStats {
     /// Σ NIS and count of the used code and phase DDs (whitened).
     pub nis_code: (f64, u64),
     pub nis_phase: (f64, u64),
+    /// INS-aided: epochs whose position failed the test against the code
+    /// solution and was reset to it, the ambiguities with it
+    /// ([`Eskf::rtk_test_position_on_code`]).
+    pub position_resets: u64,
 }
 
 impl Default for RtkStats {
@@ -512,6 +516,7 @@ impl Default for RtkStats {
             rejected_ratio: 0,
             rejected_lambda: 0,
             held: 0,
+            position_resets: 0,
             nis_code: (0.0, 0),
             nis_phase: (0.0, 0),
         }
@@ -697,6 +702,13 @@ pub(super) struct Rtk {
     /// GNSS-only mode: every code DD of the last epoch failed its gate
     /// (the filter has lost itself; `rtk/gnss_only.rs`).
     lost: bool,
+    /// INS-aided: most code DDs of the last epoch failed their gate, so
+    /// the next epoch tests the position against the code solution
+    /// ([`Eskf::rtk_test_position_on_code`]).
+    suspect: bool,
+    /// Largest single-difference code variance of the last epoch [m²]
+    /// (the unit variance of that test's code solution).
+    code_var_max: f64,
     /// Dual-frequency slip detectors on the single differences.
     dual: crate::gnss::slip::DualFreqSlip,
     pub(super) stats: RtkStats,
@@ -746,6 +758,8 @@ impl Rtk {
             cv: None,
             att_aside: None,
             lost: false,
+            suspect: false,
+            code_var_max: 0.0,
             dual: Default::default(),
             stats: RtkStats::default(),
         })
@@ -1274,6 +1288,8 @@ impl Eskf {
         if cfg.gnss_only {
             // No INS: constant-velocity prediction (rtk/gnss_only.rs).
             self.gnss_only_predict(rover, base, base_e, &cfg);
+        } else if self.rtk.as_ref().is_some_and(|r| r.suspect) {
+            self.rtk_test_position_on_code(rover, base, base_e, &cfg);
         }
         let bg = crate::geodesy::ecef_to_geodetic(base_e);
         let cen_b = c_en(bg.lat, bg.lon);
@@ -1678,6 +1694,14 @@ impl Eskf {
         // tried (rtk/gnss_only.rs; the INS-aided path is not changed).
         if cfg.gnss_only {
             rt.lost = n_code == 0 && n_code_gated > 0;
+        } else {
+            let tried = n_code + n_code_gated;
+            rt.suspect = tried >= 3 && 2 * n_code_gated > tried;
+            rt.code_var_max = recs[..nr]
+                .iter()
+                .map(|r| r.v_code)
+                .filter(|v| v.is_finite())
+                .fold(0.0, f64::max);
         }
         rt.stats.nis_code.0 += nis[0].0;
         rt.stats.nis_code.1 += nis[0].1;
@@ -1771,6 +1795,20 @@ impl Eskf {
         base_e: &Vec3,
         cfg: &RtkConfig,
     ) -> bool {
+        self.code_solution(rover, base, base_e, cfg).is_some()
+    }
+
+    /// [`Eskf::recentre_on_code`]'s solution: on success the nominal
+    /// position is moved onto it and the unit-weight cofactor matrix of
+    /// the position (NED error state, `(Hᵀ C⁻¹ H)⁻¹` with `C = I + 1 1ᵀ`
+    /// per group) is returned; else the position is restored.
+    fn code_solution(
+        &mut self,
+        rover: &RawEpoch,
+        base: &RawEpoch,
+        base_e: &Vec3,
+        cfg: &RtkConfig,
+    ) -> Option<Mat3> {
         let saved = (self.nav.lat, self.nav.lon, self.nav.h);
         let b0 = crate::geodesy::ecef_to_geodetic(base_e);
         (self.nav.lat, self.nav.lon, self.nav.h) = (b0.lat, b0.lon, b0.h);
@@ -1851,9 +1889,10 @@ impl Eskf {
                     nc -= sg * sg.transpose() / (*mg as f64 + 1.0);
                 }
             }
-            let dop = nc
-                .cholesky()
-                .map_or(f64::INFINITY, |c| c.inverse().trace().max(0.0).sqrt());
+            let cof = nc.cholesky().map(|c| c.inverse());
+            let dop = cof
+                .as_ref()
+                .map_or(f64::INFINITY, |c| c.trace().max(0.0).sqrt());
             if dop.is_nan() || dop > CODE_MAX_DOP {
                 break;
             }
@@ -1869,11 +1908,92 @@ impl Eskf {
             self.nav.lon -= dr[1] / ((rn + self.nav.h) * self.nav.lat.cos());
             self.nav.h += dr[2];
             if dr.norm() < 0.01 {
-                return true;
+                return cof;
             }
         }
         (self.nav.lat, self.nav.lon, self.nav.h) = saved;
-        false
+        None
+    }
+
+    /// INS-aided: after an epoch in which most code DDs failed their
+    /// gate, test the position against the code solution computed
+    /// independently of it (from the base, [`Eskf::code_solution`]):
+    /// `d = p̂ − p_code`, `S = P_pos + σ² Q_code` (the two independent;
+    /// σ² the largest SD code variance of the last epoch, so `S` errs
+    /// large), reset when `dᵀ S⁻¹ d` exceeds the χ²₃ quantile of
+    /// [`RtkConfig::gate_probability`]. Reset: the position moves onto the
+    /// code solution with covariance `σ² Q_code`, its cross-covariances are
+    /// dropped (Bar-Shalom, Li & Kirubarajan 2001 §8.6: the position was
+    /// wrong with a small σ, so what it was correlated with is suspect
+    /// too) and every ambiguity is freed, to be initialised from code at
+    /// its next epoch: the float ambiguities had taken up the position
+    /// error (an INS position 20 m off with σ 0.2 m, core test
+    /// `ins_aided_rtk_resets_a_position_inconsistent_with_code`, stayed
+    /// 20 m off with 5 of 7 code DDs gated at every epoch and the phase
+    /// DDs all used).
+    ///
+    /// Why two stages: a majority of gated code DDs alone can be one bad
+    /// reference satellite; a code solution alone fails its χ² on code
+    /// outliers. A consistent filter fails the majority of ≥ 3 DDs with
+    /// probability of order `3 (1 − p)²` and then the χ² test with `1 − p`
+    /// (`p` the gate probability, 1e-4 → ~3e-12 per epoch).
+    pub(super) fn rtk_test_position_on_code(
+        &mut self,
+        rover: &RawEpoch,
+        base: &RawEpoch,
+        base_e: &Vec3,
+        cfg: &RtkConfig,
+    ) {
+        let var = match &mut self.rtk {
+            Some(r) => {
+                r.suspect = false;
+                r.code_var_max
+            }
+            None => return,
+        };
+        let saved = (self.nav.lat, self.nav.lon, self.nav.h);
+        let Some(cof) = self.code_solution(rover, base, base_e, cfg) else {
+            return;
+        };
+        let code = (self.nav.lat, self.nav.lon, self.nav.h);
+        (self.nav.lat, self.nav.lon, self.nav.h) = saved;
+        let (rm, rn) = earth::radii(saved.0);
+        let d = Vec3::new(
+            (saved.0 - code.0) * (rm + saved.2),
+            (saved.1 - code.1) * (rn + saved.2) * saved.0.cos(),
+            -(saved.2 - code.2),
+        );
+        let q_code = cof * var.max(f64::MIN_POSITIVE);
+        let s = self.p.fixed_view::<3, 3>(I_POS, I_POS).into_owned() + q_code;
+        let Some(si) = s.try_inverse() else { return };
+        let nis = d.dot(&(si * d));
+        // NaN (a degenerate S) is no evidence: keep the position.
+        if nis.is_nan() || nis <= kalman::chi2_quantile(3, cfg.gate_probability) {
+            return;
+        }
+        (self.nav.lat, self.nav.lon, self.nav.h) = code;
+        for k in I_POS..I_POS + 3 {
+            for j in 0..NX {
+                self.p[(k, j)] = 0.0;
+                self.p[(j, k)] = 0.0;
+            }
+        }
+        self.p
+            .fixed_view_mut::<3, 3>(I_POS, I_POS)
+            .copy_from(&q_code);
+        let Some(rt) = &mut self.rtk else { return };
+        for k in I_POS..I_POS + 3 {
+            for j in 0..NK {
+                rt.p_xa[(k, j)] = 0.0;
+            }
+        }
+        for k in 0..NAMB {
+            if rt.slots[k].key.is_some() {
+                rt.clear_slot(k);
+            }
+        }
+        rt.clone_set = false;
+        rt.stats.position_resets += 1;
     }
 
     /// LAMBDA with partial ambiguity resolution on the DD ambiguities of

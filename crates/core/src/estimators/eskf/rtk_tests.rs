@@ -638,3 +638,44 @@ fn gnss_only_refuses_a_rank_deficient_code_restart() {
         "{last:?}"
     );
 }
+
+/// INS-aided RTK resets a position that the code DDs contradict
+/// ([`Eskf::rtk_test_position_on_code`]): the rover's data jump 20 m east
+/// after 10 s while the (static) IMU does not, i.e. an INS position 20 m
+/// off with a σ of decimetres. Before, the filter stayed 20 m off to the
+/// end with σ 0.1–0.2 m: 5 of 7 code DDs gated at every epoch, the phase
+/// DDs all used, their float ambiguities having taken up the error. Now
+/// the epoch after the jump tests the position against the code
+/// solution, resets it and the ambiguities, and the filter is within 1 m
+/// (σ covering it) from then on and fixed again on the moved antenna; a
+/// consistent run never resets.
+#[test]
+fn ins_aided_rtk_resets_a_position_inconsistent_with_code() {
+    let cen = c_en(LAT, LON).transpose();
+    let moved = rover() + cen * Vec3::new(0.0, 20.0, 0.0);
+    let at = move |s: u32| if s <= 10 { rover() } else { moved };
+    let ep = move |s: u32, t: f64| {
+        (
+            epoch(t, &at(s), 8, n_rover, &[], &[], &[], 1.0e4),
+            epoch(t, &base(), 8, n_base, &[], &[], &[], -2.0e3),
+        )
+    };
+    let mut f = filter_with(RtkConfig::rtklib());
+    let sols = run(&mut f, 40, &ep);
+    let err = float_errors(&sols, at);
+    // Before the jump: within the start's 0.5 m offset.
+    assert!(err[..10].iter().all(|e| *e < 0.5), "{err:?}");
+    assert!(err[10] > 19.0, "{err:?}"); // the jump epoch itself
+    for (e, s) in err[11..].iter().zip(&sols[11..]) {
+        assert!(*e < 1.0 && *e < 3.0 * s.float_std_ned.norm(), "{err:?}");
+    }
+    let last = sols.last().unwrap();
+    assert!(
+        last.fixed && (geodetic_to_ecef(&last.pos) - moved).norm() < 0.01,
+        "{last:?}"
+    );
+    assert_eq!(f.rtk_stats().unwrap().position_resets, 1);
+    let mut g = filter_with(RtkConfig::rtklib());
+    run(&mut g, 40, &clean);
+    assert_eq!(g.rtk_stats().unwrap().position_resets, 0);
+}
