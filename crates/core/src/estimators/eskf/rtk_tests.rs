@@ -520,6 +520,28 @@ fn gnss_only_restart_does_not_depend_on_a_lost_state() {
     assert!(err.iter().all(|e| *e < 1.0), "{err:?}");
 }
 
+/// A static rover whose data jump `east_m` east after epoch 10 (the IMU
+/// does not move): the moved antenna, the antenna at epoch `s`, and the
+/// epochs (8 satellites, clean).
+#[allow(clippy::type_complexity)]
+fn jump_east(
+    east_m: f64,
+) -> (
+    Vec3,
+    impl Fn(u32) -> Vec3 + Copy,
+    impl Fn(u32, f64) -> (RawEpoch, RawEpoch),
+) {
+    let moved = rover() + c_en(LAT, LON).transpose() * Vec3::new(0.0, east_m, 0.0);
+    let at = move |s: u32| if s <= 10 { rover() } else { moved };
+    let ep = move |s: u32, t: f64| {
+        (
+            epoch(t, &at(s), 8, n_rover, &[], &[], &[], 1.0e4),
+            epoch(t, &base(), 8, n_base, &[], &[], &[], -2.0e3),
+        )
+    };
+    (moved, at, ep)
+}
+
 /// GNSS-only mode detects that it has lost itself — every code DD of an
 /// epoch beyond its gate — and restarts from the code solution at the next
 /// epoch: a rover whose data jump 2 km east after 10 s (a filter whose
@@ -529,15 +551,7 @@ fn gnss_only_restart_does_not_depend_on_a_lost_state() {
 /// predicted σ had grown past 30 m (~7 epochs).
 #[test]
 fn gnss_only_restarts_when_every_code_dd_is_gated() {
-    let cen = c_en(LAT, LON).transpose();
-    let moved = rover() + cen * Vec3::new(0.0, 2000.0, 0.0);
-    let at = move |s: u32| if s <= 10 { rover() } else { moved };
-    let ep = move |s: u32, t: f64| {
-        (
-            epoch(t, &at(s), 8, n_rover, &[], &[], &[], 1.0e4),
-            epoch(t, &base(), 8, n_base, &[], &[], &[], -2.0e3),
-        )
-    };
+    let (moved, at, ep) = jump_east(2000.0);
     let mut f = filter_with(gnss_only());
     let sols = run(&mut f, 20, &ep);
     let err = float_errors(&sols, at);
@@ -651,15 +665,7 @@ fn gnss_only_refuses_a_rank_deficient_code_restart() {
 /// consistent run never resets.
 #[test]
 fn ins_aided_rtk_resets_a_position_inconsistent_with_code() {
-    let cen = c_en(LAT, LON).transpose();
-    let moved = rover() + cen * Vec3::new(0.0, 20.0, 0.0);
-    let at = move |s: u32| if s <= 10 { rover() } else { moved };
-    let ep = move |s: u32, t: f64| {
-        (
-            epoch(t, &at(s), 8, n_rover, &[], &[], &[], 1.0e4),
-            epoch(t, &base(), 8, n_base, &[], &[], &[], -2.0e3),
-        )
-    };
+    let (moved, at, ep) = jump_east(20.0);
     let mut f = filter_with(RtkConfig::rtklib());
     let sols = run(&mut f, 40, &ep);
     let err = float_errors(&sols, at);
