@@ -534,6 +534,17 @@ mod tests {
     /// Angles at and beyond ±π are written (wrapped), not refused, and
     /// decode to the same direction: the simulator's orbits are not
     /// wrapped, and an angle just below +π rounds to +1 semicircle.
+    /// The ephemeris the [`Assembler`] builds from encoded subframes
+    /// (PRN 3) received in GPS week `week`.
+    fn assemble(sfs: &[[u32; 10]], week: u16) -> KeplerOrbit {
+        let mut a = Assembler::default();
+        let mut got = None;
+        for w in sfs {
+            got = a.push(3, &decode_subframe(w).unwrap(), week);
+        }
+        got.unwrap().orbit
+    }
+
     #[test]
     fn angles_at_and_beyond_pi_are_wrapped_not_refused() {
         let mut o = orbit();
@@ -541,12 +552,7 @@ mod tests {
         o.omega0 = 3.0 * GPS_PI + 0.25;
         o.argp = -GPS_PI;
         let sfs = encode_ephemeris(&o, 77, 2.0, 352_794.0).unwrap();
-        let mut a = Assembler::default();
-        let mut got = None;
-        for w in &sfs {
-            got = a.push(3, &decode_subframe(w).unwrap(), 1590);
-        }
-        let g = got.unwrap().orbit;
+        let g = assemble(&sfs, 1590);
         let same = |x: f64, y: f64| {
             let d = (x - y).rem_euclid(2.0 * GPS_PI);
             d.min(2.0 * GPS_PI - d) < 2f64.powi(-31) * GPS_PI
@@ -633,12 +639,7 @@ mod tests {
         o.t_oe = 2048.0 * SECONDS_PER_WEEK + 0.0;
         o.t_oc = o.t_oe;
         let sfs = encode_ephemeris(&o, 9, 2.0, 604_200.0).unwrap();
-        let mut a = Assembler::default();
-        let mut got = None;
-        for w in &sfs {
-            got = a.push(3, &decode_subframe(w).unwrap(), 2047);
-        }
-        let g = got.unwrap().orbit;
+        let g = assemble(&sfs, 2047);
         // Broadcast week 2047 mod 1024 = 1023; t_oe (0 s of week) lies more
         // than half a week after the transmission: the next week, 2048.
         assert_eq!(get(&sfs[0], 3, 1, 10), 1023);

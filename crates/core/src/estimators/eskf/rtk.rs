@@ -1951,18 +1951,23 @@ impl Eskf {
             }
             None => return,
         };
-        let saved = (self.nav.lat, self.nav.lon, self.nav.h);
+        let here = Geodetic {
+            lat: self.nav.lat,
+            lon: self.nav.lon,
+            h: self.nav.h,
+        };
         let Some(cof) = self.code_solution(rover, base, base_e, cfg) else {
             return;
         };
         let code = (self.nav.lat, self.nav.lon, self.nav.h);
-        (self.nav.lat, self.nav.lon, self.nav.h) = saved;
-        let (rm, rn) = earth::radii(saved.0);
-        let d = Vec3::new(
-            (saved.0 - code.0) * (rm + saved.2),
-            (saved.1 - code.1) * (rn + saved.2) * saved.0.cos(),
-            -(saved.2 - code.2),
-        );
+        (self.nav.lat, self.nav.lon, self.nav.h) = (here.lat, here.lon, here.h);
+        // Nominal − code solution, NED (the error state's sign).
+        let code_g = Geodetic {
+            lat: code.0,
+            lon: code.1,
+            h: code.2,
+        };
+        let d = crate::geodesy::ned_from_geodetic(&code_g, &here);
         let q_code = cof * var.max(f64::MIN_POSITIVE);
         let s = self.p.fixed_view::<3, 3>(I_POS, I_POS).into_owned() + q_code;
         let Some(si) = s.try_inverse() else { return };
