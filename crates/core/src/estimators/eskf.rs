@@ -63,7 +63,7 @@ pub use aug::{
 };
 pub use rtk::{
     receiver_clock_bias_m, AmbKey, FixedDd, RtkConfig, RtkConfigError, RtkError, RtkSatCounts,
-    RtkSolution, RtkStats, NAMB,
+    RtkSolution, RtkStats, MAX_DD_PDOP, NAMB,
 };
 use sens::Sens;
 pub use sens::SensitivityModel;

@@ -612,7 +612,7 @@ fn epoch_gal_gps(t: f64, rx: &Vec3, ks: &[usize], rover_side: bool) -> RawEpoch 
 /// geometry although it has "enough" DDs: 2 GPS + 2 Galileo satellites on
 /// two frequencies give 4 code DDs along only 2 lines of sight (one DD per
 /// system and signal), so the position along the third direction is not
-/// observed (its DOP is infinite, `CODE_MAX_DOP`). Static rover: 10 s
+/// observed (its DOP is infinite, `MAX_DD_PDOP`). Static rover: 10 s
 /// with 8 satellites, 60 s with those 4 (the unobserved direction's σ
 /// grows past the 30 m restart threshold), 20 s with 8 again: no restart
 /// in the window (the σ keeps growing, the prediction is kept), the float
@@ -684,4 +684,48 @@ fn ins_aided_rtk_resets_a_position_inconsistent_with_code() {
     let mut g = filter_with(RtkConfig::rtklib());
     run(&mut g, 40, &clean);
     assert_eq!(g.rtk_stats().unwrap().position_resets, 0);
+}
+
+/// A fixed solution is reported as fixed only when the fixed DDs alone
+/// determine the position ([`RtkSolution::position_fixed`]). INS-aided,
+/// static rover: 10 s with 8 satellites (GPS and Galileo, two signals
+/// each), 30 s with 2 GPS + 2 Galileo — one DD per system and signal, L1
+/// and L2 along the same line of sight: 4 phase DDs of rank 2 — then 10 s
+/// with 8 again. The integers are validated in most window epochs (the
+/// INS carries the third direction), but there the fixed DDs' position DOP is
+/// unbounded and the epoch is not a fixed position; outside it the DOP is
+/// that of 8 satellites and the position fixed to the centimetre.
+#[test]
+fn fix_on_rank_deficient_dds_is_not_a_fixed_position() {
+    let window = |s: u32| (11..=40).contains(&s);
+    let ep = move |s: u32, t: f64| {
+        let ks: &[usize] = if window(s) {
+            &[0, 1, 4, 5]
+        } else {
+            &[0, 1, 2, 3, 4, 5, 6, 7]
+        };
+        (
+            epoch_gal_gps(t, &rover(), ks, true),
+            epoch_gal_gps(t, &base(), ks, false),
+        )
+    };
+    let mut f = filter_with(RtkConfig::rtklib());
+    let sols = run(&mut f, 50, &ep);
+    let mut weak = 0u64;
+    for (k, s) in sols.iter().enumerate() {
+        let sec = k as u32 + 1;
+        if window(sec) {
+            assert!(!s.position_fixed(), "{sec}: {s:?}");
+            // Rank 2: ∞, or round-off's 10⁷ (the exact Cholesky pivot is 0).
+            assert!(s.fix_pdop > 1e3, "{sec}: {}", s.fix_pdop);
+            weak += u64::from(s.fixed);
+        } else if sec > 3 {
+            assert!(s.position_fixed(), "{sec}: {s:?}");
+            assert!(s.fix_pdop < 5.0, "{sec}: {}", s.fix_pdop);
+            assert!((geodetic_to_ecef(&s.pos) - rover()).norm() < 0.01, "{sec}");
+        }
+    }
+    // The integers themselves were validated in most of the window.
+    assert!(weak >= 15, "{weak}");
+    assert_eq!(f.rtk_stats().unwrap().fixed_weak_geometry, weak);
 }
