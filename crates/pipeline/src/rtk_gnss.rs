@@ -119,7 +119,8 @@ pub struct RtkGnssEpoch {
     /// Base epoch time [s].
     pub t: f64,
     pub n_sats: usize,
-    /// Rover − base, ECEF [m]: float, and fixed when the ratio passed.
+    /// Rover − base, ECEF [m]: float, and fixed when the validation passed
+    /// and the fixed DDs determine the position (`RtkSolution::position_fixed`).
     pub float_b: Vec3,
     pub fixed_b: Option<Vec3>,
     pub ratio: f64,
@@ -384,7 +385,8 @@ pub fn rtk_gnss_only(
             t: be.t,
             n_sats,
             float_b: ecef(&sol.float_pos) - base_e,
-            fixed_b: sol.fixed.then(|| ecef(&sol.pos) - base_e),
+            // Fixed as `.pos` Q 1: the fixed DDs determine the position.
+            fixed_b: sol.position_fixed().then(|| ecef(&sol.pos) - base_e),
             ratio: sol.ratio,
             n_candidates: sol.n_candidates,
             n_fixed: sol.n_fixed,

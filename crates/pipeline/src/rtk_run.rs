@@ -249,6 +249,10 @@ pub enum FixDecision {
     Fixed,
     /// A subset was fixed (partial ambiguity resolution).
     FixedPartial,
+    /// Fixed (all or a subset), but the fixed DDs alone do not determine
+    /// the position (position DOP > `MAX_DD_PDOP`): written as float
+    /// (`RtkSolution::position_fixed`).
+    FixedWeakGeometry,
     /// No DD ambiguity to try (no phase DD this epoch).
     NoAmbiguities,
     /// Fewer ambiguities than the configured minimum remained.
@@ -267,6 +271,7 @@ impl FixDecision {
         match self {
             FixDecision::Fixed => "fixed",
             FixDecision::FixedPartial => "fixed_partial",
+            FixDecision::FixedWeakGeometry => "fixed_weak_geometry",
             FixDecision::NoAmbiguities => "no_ambiguities",
             FixDecision::RejectedTooFew => "rejected_too_few",
             FixDecision::RejectedSuccessRate => "rejected_success_rate",
@@ -275,7 +280,10 @@ impl FixDecision {
         }
     }
     pub fn is_fixed(self) -> bool {
-        matches!(self, FixDecision::Fixed | FixDecision::FixedPartial)
+        matches!(
+            self,
+            FixDecision::Fixed | FixDecision::FixedPartial | FixDecision::FixedWeakGeometry
+        )
     }
 }
 
@@ -320,7 +328,9 @@ impl DecisionCounters {
         let d = if sol.n_candidates == 0 {
             FixDecision::NoAmbiguities
         } else if sol.fixed {
-            if sol.n_fixed < sol.n_candidates {
+            if !sol.position_fixed() {
+                FixDecision::FixedWeakGeometry
+            } else if sol.n_fixed < sol.n_candidates {
                 FixDecision::FixedPartial
             } else {
                 FixDecision::Fixed
@@ -477,7 +487,7 @@ impl<'a> RtkDriver<'a> {
                         var_fixed: sol.std_ned.component_mul(&sol.std_ned),
                         var_float: sol.float_std_ned.component_mul(&sol.float_std_ned),
                     });
-                    if sol.fixed {
+                    if sol.position_fixed() {
                         self.fixed_ratios.push(sol.ratio);
                         self.first_fix_t.get_or_insert(t_imu);
                     } else if sol.n_candidates > 0 {
@@ -485,7 +495,7 @@ impl<'a> RtkDriver<'a> {
                     }
                     self.out.push(RtkEpochOut {
                         t: t_imu,
-                        q: if sol.fixed { 1 } else { 2 },
+                        q: if sol.position_fixed() { 1 } else { 2 },
                         ns: ns.min(255) as u8,
                         ratio: sol.ratio as f32,
                         age_s: (re.t - be.t).abs() as f32,
@@ -555,6 +565,7 @@ impl<'a> RtkDriver<'a> {
             ratio_not_fixed: RatioStats::of(&self.float_ratios),
             fix_attempts: stats.fix_attempts,
             fixed_partial: stats.fixed_partial,
+            fixed_weak_geometry: stats.fixed_weak_geometry,
             rejected_too_few: stats.rejected_too_few,
             rejected_success_rate: stats.rejected_success_rate,
             rejected_ratio: stats.rejected_ratio,
@@ -665,6 +676,9 @@ pub struct RtkAccount {
     pub ratio_not_fixed: RatioStats,
     pub fix_attempts: u64,
     pub fixed_partial: u64,
+    /// Integers validated but the fixed DDs alone do not determine the
+    /// position (position DOP > 30): counted in `float` (Q 2).
+    pub fixed_weak_geometry: u64,
     pub rejected_too_few: u64,
     pub rejected_success_rate: u64,
     pub rejected_ratio: u64,
