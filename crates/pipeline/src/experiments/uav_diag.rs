@@ -122,7 +122,9 @@ fn uav_diag() {
             );
             runs.push(r);
         }
-        println!("  t-t_move  [yaw err° / yawσ° / h err m] per variant   (o = outage)");
+        println!(
+            "  t-t_move  [yaw err° / yawσ° / h err m / z-gyro bias σ °/h] per variant   (o = outage)"
+        );
         let until: f64 = std::env::var("DIAG_UNTIL").map_or(f64::INFINITY, |s| s.parse().unwrap());
         let t_end = runs[0].solutions.last().unwrap().t.min(t_move + until);
         let mut t = pr.run.traj.truth[0].t.max(runs[0].solutions[0].t);
@@ -143,11 +145,16 @@ fn uav_diag() {
                 let s = &r.solutions[k];
                 let (en, ee) = h_error_ne(s.lat, s.lon, &tr);
                 let ysd = r.std.get(k).map_or(f64::NAN, |x| x.att_rpy.z.to_degrees());
+                let bsd = r
+                    .std
+                    .get(k)
+                    .map_or(f64::NAN, |x| x.bg.z.to_degrees() * 3600.0);
                 line += &format!(
-                    " | {:6.2} {:5.2} {:6.2}",
+                    " | {:6.2} {:5.2} {:6.2} {:6.0}",
                     wrap_pi(s.rpy.z - tr.rpy.z).to_degrees(),
                     ysd,
-                    (en * en + ee * ee).sqrt()
+                    (en * en + ee * ee).sqrt(),
+                    bsd
                 );
             }
             println!("{line}");
