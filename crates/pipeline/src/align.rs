@@ -38,6 +38,7 @@ use crate::error::{PipelineError, Result};
 use crate::input::AuxSeries;
 use crate::profile::Profile;
 use crate::sensors::SensorNoise;
+use navfuse_core::attitude::{dcm_from_euler, euler_from_dcm};
 use navfuse_core::earth;
 use navfuse_core::estimators::eskf::{ImuErrors, ImuNoise, InitStd};
 use navfuse_core::ins::align;
@@ -70,6 +71,9 @@ pub const GSF_HANDOVER_STD: f64 = 5.0 * core::f64::consts::PI / 180.0;
 /// corrected with the GNSS-derived acceleration, whose 1 Hz differencing
 /// leaves ≈ 0.3 m/s² of residual platform acceleration ≈ 1.8° of tilt.
 pub const GSF_TILT_STD: f64 = 2.0 * core::f64::consts::PI / 180.0;
+/// 1-σ of an attitude or heading given in `[init]` without
+/// `attitude_std_deg` [rad] (1°).
+const GIVEN_ATT_STD: f64 = core::f64::consts::PI / 180.0;
 /// Earth rate, the part of a static gyro mean not separable from the bias
 /// before the heading is known [rad/s] (15.04°/h).
 const EARTH_RATE: f64 = 7.292_115e-5;
@@ -335,7 +339,7 @@ pub fn align(
         .map(f64::to_radians);
     let static_heading = static_heading(cfg, imu, aux, cal.as_ref(), n_quiet, source)?;
     let yaw_known = match (source, given_yaw, &static_heading) {
-        ("auto", Some(y), _) => Some((y, 1.0f64.to_radians(), "heading given".to_string())),
+        ("auto", Some(y), _) => Some((y, GIVEN_ATT_STD, "heading given".to_string())),
         (_, _, Some((y, how))) => Some((*y, 2.0f64.to_radians(), how.clone())),
         _ => None,
     };
@@ -359,7 +363,7 @@ pub fn align(
             h: p[2],
             v_n: Vec3::from(v),
         };
-        let att = att_std_given.map_or(Vec3::repeat(1.0f64.to_radians()), Vec3::from);
+        let att = att_std_given.map_or(Vec3::repeat(GIVEN_ATT_STD), Vec3::from);
         let init_std = init_std(
             cfg,
             model,
@@ -630,17 +634,63 @@ pub fn align(
         ),
         _ => None,
     };
-    let fallback = match cfg.init.attitude {
-        Some(a) => (a[0].to_radians(), a[1].to_radians()),
-        None => gsf_tilt()?,
+    // A given attitude or heading is the first IMU sample's; in motion the
+    // filter starts `wait` later (the tilt needs a few GNSS epochs): carry
+    // it there with the gyro (`carried_rotation`). Before, it was applied
+    // unchanged at the start: a boat yawing in waves started 8° off with a
+    // 1° σ (the diagnosis `uav_diag` variant `trueyaw`, marine seed 5).
+    let wait = imu[k_start].t - t_imu0;
+    let carry = (method == "given").then(|| carried_rotation(&imu[..k_start], &bg0));
+    let mut yaw = yaw;
+    let fallback = match (cfg.init.attitude, carry) {
+        (Some(a), Some(dc)) => {
+            let rpy0 = Vec3::new(a[0], a[1], a[2]).map(f64::to_radians);
+            let rpy = euler_from_dcm(&(dcm_from_euler(&rpy0) * dc));
+            yaw = rpy.z;
+            (rpy.x, rpy.y)
+        }
+        (Some(a), None) => (a[0].to_radians(), a[1].to_radians()),
+        (None, _) => gsf_tilt()?,
     };
     let tilt_for = |yaw: f64| pair.and_then(|p| p.tilt(yaw)).unwrap_or(fallback);
+    if let (None, Some(dc)) = (cfg.init.attitude, carry) {
+        // Heading only: the start yaw ψ whose attitude, carried back by
+        // the same rotation, has the given yaw. With C = R_z(ψ) R_y(θ)
+        // R_x(φ), yaw(C ΔCᵀ) = ψ + yaw(R_y(θ) R_x(φ) ΔCᵀ) exactly; the
+        // tilt depends on ψ through the force pair, so iterate.
+        let given = yaw;
+        for _ in 0..3 {
+            let (r, p) = tilt_for(yaw);
+            let level = dcm_from_euler(&Vec3::new(r, p, 0.0)) * dc.transpose();
+            yaw = navfuse_core::attitude::wrap_pi(given - euler_from_dcm(&level).z);
+        }
+    }
+    // σ of the carried attitude: the bias prior's drift over the wait, the
+    // angle random walk and the scale-factor σ on the angle turned.
+    let carry_var = carry.map_or(0.0, |dc| {
+        let turned = navfuse_core::attitude::rotvec_from_dcm(&dc).norm();
+        let sg = model.sensor.map_or(1e-3, |s| s.init_sg_std);
+        (bg_std.max() * wait).powi(2) + model.noise.arw.max().powi(2) * wait + (sg * turned).powi(2)
+    });
+    let grow = |x: f64| {
+        if carry.is_some() {
+            (x * x + carry_var).sqrt()
+        } else {
+            x
+        }
+    };
+    let yaw_std = grow(yaw_std);
     let (roll, pitch) = tilt_for(yaw);
     let tilt_from_force = att_std_given.is_none() && pair.and_then(|p| p.tilt(yaw)).is_some();
     let tilt_std = match (pair.and_then(|p| p.tilt(yaw)), cal.is_some()) {
         (Some(_), _) => pair.map_or(GSF_TILT_STD, |p| p.tilt_std),
         (None, true) => GSF_TILT_STD.min(1.0f64.to_radians()),
         (None, false) => GSF_TILT_STD,
+    };
+    // A given attitude carried to the start: its own σ, grown.
+    let tilt_std = match (cfg.init.attitude, carry) {
+        (Some(_), Some(_)) => grow(GIVEN_ATT_STD),
+        _ => tilt_std,
     };
     // The state at the start sample for a yaw and its σ.
     let start_state = |yaw: f64, yaw_std: f64| {
@@ -657,7 +707,9 @@ pub fn align(
         nav.lon += v0.y * dt / ((rn + nav.h) * nav.lat.cos());
         nav.h -= v0.z * dt;
         nav.v_n = v0;
-        let att = att_std_given.map_or(Vec3::new(tilt_std, tilt_std, yaw_std), Vec3::from);
+        let att = att_std_given.map_or(Vec3::new(tilt_std, tilt_std, yaw_std), |a| {
+            Vec3::from(a).map(grow)
+        });
         (nav, init_std(cfg, model, g.std_ned, sv, att, bg_std))
     };
     let (nav, init_std) = start_state(yaw, yaw_std);
@@ -729,6 +781,19 @@ pub fn align(
         },
         tilt_from_force,
     })
+}
+
+/// The body rotation `ΔC = C_bn(t₀)ᵀ C_bn(t)` over `imu` (the samples from
+/// the first one to the start), from the gyro increments less the bias
+/// prior `bg` [rad/s]: `C_bn(t) = C_bn(t₀) ΔC`. The navigation frame's own
+/// rotation (earth rate, 7·10⁻⁵ rad/s, and transport rate) is left out: a
+/// few seconds of it are below the σ the carried attitude gets.
+fn carried_rotation(imu: &[ImuSample], bg: &Vec3) -> Mat3 {
+    let mut c = Mat3::identity();
+    for s in imu {
+        c *= navfuse_core::attitude::dcm_from_rotvec(&(s.dtheta_b - bg * s.dt));
+    }
+    navfuse_core::attitude::orthonormalize(&c)
 }
 
 /// Heading from the static window's AHRS yaw or magnetometer columns, as

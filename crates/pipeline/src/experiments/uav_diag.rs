@@ -1,7 +1,7 @@
 //! Per-seed time series of one cell (an ignored test, printed): yaw error
 //! and σ, horizontal error of the default and its variants (`honesty_diag`
 //! tweaks, plus `truthinit` = the oracle's initial state with the default's
-//! everything else), to find what makes a seed of a cell go wrong.
+//! everything else, `trueyaw` = only the true heading given), to find what makes a seed of a cell go wrong.
 //!
 //! `DIAG_CELL=uav:consumer:consumer:0 DIAG_SEEDS=1,3 DIAG_VARIANTS=default,truthinit
 //! cargo test --release -p navfuse-pipeline uav_diag -- --ignored --nocapture`
@@ -101,6 +101,11 @@ fn uav_diag() {
             if tw.contains("truthinit") {
                 set_true_init(&mut cfg, &pr);
                 tw = tw.replace("truthinit", "").trim_matches('+').to_string();
+            }
+            if tw.contains("trueyaw") {
+                // Only the heading given (the true one, 1° σ): no bank.
+                cfg.init.heading_deg = Some(pr.init.rpy.z.to_degrees());
+                tw = tw.replace("trueyaw", "").trim_matches('+').to_string();
             }
             super::honesty_diag::tweak(&tw, &mut cfg);
             let r = run_variant(&cfg, &pr).unwrap();
