@@ -703,6 +703,25 @@ pub fn align(
         place(&mut nav, g.lat, g.lon, g.h, &model.lever_arm_b, true);
         let dt = imu[k_start].t - g.t;
         let (rm, rn) = earth::radii(nav.lat);
+        // A given velocity is the first IMU sample's, like a given attitude:
+        // carried to the start through the specific force with this
+        // start's attitude carried back by the gyro.
+        let (v0, var_v) = match cfg.init.velocity {
+            Some(_) if k_start > 0 => {
+                let c_end = dcm_from_euler(&Vec3::new(roll, pitch, yaw));
+                let g_n = earth::gravity_n(g.lat, g.h);
+                let dv = carried_velocity_change(&imu[..k_start], &c_end, &bg0, &g_n);
+                // σ² of the change: accelerometer bias prior, tilt and yaw
+                // σ (g and the horizontal change turned), VRW.
+                let ba = model.sensor.map_or(0.2, |s| s.init_ba_std);
+                let var = (ba * wait).powi(2)
+                    + (g_n.z * tilt_std * wait).powi(2)
+                    + (yaw_std * dv.xy().norm()).powi(2)
+                    + model.noise.vrw.max().powi(2) * wait;
+                (v0 + dv, var)
+            }
+            _ => (v0, 0.0),
+        };
         nav.lat += v0.x * dt / (rm + nav.h);
         nav.lon += v0.y * dt / ((rn + nav.h) * nav.lat.cos());
         nav.h -= v0.z * dt;
@@ -710,7 +729,11 @@ pub fn align(
         let att = att_std_given.map_or(Vec3::new(tilt_std, tilt_std, yaw_std), |a| {
             Vec3::from(a).map(grow)
         });
-        (nav, init_std(cfg, model, g.std_ned, sv, att, bg_std))
+        let mut is = init_std(cfg, model, g.std_ned, sv, att, bg_std);
+        if var_v > 0.0 {
+            is.vel = is.vel.map(|x| (x * x + var_v).sqrt());
+        }
+        (nav, is)
     };
     let (nav, init_std) = start_state(yaw, yaw_std);
     let att = init_std.att;
@@ -794,6 +817,25 @@ fn carried_rotation(imu: &[ImuSample], bg: &Vec3) -> Mat3 {
         c *= navfuse_core::attitude::dcm_from_rotvec(&(s.dtheta_b - bg * s.dt));
     }
     navfuse_core::attitude::orthonormalize(&c)
+}
+
+/// The velocity change (NED) over `imu` (the samples from the first one to
+/// the start) from the specific force less nothing (the accelerometer
+/// bias prior is zero) and gravity `g_n`, with the attitude carried back
+/// from the start's `c_end` by the gyro less `bg` [rad/s] (mid-interval
+/// attitude per sample). Coriolis and transport rate are left out
+/// (2 Ω v ≈ 4·10⁻³ m/s² at 30 m/s: centimetres per second over a wait).
+fn carried_velocity_change(imu: &[ImuSample], c_end: &Mat3, bg: &Vec3, g_n: &Vec3) -> Vec3 {
+    let mut c = *c_end;
+    let mut dv = Vec3::zeros();
+    for s in imu.iter().rev() {
+        let dth = s.dtheta_b - bg * s.dt;
+        let c_begin = c * navfuse_core::attitude::dcm_from_rotvec(&dth).transpose();
+        let c_mid = c_begin * navfuse_core::attitude::dcm_from_rotvec(&(dth * 0.5));
+        dv += c_mid * s.dvel_b + g_n * s.dt;
+        c = c_begin;
+    }
+    dv
 }
 
 /// Heading from the static window's AHRS yaw or magnetometer columns, as
