@@ -640,6 +640,14 @@ pub fn align(
     // unchanged at the start: a boat yawing in waves started 8° off with a
     // 1° σ (the diagnosis `uav_diag` variant `trueyaw`, marine seed 5).
     let wait = imu[k_start].t - t_imu0;
+    if cfg.init.position.is_some() && k_start > 0 {
+        // Not carried: the start fix is a measurement at the start itself.
+        warnings.push(format!(
+            "[init] position is the first IMU sample's, but the filter starts {wait:.1} s \
+             later (once the alignment has tilt and heading): it starts from the GNSS fix \
+             there instead"
+        ));
+    }
     let carry = (method == "given").then(|| carried_rotation(&imu[..k_start], &bg0));
     let mut yaw = yaw;
     let fallback = match (cfg.init.attitude, carry) {

@@ -197,3 +197,25 @@ fn given_velocity_is_carried_to_a_moving_start() {
         }
     }
 }
+
+/// A position given in `[init]` for a start after the first sample (in
+/// motion, or at rest with the heading still unknown: the course comes
+/// once moving) is not carried — the start fix is a measurement at the
+/// start itself — and said so in the warnings instead of dropped
+/// silently; a start at the first sample (at rest, heading given) uses it.
+#[test]
+fn given_position_at_a_later_start_is_a_warning() {
+    let cell = select_cells("car:consumer:consumer:0").unwrap()[0];
+    for (seed, heading, later) in [(71u64, false, true), (72, false, true), (72, true, false)] {
+        let pr = platform_run(cell.platform, seed, &cell_options(&cell, seed, 60.0)).unwrap();
+        let mut cfg = variant_config(Variant::Default, &pr);
+        let s = &pr.init;
+        cfg.init.position = Some([s.lat.to_degrees(), s.lon.to_degrees(), s.h]);
+        if heading {
+            cfg.init.heading_deg = Some(s.rpy.z.to_degrees());
+        }
+        let r = run_variant(&cfg, &pr).unwrap();
+        let warned = r.warnings.iter().any(|w| w.starts_with("[init] position"));
+        assert_eq!(warned, later, "seed {seed} {heading}: {:?}", r.warnings);
+    }
+}
