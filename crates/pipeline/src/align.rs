@@ -828,8 +828,8 @@ fn carried_rotation(imu: &[ImuSample], bg: &Vec3) -> Mat3 {
 }
 
 /// The velocity change (NED) over `imu` (the samples from the first one to
-/// the start) from the specific force less nothing (the accelerometer
-/// bias prior is zero) and gravity `g_n`, with the attitude carried back
+/// the start) from the specific force (the accelerometer bias prior is
+/// zero, so nothing is removed from it) and gravity `g_n`, with the attitude carried back
 /// from the start's `c_end` by the gyro less `bg` [rad/s] (mid-interval
 /// attitude per sample). Coriolis and transport rate are left out
 /// (2 Ω v ≈ 4·10⁻³ m/s² at 30 m/s: centimetres per second over a wait).
