@@ -6,7 +6,11 @@
 //!    rest (a car cruising on a smooth straight road is quiet too). At least
 //!    [`MIN_STATIC_S`] of it: levelling and static calibration (`SEEDS.md §1`
 //!    eq. 1–2) give roll, pitch and the gyro bias. Never levelled from a
-//!    moving window.
+//!    moving window, nor from a rotating one: the window's segment means of
+//!    angular rate and specific force must agree within their noise and
+//!    the bias change the sensor allows (`window_drifts`); a moored boat
+//!    rolling in waves is quiet and at rest on average, but the mean of its
+//!    wave rate over 1 s is no gyro bias.
 //! 2. **Heading** — given (`[init] attitude` / `heading_deg`), an AHRS yaw or
 //!    magnetometer averaged over the static window, else found in motion:
 //!    - the GNSS course, for platforms whose course is their heading
@@ -191,6 +195,79 @@ fn steady_force_len(imu: &[ImuSample], n: usize) -> usize {
     end
 }
 
+/// The longest prefix of the quiet window `imu` (samples `dt` apart) that
+/// passes [`window_drifts`]: the whole window if it passes, else halve until
+/// one passes and bisect between it and the failing length (to 1 %). `Err`
+/// with the reason when no prefix of [`MIN_STATIC_S`] or more passes.
+fn stationary_prefix(
+    imu: &[ImuSample],
+    noise: &ImuNoise,
+    dt: f64,
+) -> std::result::Result<usize, String> {
+    let drifts = |n: usize| window_drifts(&imu[..n], noise, n as f64 * dt);
+    let n_all = imu.len();
+    let min_n = (MIN_STATIC_S / dt).ceil() as usize;
+    let (mut pass, mut fail) = (n_all, n_all);
+    let mut why = drifts(n_all);
+    while why.is_some() && pass / 2 >= min_n {
+        fail = pass;
+        pass /= 2;
+        why = drifts(pass);
+    }
+    if let Some(w) = why {
+        return Err(w);
+    }
+    while fail - pass > (n_all / 100).max(1) {
+        let mid = (pass + fail) / 2;
+        if drifts(mid).is_none() {
+            pass = mid;
+        } else {
+            fail = mid;
+        }
+    }
+    Ok(pass)
+}
+
+/// Segments of a static window in [`window_drifts`]' stationarity test.
+const DRIFT_SEGMENTS: usize = 4;
+/// χ²(3) at a false-alarm probability of 10⁻⁶ per axis: six axes, and
+/// real IMU noise is not exactly white, so the margin is wide; a moored
+/// boat's waves give χ² in the thousands (`align::drift_chi2`'s tests).
+const DRIFT_CHI2_MAX: f64 = 30.66;
+
+/// Why a quiet window of `static_s` seconds is not static, if its segment
+/// means of angular rate or specific force drift by more than the noise
+/// plus the bias change `noise` allows over the window
+/// (`navfuse_core::ins::align::drift_chi2`). The bias change between two
+/// times `T` apart: Gauss–Markov `2σ²(1 − e^(−T/τ))`, random walk `σ²T`.
+fn window_drifts(imu: &[ImuSample], noise: &ImuNoise, static_s: f64) -> Option<String> {
+    let change = |sd: Vec3| {
+        let tau = noise.corr_time;
+        let f = if tau.is_finite() && tau > 0.0 {
+            2.0 * (1.0 - (-static_s / tau).exp())
+        } else {
+            static_s
+        };
+        sd.component_mul(&sd) * f
+    };
+    let (cw, cf) = align::drift_chi2(
+        imu,
+        DRIFT_SEGMENTS,
+        change(noise.bg_std),
+        change(noise.ba_std),
+    )?;
+    let (c, what) = if cw.max() >= cf.max() {
+        (cw.max(), "angular rate")
+    } else {
+        (cf.max(), "specific force")
+    };
+    (c > DRIFT_CHI2_MAX).then(|| {
+        format!(
+            "its {what} drifts (chi2 {c:.0} over {DRIFT_SEGMENTS} segments, limit {DRIFT_CHI2_MAX}: rolling or turning)"
+        )
+    })
+}
+
 /// Whether the GNSS says the antenna moves while the IMU is quiet (fixes up
 /// to `t_end`). With Doppler velocities: any epoch above
 /// [`STATIC_MAX_GNSS_SPEED`] and 3σ. With positions only, one speed over the
@@ -313,15 +390,32 @@ pub fn align(
         n_quiet = steady_force_len(imu, n_quiet);
         gnss_moving = gnss_moves(gnss, imu[n_quiet.max(1) - 1].t);
     }
-    let static_s = n_quiet as f64 * dt_imu;
-    let is_static = static_s >= MIN_STATIC_S && !gnss_moving;
+    let mut static_s = n_quiet as f64 * dt_imu;
+    // A quiet IMU with the GNSS at rest can still rotate (a moored boat
+    // rolling in waves), or the window reaches into a smooth start of motion.
+    let mut drift = None;
+    if static_s >= MIN_STATIC_S && !gnss_moving {
+        match stationary_prefix(&imu[..n_quiet], model.noise, dt_imu) {
+            Ok(n) if n < n_quiet => {
+                warnings.push(format!(
+                    "static window shortened from {static_s:.1} s to {:.1} s: the rest drifts",
+                    n as f64 * dt_imu
+                ));
+                n_quiet = n;
+                static_s = n as f64 * dt_imu;
+            }
+            Ok(_) => {}
+            Err(why) => drift = Some(why),
+        }
+    }
+    let is_static = static_s >= MIN_STATIC_S && !gnss_moving && drift.is_none();
     if n_quiet > 0 && !is_static {
         warnings.push(format!(
             "the first {static_s:.1} s of IMU are quiet but {}: not used for levelling",
-            if gnss_moving {
-                "the GNSS moves"
-            } else {
-                "shorter than 1 s"
+            match &drift {
+                Some(d) => d.as_str(),
+                None if gnss_moving => "the GNSS moves",
+                None => "shorter than 1 s",
             }
         ));
     }
@@ -721,8 +815,7 @@ pub fn align(
                 let dv = carried_velocity_change(&imu[..k_start], &c_end, &bg0, &g_n);
                 // σ² of the change: accelerometer bias prior, tilt and yaw
                 // σ (g and the horizontal change turned), VRW.
-                let ba = model.sensor.map_or(0.2, |s| s.init_ba_std);
-                let var = (ba * wait).powi(2)
+                let var = (ba_std * wait).powi(2)
                     + (g_n.z * tilt_std * wait).powi(2)
                     + (yaw_std * dv.xy().norm()).powi(2)
                     + model.noise.vrw.max().powi(2) * wait;
@@ -1050,6 +1143,108 @@ mod tests {
         // 3·√(2²+2²)/2·√2 = 6 m/s: "moving".
         assert!(!gnss_moves(&fixes(0.0), 29.0));
         assert!(gnss_moves(&fixes(0.5), 29.0));
+    }
+
+    /// The simulator's static starts (every platform, every IMU grade,
+    /// 10–20 s at rest) pass the drift test over their whole quiet window; a
+    /// moored boat's (waves a third of sea state 2–3) fails over every
+    /// window of ≥ 1 s, so it is never levelled or bias-calibrated.
+    #[test]
+    fn moored_boat_waves_are_no_static_window() {
+        use navfuse_sim::platform::{platform_run, ImuGrade, Platform, PlatformOptions};
+        for (imu, preset) in [
+            (ImuGrade::Consumer, "phone"),
+            (ImuGrade::Industrial, "adis16465"),
+            (ImuGrade::Tactical, "tactical"),
+        ] {
+            let noise = crate::sensors::imu_noise_preset(preset).unwrap().noise;
+            for p in [
+                Platform::Car,
+                Platform::Pedestrian,
+                Platform::Uav,
+                Platform::Marine,
+            ] {
+                for seed in [30, 48, 1] {
+                    let opt = PlatformOptions {
+                        duration_s: 40.0,
+                        imu,
+                        ..Default::default()
+                    };
+                    let pr = platform_run(p, seed, &opt).unwrap();
+                    let dt = pr.run.imu[1].dt;
+                    let n = align::initial_static_len(&pr.run.imu, 50, 0.15, 3.0f64.to_radians());
+                    // The static starts last ≥ 10 s; a smooth start stays
+                    // quiet into the motion (`align` cuts it there with the GNSS).
+                    let n = n.min((10.0 / dt) as usize);
+                    let n = if p == Platform::Marine {
+                        n.max((1.0 / dt) as usize)
+                    } else {
+                        n
+                    };
+                    assert!(
+                        n as f64 * dt >= 1.0,
+                        "{p:?} {preset} seed {seed}: quiet {n}"
+                    );
+                    let d = window_drifts(&pr.run.imu[..n], &noise, n as f64 * dt);
+                    match p {
+                        Platform::Marine => {
+                            assert!(d.is_some(), "{preset} seed {seed}: boat static")
+                        }
+                        _ => assert!(d.is_none(), "{p:?} {preset} seed {seed}: {d:?}"),
+                    }
+                }
+            }
+        }
+    }
+
+    /// A phone IMU still for 15 s, then turning with a yaw acceleration of
+    /// 0.5°/s² (0.25°/s after 0.5 s: within the quiet test's 3°/s std for
+    /// seconds): the stationary prefix ends within 1 s of the turn. Where:
+    /// four ≈ 3.9 s segments, each mean σ √(ARW²/3.9 s + 2·BI²(1 − e^(−T/τ)))
+    /// ≈ 0.0046°/s (0.42°/√h, 20°/h, τ = 100 s); χ² = 30.66 needs the last
+    /// segment ≈ √(30.66·4/3)·0.0046 ≈ 0.029°/s off, which a ramp reaches
+    /// after √(0.029·3.9/0.25) ≈ 0.67 s: 15.7 s (the test first guessed
+    /// ≤ 15.1 s, before this was worked out). Started turning, no prefix of
+    /// 1 s passes.
+    #[test]
+    fn the_stationary_prefix_ends_where_the_rate_starts_to_move() {
+        let noise = crate::sensors::imu_noise_preset("phone").unwrap().noise;
+        let dt: f64 = 0.01;
+        let mut st = 7u64;
+        let mut gauss = || {
+            let mut u = || {
+                st = st
+                    .wrapping_mul(6364136223846793005)
+                    .wrapping_add(1442695040888963407);
+                ((st >> 11) as f64 + 0.5) / (1u64 << 53) as f64
+            };
+            let (a, b) = (u(), u());
+            (-2.0 * a.ln()).sqrt() * (core::f64::consts::TAU * b).cos()
+        };
+        let sw = noise.arw.x / dt.sqrt();
+        let sf = noise.vrw.x / dt.sqrt();
+        let imu = |t_turn: f64, secs: f64, gauss: &mut dyn FnMut() -> f64| -> Vec<ImuSample> {
+            (1..=(secs / dt) as usize)
+                .map(|i| {
+                    let t = i as f64 * dt;
+                    let wz = 0.5f64.to_radians() * (t - t_turn).max(0.0);
+                    let w = Vec3::new(gauss() * sw, gauss() * sw, 1e-3 + wz + gauss() * sw);
+                    let f = Vec3::new(gauss() * sf, gauss() * sf, -9.8 + gauss() * sf);
+                    ImuSample {
+                        t,
+                        dt,
+                        dtheta_b: w * dt,
+                        dvel_b: f * dt,
+                    }
+                })
+                .collect()
+        };
+        let still = imu(15.0, 20.0, &mut gauss);
+        let n = stationary_prefix(&still, &noise, dt).unwrap();
+        assert!((1400..=1600).contains(&n), "prefix {n}");
+        assert_eq!(stationary_prefix(&still[..1400], &noise, dt), Ok(1400));
+        let turning = imu(0.0, 5.0, &mut gauss);
+        assert!(stationary_prefix(&turning, &noise, dt).is_err());
     }
 
     #[test]
