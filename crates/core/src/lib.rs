@@ -39,3 +39,24 @@ pub mod prelude {
 }
 
 pub use types::*;
+
+/// Deterministic standard normal draws for unit tests (no RNG dependency
+/// in core): a 64-bit LCG (Knuth's MMIX constants) and Box–Muller.
+#[cfg(test)]
+pub(crate) struct TestGauss(pub u64);
+
+#[cfg(test)]
+impl TestGauss {
+    /// The next N(0, 1) draw.
+    pub(crate) fn next(&mut self) -> f64 {
+        let mut u = || {
+            self.0 = self
+                .0
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            ((self.0 >> 11) as f64 + 0.5) / (1u64 << 53) as f64
+        };
+        let (a, b) = (u(), u());
+        (-2.0 * a.ln()).sqrt() * (core::f64::consts::TAU * b).cos()
+    }
+}

@@ -1210,17 +1210,9 @@ mod tests {
     fn the_stationary_prefix_ends_where_the_rate_starts_to_move() {
         let noise = crate::sensors::imu_noise_preset("phone").unwrap().noise;
         let dt: f64 = 0.01;
-        let mut st = 7u64;
-        let mut gauss = || {
-            let mut u = || {
-                st = st
-                    .wrapping_mul(6364136223846793005)
-                    .wrapping_add(1442695040888963407);
-                ((st >> 11) as f64 + 0.5) / (1u64 << 53) as f64
-            };
-            let (a, b) = (u(), u());
-            (-2.0 * a.ln()).sqrt() * (core::f64::consts::TAU * b).cos()
-        };
+        use rand::{Rng, SeedableRng};
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(7);
+        let mut gauss = || rng.sample::<f64, _>(rand_distr::StandardNormal);
         let sw = noise.arw.x / dt.sqrt();
         let sf = noise.vrw.x / dt.sqrt();
         let imu = |t_turn: f64, secs: f64, gauss: &mut dyn FnMut() -> f64| -> Vec<ImuSample> {

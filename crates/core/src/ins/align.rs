@@ -309,18 +309,6 @@ mod tests {
         assert!((cal.accel_scale - 1.0).abs() < 1e-9);
     }
 
-    /// Gaussian noise from a fixed LCG (no rand dependency in core tests).
-    fn gauss(state: &mut u64) -> f64 {
-        let mut u = || {
-            *state = state
-                .wrapping_mul(6364136223846793005)
-                .wrapping_add(1442695040888963407);
-            ((*state >> 11) as f64 + 0.5) / (1u64 << 53) as f64
-        };
-        let (a, b) = (u(), u());
-        (-2.0 * a.ln()).sqrt() * (core::f64::consts::TAU * b).cos()
-    }
-
     /// A still IMU at `rate` Hz, `secs` long: bias + white noise of density
     /// `arw` [rad/√s] and `arw` × 5 m/s/rad of velocity random walk (0.5°/√h
     /// goes with 0.04 m/s/√h, a consumer MEMS pair), + a 30 Hz engine
@@ -338,7 +326,8 @@ mod tests {
         period: f64,
         phi: f64,
     ) -> Vec<ImuSample> {
-        let mut st = seed.wrapping_mul(2654435761) + 1;
+        let mut rng = crate::TestGauss(seed.wrapping_mul(2654435761) + 1);
+        let mut gauss = || rng.next();
         let dt = 1.0 / rate;
         let (sw, sf) = (arw / dt.sqrt(), 5.0 * arw / dt.sqrt());
         let g = earth::gravity(0.7, 100.0);
@@ -348,12 +337,12 @@ mod tests {
                 let t = i as f64 * dt;
                 let vibe = vib * (core::f64::consts::TAU * 30.0 * t).sin();
                 let mut w = Vec3::new(2e-3, -1e-3, 5e-4);
-                w += Vec3::new(gauss(&mut st), gauss(&mut st), gauss(&mut st)) * sw;
+                w += Vec3::new(gauss(), gauss(), gauss()) * sw;
                 w += Vec3::repeat(vibe);
                 w.x += wave * (om * t + phi).cos();
                 let roll = wave / om * (om * t + phi).sin();
                 let mut f = Vec3::new(0.05, -g * roll.sin(), -g * roll.cos());
-                f += Vec3::new(gauss(&mut st), gauss(&mut st), gauss(&mut st)) * sf;
+                f += Vec3::new(gauss(), gauss(), gauss()) * sf;
                 f += Vec3::repeat(20.0 * vibe);
                 ImuSample {
                     t,

@@ -567,18 +567,8 @@ mod tests {
         let lq = ch.l();
         let mut ok = 0;
         let trials = 4000;
-        let mut state = 12345u64;
-        let mut gauss = || {
-            // Box–Muller from a tiny LCG (deterministic).
-            let mut u = || {
-                state = state
-                    .wrapping_mul(6364136223846793005)
-                    .wrapping_add(1442695040888963407);
-                ((state >> 11) as f64 + 0.5) / (1u64 << 53) as f64
-            };
-            let (u1, u2) = (u(), u());
-            (-2.0 * u1.ln()).sqrt() * (2.0 * core::f64::consts::PI * u2).cos()
-        };
+        let mut rng = crate::TestGauss(12345);
+        let mut gauss = || rng.next();
         for _ in 0..trials {
             let w = nalgebra::Vector3::new(gauss(), gauss(), gauss());
             let a = lq * w; // true integers 0
