@@ -228,7 +228,20 @@ fn stationary_prefix(
     Ok(pass)
 }
 
-/// Segments of a static window in [`window_drifts`]' stationarity test.
+/// Samples at the start of `imu` where it is quiet: the std of |f| ≤
+/// 0.15 m/s² and of each gyro axis ≤ 3°/s in every 50-sample window (the
+/// limits of `docs/config.md`'s "at rest": engine idle and road vibration
+/// on a parked car stay below them, walking and driving do not). Quiet is
+/// not yet at rest ([`gnss_moves`]) nor stationary ([`stationary_prefix`]).
+fn quiet_len(imu: &[ImuSample]) -> usize {
+    align::initial_static_len(imu, 50, 0.15, 3.0f64.to_radians())
+}
+
+/// Segments of a static window in [`window_drifts`]' stationarity test:
+/// with two, a wave whose period equals the window has equal half means
+/// at some phases; four resolve it at every phase (core test
+/// `drift_test_passes_still_imus_and_catches_waves`) and keep ≥ 25 samples
+/// per segment in a 1 s window at 100 Hz.
 const DRIFT_SEGMENTS: usize = 4;
 /// χ²(3) at a false-alarm probability of 10⁻⁶ per axis: six axes, and
 /// real IMU noise is not exactly white, so the margin is wide; a moored
@@ -380,8 +393,7 @@ pub fn align(
     let mut warnings = Vec::new();
     let dt_imu = imu[imu.len() / 2].dt.max(1e-4);
     // 1. Static window: quiet IMU and a GNSS at rest.
-    let n_quiet = align::initial_static_len(imu, 50, 0.15, 3.0f64.to_radians());
-    let mut n_quiet = n_quiet;
+    let mut n_quiet = quiet_len(imu);
     let mut gnss_moving = gnss_moves(gnss, imu[n_quiet.max(1) - 1].t);
     if gnss_moving && n_quiet > 0 {
         // A smooth start (no vibration: a robot, a boat, a simulated car)
@@ -1152,11 +1164,8 @@ mod tests {
     #[test]
     fn moored_boat_waves_are_no_static_window() {
         use navfuse_sim::platform::{platform_run, ImuGrade, Platform, PlatformOptions};
-        for (imu, preset) in [
-            (ImuGrade::Consumer, "phone"),
-            (ImuGrade::Industrial, "adis16465"),
-            (ImuGrade::Tactical, "tactical"),
-        ] {
+        for imu in [ImuGrade::Consumer, ImuGrade::Industrial, ImuGrade::Tactical] {
+            let preset = imu.preset();
             let noise = crate::sensors::imu_noise_preset(preset).unwrap().noise;
             for p in [
                 Platform::Car,
@@ -1172,7 +1181,7 @@ mod tests {
                     };
                     let pr = platform_run(p, seed, &opt).unwrap();
                     let dt = pr.run.imu[1].dt;
-                    let n = align::initial_static_len(&pr.run.imu, 50, 0.15, 3.0f64.to_radians());
+                    let n = quiet_len(&pr.run.imu);
                     // The static starts last ≥ 10 s; a smooth start stays
                     // quiet into the motion (`align` cuts it there with the GNSS).
                     let n = n.min((10.0 / dt) as usize);

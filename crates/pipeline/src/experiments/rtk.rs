@@ -318,6 +318,21 @@ pub enum IdealImuTerm {
     GSensitivity,
 }
 
+impl core::str::FromStr for IdealImuTerm {
+    type Err = String;
+    /// `--ideal-imu`'s spellings, for callers without clap.
+    fn from_str(s: &str) -> Result<Self, String> {
+        match s {
+            "gyro-misalignment" => Ok(IdealImuTerm::GyroMisalignment),
+            "accel-misalignment" => Ok(IdealImuTerm::AccelMisalignment),
+            "g-sensitivity" => Ok(IdealImuTerm::GSensitivity),
+            _ => Err(format!(
+                "{s:?}: expected gyro-misalignment, accel-misalignment or g-sensitivity"
+            )),
+        }
+    }
+}
+
 impl Default for Options {
     /// The command's defaults (5 seeds from 1, 600 s, dual frequency, the
     /// shipped filter configuration, no ablation).

@@ -814,3 +814,15 @@ fn rtk_gnss_only_trace_diagnostic() {
     })
     .unwrap();
 }
+
+/// `IdealImuTerm`'s `FromStr` takes exactly `--ideal-imu`'s spellings.
+#[test]
+fn ideal_imu_terms_parse_as_the_command_spells_them() {
+    #[cfg(feature = "clap")]
+    for t in <IdealImuTerm as clap::ValueEnum>::value_variants() {
+        let name = clap::ValueEnum::to_possible_value(t).unwrap();
+        assert_eq!(name.get_name().parse::<IdealImuTerm>(), Ok(*t));
+    }
+    assert_eq!("g-sensitivity".parse(), Ok(IdealImuTerm::GSensitivity));
+    assert!("gm".parse::<IdealImuTerm>().is_err());
+}

@@ -132,15 +132,9 @@ fn uav_diag() {
     for &seed in &seeds {
         let mut opt = cell_options(&cell, seed, 600.0);
         if let Ok(t) = std::env::var("DIAG_IDEAL") {
-            use super::rtk::IdealImuTerm as T;
             let ideal_imu = t
                 .split(',')
-                .map(|s| match s {
-                    "gyro-misalignment" => T::GyroMisalignment,
-                    "accel-misalignment" => T::AccelMisalignment,
-                    "g-sensitivity" => T::GSensitivity,
-                    _ => panic!("DIAG_IDEAL {s:?}: as `experiment rtk --ideal-imu`"),
-                })
+                .map(|s| s.parse().unwrap_or_else(|e| panic!("DIAG_IDEAL {e}")))
                 .collect();
             opt.imu_ideal = super::rtk::Options {
                 ideal_imu,
