@@ -663,8 +663,8 @@ pub(crate) fn run_eskf_span(
         }
         (aug, how)
     };
-    let new_eskf = |nav, std: &InitStd| {
-        let e = Eskf::new(ecfg, nav, a.errors, std);
+    let new_eskf = |nav, errors, std: &InitStd| {
+        let e = Eskf::new(ecfg, nav, errors, std);
         if a.tilt_from_force {
             e.with_tilt_from_force()
         } else {
@@ -694,13 +694,13 @@ pub(crate) fn run_eskf_span(
         let members = a
             .hypotheses
             .iter()
-            .map(|(nav, std, prior)| {
-                let mut m = Member::new(new_eskf(*nav, std)?, cap).tracking(
+            .map(|h| {
+                let mut m = Member::new(new_eskf(h.nav, h.errors, &h.std)?, cap).tracking(
                     t_track,
                     coast_after_s,
                     with_std,
                 );
-                m.score = *prior;
+                m.score = h.neg_ln_prior;
                 Ok(m)
             })
             .collect::<Result<Vec<_>>>()?;
@@ -713,7 +713,7 @@ pub(crate) fn run_eskf_span(
         (b.winner, b.k_next, b.g_next, b.gnss_fed)
     } else {
         (
-            Member::new(new_eskf(a.nav, &a.init_std)?, cap).tracking(
+            Member::new(new_eskf(a.nav, a.errors, &a.init_std)?, cap).tracking(
                 t_track,
                 coast_after_s,
                 with_std,
