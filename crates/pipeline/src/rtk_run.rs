@@ -145,7 +145,8 @@ pub fn rtk_config(rover: &[RawSat]) -> (RtkConfig, String) {
         (
             RtkConfig::consumer(),
             "RtkConfig::consumer: phase 3 mm + 3 mm/sin el, code by C/N0 and elevation \
-             (TightConfig::consumer), mask 15°, ratio 3, success rate 0.999, partial fixing"
+             (TightConfig::consumer), mask 15°, ratio 3, success rate 0.999, partial fixing, \
+             DD groups float-linked (no zero inter-system bias assumed)"
                 .into(),
         )
     } else {

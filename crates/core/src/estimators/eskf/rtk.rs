@@ -42,6 +42,12 @@
 //! inter-frequency bias calibration) is not used ([`RtkSatCounts::bad`]).
 //! `H = [−Δuᵀ, 0, −Δuᵀ[l_n×], 0…, +λ (a_i), −λ (a_r)]`, `Δu = u_i − u_r`
 //! (NED lines of sight from the rover antenna).
+//! With [`RtkConfig::float_links`] (on in [`RtkConfig::consumer`]) the
+//! phase DDs of all groups are formed against one master reference
+//! (`+λ_i a_i − λ_m a_m`): each group's own reference then adds a DD whose
+//! ambiguity part, with the receivers' hardware phase biases, is a float
+//! the SD states carry (the group's common part, otherwise unobserved);
+//! the integer DDs LAMBDA fixes stay within groups.
 //!
 //! **Differential ionosphere** ([`RtkConfig::iono_estimate`], on in
 //! [`RtkConfig::consumer`]): [`NION`] more states in the block, one per
@@ -276,6 +282,29 @@ pub struct RtkConfig {
     /// what leaves enough DDs to keep the position (4 satellites give 3
     /// DDs per shared frequency instead of ≤ 1 per system). Off by default.
     pub inter_system: bool,
+    /// Float links between the DD groups: the phase DDs of every group are
+    /// formed against one master reference (the highest satellite of all
+    /// groups), so a group's own reference enters as the DD
+    /// `SDΦ_ref,g − SDΦ_master` (different systems or frequencies; the
+    /// receiver clock cancels in metres). Its ambiguity part
+    /// `λ_g a_ref,g − λ_m a_master` plus the between-receiver hardware
+    /// phase bias of the two signals is **not** an integer, and nothing
+    /// here assumes it is: with single-difference ambiguity states it is
+    /// the common part of group g's states, which the links make
+    /// observable and the filter estimates as a float (constant, as the
+    /// ambiguities; the between-receiver phase biases are stable over days,
+    /// Odijk & Teunissen 2013, GPS Solutions 17:521; Paziewski & Wielgosz
+    /// 2015, GPS Solutions 19:15). Fixing stays within each group
+    /// (integer DDs only). What the links add is geometry: with few
+    /// satellites of several systems each group has ≤ 1 DD, and the float
+    /// links, learnt while the sky was full, keep every satellite's line
+    /// of sight. Code DDs stay within groups (their hardware biases are
+    /// metres, and code adds little once the phase is linked). The update
+    /// is the exact one: all phase SDs against one reference with
+    /// `C = diag(v_i) + v_m 1 1ᵀ`, an invertible transform of the
+    /// per-group DDs plus one link per group. Off in [`RtkConfig::rtklib`]
+    /// (RTKLIB's `ddres` forms DDs within a system and frequency).
+    pub float_links: bool,
     /// Ratio test threshold and bootstrapped success-rate threshold.
     pub ratio_min: f64,
     pub success_min: f64,
@@ -328,6 +357,7 @@ impl RtkConfig {
             iono_estimate: false,
             iono_tau_s: 600.0,
             inter_system: false,
+            float_links: false,
             ratio_min: 3.0,
             success_min: 0.999,
             min_fix: 4,
@@ -359,9 +389,12 @@ impl RtkConfig {
     /// 1.46e-4 rad/s, cos el 0.7: 1.5–3 min; the short end, the smaller
     /// inflation). Measured on the `experiment rtk` scene (20 seeds): the
     /// float σ covered the truth 80–86 % of the time with the rover's 10 s
-    /// at the base too, 95–99.6 % with 120 s.
+    /// at the base too, 95–99.6 % with 120 s. The groups float-linked
+    /// ([`RtkConfig::float_links`]: no assumption about the receivers'
+    /// inter-system or inter-frequency biases, only more geometry).
     pub fn consumer() -> Self {
         RtkConfig {
+            float_links: true,
             iono_ppm: 1.0,
             iono_estimate: true,
             base_mp_tau_s: 120.0,
@@ -1630,13 +1663,37 @@ impl Eskf {
         let mut n_phase = 0usize;
         let mut nis = [(0.0f64, 0u64); 2];
         let mut used_phase = [false; MAX_RAW_SATS];
-        for gi in 0..ng {
-            let ir = gref[gi];
+        // Passes: code then phase per group; with float links the phase of
+        // every group in one last pass against the master reference, the
+        // highest of the groups' references (RtkConfig::float_links).
+        let master = (0..ng)
+            .map(|gi| gref[gi])
+            .filter(|&i| i != usize::MAX)
+            .fold(usize::MAX, |m, i| {
+                if m == usize::MAX || recs[i].el > recs[m].el {
+                    i
+                } else {
+                    m
+                }
+            });
+        let linked = cfg.float_links && master != usize::MAX;
+        for pass in 0..=2 * ng {
+            let (ir, only, phase) = if pass < 2 * ng {
+                let (gi, phase) = (pass / 2, pass % 2 == 1);
+                if phase && linked {
+                    continue;
+                }
+                let Some(g) = groups[gi] else { continue };
+                (gref[gi], Some(g), phase)
+            } else if linked {
+                (master, None, true)
+            } else {
+                break;
+            };
             if ir == usize::MAX {
                 continue;
             }
-            let Some(g) = groups[gi] else { continue };
-            for phase in [false, true] {
+            {
                 let mut rows = [DdRow {
                     h: SVector::zeros(),
                     dz: 0.0,
@@ -1648,7 +1705,7 @@ impl Eskf {
                 let rf = recs[ir];
                 for i in 0..nr {
                     let r = recs[i];
-                    if i == ir || r.slot == usize::MAX || r.grp != g {
+                    if i == ir || r.slot == usize::MAX || only.is_some_and(|g| r.grp != g) {
                         continue;
                     }
                     let du = r.u_n - rf.u_n;
