@@ -91,8 +91,10 @@
 //! form is used for Galileo BGD and BeiDou TGD, a simplification), `iono_m`
 //! the broadcast Klobuchar delay on the signal, and `var_m2` the σ² of the
 //! ionosphere residual and the satellite error. Inter-system and
-//! inter-frequency receiver biases are not simulated (they cancel in
-//! double differences of one receiver type).
+//! inter-frequency receiver biases are zero by default (they cancel in
+//! double differences of one receiver type);
+//! [`RtkSceneConfig::rover_signal_bias_m`] adds them at the rover for a
+//! pair of different types ([`RECEIVER_TYPE_BIASES`]).
 
 #![allow(clippy::needless_range_loop)]
 
@@ -199,7 +201,44 @@ pub struct RtkSceneConfig {
     /// Broadcast ionosphere model (the deterministic part of `I`); None:
     /// only the residual.
     pub klobuchar: Option<Klobuchar>,
+    /// Between-receiver hardware biases at the rover, per signal
+    /// ([`signal_slot`]: GPS L1, L2C, Galileo E1, E5b, BeiDou B1I, B2I):
+    /// (phase [m], code [m]), added to every satellite's record of that
+    /// signal. Zero by default (receivers of one type: they cancel in the
+    /// DDs of one signal and between systems sharing a frequency); see
+    /// [`RECEIVER_TYPE_BIASES`] for receivers of different types.
+    pub rover_signal_bias_m: [[f64; 2]; 6],
 }
+
+/// Index of `signal` in [`RtkSceneConfig::rover_signal_bias_m`].
+pub fn signal_slot(signal: Signal) -> Option<usize> {
+    match signal {
+        Signal::GpsL1Ca => Some(0),
+        Signal::GpsL2C => Some(1),
+        Signal::GalE1 => Some(2),
+        Signal::GalE5b => Some(3),
+        Signal::BdsB1I => Some(4),
+        Signal::BdsB2I => Some(5),
+        _ => None,
+    }
+}
+
+/// Rover − base hardware biases of two receivers of different types, per
+/// signal of [`signal_slot`] (phase m, code m), GPS L1 the zero: phase
+/// biases fractions of a cycle different per signal, code biases of metres.
+/// Representative magnitudes, not measurements of one pair: Odijk &
+/// Teunissen 2013 (GPS Solutions 17:521) report between-receiver L1–E1
+/// phase ISBs of a fraction of a cycle and code ISBs of metres for mixed
+/// receiver types, stable over days. A test input for DD models that must
+/// not assume them zero.
+pub const RECEIVER_TYPE_BIASES: [[f64; 2]; 6] = [
+    [0.0, 0.0],
+    [0.071, 0.8],
+    [0.052, 2.3],
+    [-0.094, -1.4],
+    [0.113, 4.1],
+    [-0.031, 3.2],
+];
 
 impl Default for RtkSceneConfig {
     fn default() -> Self {
@@ -218,6 +257,7 @@ impl Default for RtkSceneConfig {
             slip_flag_fraction: 0.5,
             max_sats: navfuse_core::gnss::raw::MAX_RAW_SATS / 2,
             klobuchar: Some(KLOBUCHAR),
+            rover_signal_bias_m: [[0.0; 2]; 6],
         }
     }
 }
@@ -628,6 +668,14 @@ fn receiver_epoch(
             let sig_cp = raw.carrier_sigma_m * lam / Signal::first_of(s.system).wavelength_m(0)
                 * 10f64.powf(-cn0_off / 20.0);
             let cp = common - i_f + lam * r.amb[i][f] as f64 + sig_cp * n01(&mut r.rng);
+            // The rover's hardware biases (after every random draw: the
+            // draws do not depend on them).
+            // (`masked`: the rover, the receiver the sky masks apply to.)
+            let hw = match (r.masked, signal_slot(signal)) {
+                (true, Some(k)) => cfg.rover_signal_bias_m[k],
+                _ => [0.0, 0.0],
+            };
+            let (pr, cp) = (pr + hw[1], cp + hw[0]);
             let mut sat: SatState =
                 sat_state_from_orbit(o, s.kind, stamp + raw.orbit_time_offset_s, pr);
             sat.clock_m -= (tgd_f - o.tgd) * C_LIGHT;

@@ -437,3 +437,45 @@ fn differential_ionosphere_scales_with_the_baseline() {
     assert!((0.010..=0.040).contains(&r10), "{r10}");
     assert!((8.0..=12.0).contains(&(r10 / r1)), "{}", r10 / r1);
 }
+
+/// (f) The rover's hardware biases (`rover_signal_bias_m`) shift exactly
+/// the rover's records of their signal, by the configured phase and code
+/// amounts, and nothing else: same random draws, base unchanged.
+#[test]
+fn rover_hardware_biases_shift_only_the_rovers_records_of_their_signal() {
+    let base = offset_position(&start(), 5000.0, 2000.0, 20.0);
+    let plain = run(&RtkSceneConfig::default(), 30, base);
+    let cfg = RtkSceneConfig {
+        rover_signal_bias_m: RECEIVER_TYPE_BIASES,
+        ..Default::default()
+    };
+    let biased = run(&cfg, 30, base);
+    let mut seen = [0usize; 6];
+    for (e, (a, b)) in plain.rover.iter().zip(&biased.rover).enumerate() {
+        assert_eq!(a.epoch.sats().len(), b.epoch.sats().len(), "{e}");
+        for (x, y) in a.epoch.sats().iter().zip(b.epoch.sats()) {
+            assert_eq!(key(x), key(y));
+            let k = signal_slot(x.obs.signal).unwrap();
+            let [dphi, dcode] = RECEIVER_TYPE_BIASES[k];
+            assert!(
+                (y.obs.carrier_m - x.obs.carrier_m - dphi).abs() < 1e-6,
+                "{e}"
+            );
+            assert!(
+                (y.obs.pseudorange_m - x.obs.pseudorange_m - dcode).abs() < 1e-6,
+                "{e}"
+            );
+            seen[k] += 1;
+        }
+        for (x, y) in plain.base[e]
+            .epoch
+            .sats()
+            .iter()
+            .zip(biased.base[e].epoch.sats())
+        {
+            assert_eq!(x.obs.carrier_m, y.obs.carrier_m);
+            assert_eq!(x.obs.pseudorange_m, y.obs.pseudorange_m);
+        }
+    }
+    assert!(seen.iter().all(|&n| n > 0), "{seen:?}");
+}
