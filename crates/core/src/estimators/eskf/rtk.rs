@@ -294,7 +294,8 @@ pub struct RtkConfig {
     /// observable and the filter estimates as a float (constant, as the
     /// ambiguities; the between-receiver phase biases are stable over days,
     /// Odijk & Teunissen 2013, GPS Solutions 17:521; Paziewski & Wielgosz
-    /// 2015, GPS Solutions 19:15). Fixing stays within each group
+    /// 2015, J. Geodesy 89:81, whose "tight combining" with an estimated
+    /// inter-system bias this is, extended to any pair of frequencies). Fixing stays within each group
     /// (integer DDs only). What the links add is geometry: with few
     /// satellites of several systems each group has ≤ 1 DD, and the float
     /// links, learnt while the sky was full, keep every satellite's line
