@@ -138,7 +138,9 @@ pub struct RtkSpan {
 /// and elevation of [`navfuse_core::estimators::eskf::TightConfig::consumer`])
 /// when the rover reports C/N0 for most records, else [`RtkConfig::rtklib`]
 /// (code σ = 100 × phase σ by elevation: a C/N0 model cannot run without
-/// C/N0, and RTKLIB's ratio is its documented default).
+/// C/N0, and RTKLIB's ratio is its documented default). Both with the DD
+/// groups float-linked ([`RtkConfig::float_links`]: geometry without an
+/// assumption about the receivers' biases, whatever the code model).
 pub fn rtk_config(rover: &[RawSat]) -> (RtkConfig, String) {
     let with_cn0 = rover.iter().filter(|r| r.obs.cn0_dbhz > 0.0).count();
     if 2 * with_cn0 > rover.len() {
@@ -151,9 +153,13 @@ pub fn rtk_config(rover: &[RawSat]) -> (RtkConfig, String) {
         )
     } else {
         (
-            RtkConfig::rtklib(),
+            RtkConfig {
+                float_links: true,
+                ..RtkConfig::rtklib()
+            },
             "RtkConfig::rtklib (the rover reports no C/N0): phase 3 mm + 3 mm/sin el, \
-             code 100 × phase, mask 15°, ratio 3, success rate 0.999, partial fixing"
+             code 100 × phase, mask 15°, ratio 3, success rate 0.999, partial fixing, \
+             DD groups float-linked (no zero inter-system bias assumed)"
                 .into(),
         )
     }

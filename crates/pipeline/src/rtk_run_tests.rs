@@ -636,3 +636,24 @@ fn simulated_rtk_run_from_ubx_logs_matches_rinex() {
     assert!(worst <= 1e-3, "{worst} m");
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// The measurement model follows the rover's C/N0 (code weights), and the
+/// DD groups are float-linked either way: a receiver without C/N0 fields
+/// must not lose the lines of sight of a lone system.
+#[test]
+fn rtk_config_links_the_groups_with_or_without_cn0() {
+    use navfuse_core::gnss::raw::{RawObs, RawSat};
+    let rec = |cn0: f32| RawSat {
+        obs: RawObs {
+            cn0_dbhz: cn0,
+            ..Default::default()
+        },
+        ..Default::default()
+    };
+    let (with, _) = super::rtk_config(&[rec(45.0), rec(40.0), rec(0.0)]);
+    let (without, text) = super::rtk_config(&[rec(0.0), rec(0.0), rec(45.0)]);
+    assert!(with.code_model.is_some() && with.float_links);
+    assert!(without.code_model.is_none() && without.float_links);
+    assert!(!without.inter_system && !with.inter_system);
+    assert!(text.contains("float-linked"), "{text}");
+}
