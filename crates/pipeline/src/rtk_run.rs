@@ -142,14 +142,16 @@ pub struct RtkSpan {
 /// groups float-linked ([`RtkConfig::float_links`]: geometry without an
 /// assumption about the receivers' biases, whatever the code model).
 pub fn rtk_config(rover: &[RawSat]) -> (RtkConfig, String) {
+    const LINKED: &str = "DD groups float-linked (no zero inter-system bias assumed)";
     let with_cn0 = rover.iter().filter(|r| r.obs.cn0_dbhz > 0.0).count();
     if 2 * with_cn0 > rover.len() {
         (
             RtkConfig::consumer(),
-            "RtkConfig::consumer: phase 3 mm + 3 mm/sin el, code by C/N0 and elevation \
-             (TightConfig::consumer), mask 15°, ratio 3, success rate 0.999, partial fixing, \
-             DD groups float-linked (no zero inter-system bias assumed)"
-                .into(),
+            format!(
+                "RtkConfig::consumer: phase 3 mm + 3 mm/sin el, code by C/N0 and elevation \
+                 (TightConfig::consumer), mask 15°, ratio 3, success rate 0.999, partial \
+                 fixing, {LINKED}"
+            ),
         )
     } else {
         (
@@ -157,10 +159,11 @@ pub fn rtk_config(rover: &[RawSat]) -> (RtkConfig, String) {
                 float_links: true,
                 ..RtkConfig::rtklib()
             },
-            "RtkConfig::rtklib (the rover reports no C/N0): phase 3 mm + 3 mm/sin el, \
-             code 100 × phase, mask 15°, ratio 3, success rate 0.999, partial fixing, \
-             DD groups float-linked (no zero inter-system bias assumed)"
-                .into(),
+            format!(
+                "RtkConfig::rtklib (the rover reports no C/N0): phase 3 mm + 3 mm/sin el, \
+                 code 100 × phase, mask 15°, ratio 3, success rate 0.999, partial fixing, \
+                 {LINKED}"
+            ),
         )
     }
 }

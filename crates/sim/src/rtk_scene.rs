@@ -380,6 +380,8 @@ struct Receiver {
     mp_tau: f64,
     slip_rate: f64,
     masked: bool,
+    /// Hardware biases per signal of [`signal_slot`] (phase m, code m).
+    hw_bias: [[f64; 2]; 6],
     /// Time since the previous epoch [s] (0 at the first).
     dt: f64,
 }
@@ -405,6 +407,7 @@ impl Receiver {
         mp_tau: f64,
         slip_rate: f64,
         masked: bool,
+        hw_bias: [[f64; 2]; 6],
     ) -> Self {
         let mut rng = ChaCha8Rng::seed_from_u64(seed);
         let b = rng.gen_range(-1.0..1.0) * cfg.clock_bias0_max_s;
@@ -420,6 +423,7 @@ impl Receiver {
             mp_tau,
             slip_rate,
             masked,
+            hw_bias,
             dt: 0.0,
         }
     }
@@ -476,6 +480,7 @@ pub fn simulate_rtk(
             raw.mp_tau_s,
             cfg.slip_rate_per_epoch,
             true,
+            cfg.rover_signal_bias_m,
         ),
         Receiver::new(
             raw,
@@ -484,6 +489,7 @@ pub fn simulate_rtk(
             cfg.base_mp_tau_s,
             cfg.base_slip_rate_per_epoch,
             false,
+            [[0.0; 2]; 6],
         ),
     ];
     let g_base = ecef_to_geodetic(&base_pos_e);
@@ -668,13 +674,9 @@ fn receiver_epoch(
             let sig_cp = raw.carrier_sigma_m * lam / Signal::first_of(s.system).wavelength_m(0)
                 * 10f64.powf(-cn0_off / 20.0);
             let cp = common - i_f + lam * r.amb[i][f] as f64 + sig_cp * n01(&mut r.rng);
-            // The rover's hardware biases (after every random draw: the
+            // The receiver's hardware biases (after every random draw: the
             // draws do not depend on them).
-            // (`masked`: the rover, the receiver the sky masks apply to.)
-            let hw = match (r.masked, signal_slot(signal)) {
-                (true, Some(k)) => cfg.rover_signal_bias_m[k],
-                _ => [0.0, 0.0],
-            };
+            let hw = signal_slot(signal).map_or([0.0, 0.0], |k| r.hw_bias[k]);
             let (pr, cp) = (pr + hw[1], cp + hw[0]);
             let mut sat: SatState =
                 sat_state_from_orbit(o, s.kind, stamp + raw.orbit_time_offset_s, pr);

@@ -1694,135 +1694,133 @@ impl Eskf {
             if ir == usize::MAX {
                 continue;
             }
-            {
-                let mut rows = [DdRow {
-                    h: SVector::zeros(),
-                    dz: 0.0,
-                    rec: 0,
-                }; MAX_RAW_SATS];
-                let mut nrow = 0usize;
-                let mut failed = [0usize; MAX_RAW_SATS];
-                let mut nfail = 0usize;
-                let rf = recs[ir];
-                for i in 0..nr {
-                    let r = recs[i];
-                    if i == ir || r.slot == usize::MAX || only.is_some_and(|g| r.grp != g) {
-                        continue;
-                    }
-                    let du = r.u_n - rf.u_n;
-                    let mut h = SVector::<f64, NJ>::zeros();
-                    let ha = -(du.transpose() * skew(&a.l_n));
-                    for k in 0..3 {
-                        h[I_POS + k] = -du[k];
-                        h[I_ATT + k] = ha[(0, k)];
-                    }
-                    // Estimated SD ionosphere: +γ on code, −γ on phase.
-                    let sgn = if phase { -1.0 } else { 1.0 };
-                    let mut ion = 0.0;
-                    if r.ion != usize::MAX {
-                        h[NX + IION + r.ion] += sgn * r.gamma;
-                        ion += sgn * r.gamma * xamb[IION + r.ion];
-                    }
-                    if rf.ion != usize::MAX {
-                        h[NX + IION + rf.ion] -= sgn * rf.gamma;
-                        ion -= sgn * rf.gamma * xamb[IION + rf.ion];
-                    }
-                    let (dz, var) = if phase {
-                        h[NX + r.slot] = r.lambda;
-                        h[NX + rf.slot] = -rf.lambda;
-                        let pred = (r.pred_phi + r.lambda * xamb[r.slot])
-                            - (rf.pred_phi + rf.lambda * xamb[rf.slot]);
-                        (pred + ion - (r.sd_phi - rf.sd_phi), r.v_phi + rf.v_phi)
-                    } else {
-                        (
-                            (r.pred_code - rf.pred_code) + ion - (r.sd_code - rf.sd_code),
-                            r.v_code + rf.v_code,
-                        )
-                    };
-                    // Marginal gate on this epoch's prior.
-                    let innov = dz - h.dot(&dxf);
-                    let ph = mul_sparse(&pf, &h);
-                    let s = h.dot(&ph) + var;
-                    if !(innov.is_finite() && s > 0.0) || innov * innov > gate * s {
-                        failed[nfail] = i;
-                        nfail += 1;
-                        continue;
-                    }
-                    rows[nrow] = DdRow { h, dz, rec: i };
-                    nrow += 1;
-                }
-                let ntried = nrow + nfail;
-                let ref_suspect = phase && ntried >= 2 && 2 * nfail > ntried;
-                for &i in &failed[..nfail] {
-                    let r = recs[i];
-                    let c = &mut rt.stats.per_sat[r.key_sys.index() * 64 + r.key_prn as usize % 64];
-                    if phase {
-                        c.phase_gated += 1;
-                        recs[i].use_phase = false;
-                        // A phase DD beyond its gate is in practice a slip
-                        // the test missed: re-initialise (unless the
-                        // reference is to blame).
-                        if !ref_suspect {
-                            reset_joint(rt, &mut pf, &mut dxf, &recs[i]);
-                        }
-                    } else {
-                        c.code_gated += 1;
-                        recs[i].use_code = false;
-                        n_code_gated += 1;
-                    }
-                }
-                if ref_suspect {
-                    reset_joint(rt, &mut pf, &mut dxf, &rf);
-                    recs[ir].reset = true;
-                    let sk = rf.key_sys.index() * 64 + rf.key_prn as usize % 64;
-                    rt.stats.per_sat[sk].ref_resets += 1;
+            let mut rows = [DdRow {
+                h: SVector::zeros(),
+                dz: 0.0,
+                rec: 0,
+            }; MAX_RAW_SATS];
+            let mut nrow = 0usize;
+            let mut failed = [0usize; MAX_RAW_SATS];
+            let mut nfail = 0usize;
+            let rf = recs[ir];
+            for i in 0..nr {
+                let r = recs[i];
+                if i == ir || r.slot == usize::MAX || only.is_some_and(|g| r.grp != g) {
                     continue;
                 }
-                if nrow == 0 {
-                    continue;
+                let du = r.u_n - rf.u_n;
+                let mut h = SVector::<f64, NJ>::zeros();
+                let ha = -(du.transpose() * skew(&a.l_n));
+                for k in 0..3 {
+                    h[I_POS + k] = -du[k];
+                    h[I_ATT + k] = ha[(0, k)];
                 }
-                // Exact DD covariance C = diag(v_i) + v_ref 1 1ᵀ, whitened.
-                let vref = if phase { rf.v_phi } else { rf.v_code };
-                let mut c = SMatrix::<f64, MAX_RAW_SATS, MAX_RAW_SATS>::identity();
-                for p_ in 0..nrow {
-                    for q in 0..nrow {
-                        c[(p_, q)] = vref;
-                    }
-                    let ri = recs[rows[p_].rec];
-                    c[(p_, p_)] += if phase { ri.v_phi } else { ri.v_code };
+                // Estimated SD ionosphere: +γ on code, −γ on phase.
+                let sgn = if phase { -1.0 } else { 1.0 };
+                let mut ion = 0.0;
+                if r.ion != usize::MAX {
+                    h[NX + IION + r.ion] += sgn * r.gamma;
+                    ion += sgn * r.gamma * xamb[IION + r.ion];
                 }
-                let Some(l) = cholesky_leading(&c, nrow) else {
-                    continue;
+                if rf.ion != usize::MAX {
+                    h[NX + IION + rf.ion] -= sgn * rf.gamma;
+                    ion -= sgn * rf.gamma * xamb[IION + rf.ion];
+                }
+                let (dz, var) = if phase {
+                    h[NX + r.slot] = r.lambda;
+                    h[NX + rf.slot] = -rf.lambda;
+                    let pred = (r.pred_phi + r.lambda * xamb[r.slot])
+                        - (rf.pred_phi + rf.lambda * xamb[rf.slot]);
+                    (pred + ion - (r.sd_phi - rf.sd_phi), r.v_phi + rf.v_phi)
+                } else {
+                    (
+                        (r.pred_code - rf.pred_code) + ion - (r.sd_code - rf.sd_code),
+                        r.v_code + rf.v_code,
+                    )
                 };
-                whiten(&l, &mut rows[..nrow]);
-                for row in rows[..nrow].iter() {
-                    let innov = row.dz - row.h.dot(&dxf);
-                    let ph = mul_sparse(&pf, &row.h);
-                    let s = row.h.dot(&ph) + 1.0;
-                    if !(s > 0.0 && innov.is_finite()) {
-                        continue;
-                    }
-                    dxf += ph * (innov / s);
-                    rank1_downdate(&mut pf, &ph, s);
-                    let k = usize::from(phase);
-                    nis[k].0 += innov * innov / s;
-                    nis[k].1 += 1;
+                // Marginal gate on this epoch's prior.
+                let innov = dz - h.dot(&dxf);
+                let ph = mul_sparse(&pf, &h);
+                let s = h.dot(&ph) + var;
+                if !(innov.is_finite() && s > 0.0) || innov * innov > gate * s {
+                    failed[nfail] = i;
+                    nfail += 1;
+                    continue;
                 }
-                for row in rows[..nrow].iter() {
-                    let r = recs[row.rec];
-                    let sk = r.key_sys.index() * 64 + r.key_prn as usize % 64;
-                    if phase {
-                        rt.stats.per_sat[sk].phase_used += 1;
-                        used_phase[row.rec] = true;
-                        n_phase += 1;
-                    } else {
-                        rt.stats.per_sat[sk].code_used += 1;
-                        n_code += 1;
-                    }
-                }
+                rows[nrow] = DdRow { h, dz, rec: i };
+                nrow += 1;
+            }
+            let ntried = nrow + nfail;
+            let ref_suspect = phase && ntried >= 2 && 2 * nfail > ntried;
+            for &i in &failed[..nfail] {
+                let r = recs[i];
+                let c = &mut rt.stats.per_sat[r.key_sys.index() * 64 + r.key_prn as usize % 64];
                 if phase {
-                    used_phase[ir] = true;
+                    c.phase_gated += 1;
+                    recs[i].use_phase = false;
+                    // A phase DD beyond its gate is in practice a slip
+                    // the test missed: re-initialise (unless the
+                    // reference is to blame).
+                    if !ref_suspect {
+                        reset_joint(rt, &mut pf, &mut dxf, &recs[i]);
+                    }
+                } else {
+                    c.code_gated += 1;
+                    recs[i].use_code = false;
+                    n_code_gated += 1;
                 }
+            }
+            if ref_suspect {
+                reset_joint(rt, &mut pf, &mut dxf, &rf);
+                recs[ir].reset = true;
+                let sk = rf.key_sys.index() * 64 + rf.key_prn as usize % 64;
+                rt.stats.per_sat[sk].ref_resets += 1;
+                continue;
+            }
+            if nrow == 0 {
+                continue;
+            }
+            // Exact DD covariance C = diag(v_i) + v_ref 1 1ᵀ, whitened.
+            let vref = if phase { rf.v_phi } else { rf.v_code };
+            let mut c = SMatrix::<f64, MAX_RAW_SATS, MAX_RAW_SATS>::identity();
+            for p_ in 0..nrow {
+                for q in 0..nrow {
+                    c[(p_, q)] = vref;
+                }
+                let ri = recs[rows[p_].rec];
+                c[(p_, p_)] += if phase { ri.v_phi } else { ri.v_code };
+            }
+            let Some(l) = cholesky_leading(&c, nrow) else {
+                continue;
+            };
+            whiten(&l, &mut rows[..nrow]);
+            for row in rows[..nrow].iter() {
+                let innov = row.dz - row.h.dot(&dxf);
+                let ph = mul_sparse(&pf, &row.h);
+                let s = row.h.dot(&ph) + 1.0;
+                if !(s > 0.0 && innov.is_finite()) {
+                    continue;
+                }
+                dxf += ph * (innov / s);
+                rank1_downdate(&mut pf, &ph, s);
+                let k = usize::from(phase);
+                nis[k].0 += innov * innov / s;
+                nis[k].1 += 1;
+            }
+            for row in rows[..nrow].iter() {
+                let r = recs[row.rec];
+                let sk = r.key_sys.index() * 64 + r.key_prn as usize % 64;
+                if phase {
+                    rt.stats.per_sat[sk].phase_used += 1;
+                    used_phase[row.rec] = true;
+                    n_phase += 1;
+                } else {
+                    rt.stats.per_sat[sk].code_used += 1;
+                    n_code += 1;
+                }
+            }
+            if phase {
+                used_phase[ir] = true;
             }
         }
         // GNSS-only: lost when no code DD passed its gate and some were
