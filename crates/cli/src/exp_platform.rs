@@ -33,6 +33,13 @@ pub struct GeneraliseArgs {
     /// check's reference: what estimating the offset costs).
     #[arg(long)]
     pub known_offset: bool,
+    /// IMU output rate [Hz] of the simulated runs (the matrix's: 100).
+    #[arg(long, default_value_t = 100.0)]
+    pub imu_rate: f64,
+    /// GNSS output rate [Hz] of the simulated runs instead of the grades'
+    /// 1 Hz (same per-fix error model, so faster fixes are more correlated).
+    #[arg(long)]
+    pub gnss_rate: Option<f64>,
     /// Also print one line per cell and seed (h_rms and outage drift of the
     /// three configurations, the default's alignment, yaw error, warnings);
     /// the JSON always has them (`per_seed`).
@@ -71,6 +78,8 @@ pub fn generalise(a: GeneraliseArgs) -> Result<(), String> {
         seed0: a.seed0,
         duration_s: a.duration,
         known_offset: a.known_offset,
+        imu_rate_hz: a.imu_rate,
+        gnss_rate_hz: a.gnss_rate,
     };
     eprintln!(
         "generalise: {} cells × {} seeds × {} configurations, {} s each",

@@ -162,6 +162,13 @@ pub struct GeneraliseOptions {
     /// Also run [`Variant::DefaultKnownOffset`] (the time-offset check's
     /// reference): `default_known_offset` and the paired ratios to it.
     pub known_offset: bool,
+    /// IMU output rate [Hz] (the matrix's: 100).
+    pub imu_rate_hz: f64,
+    /// GNSS output rate [Hz] instead of the grade's 1 Hz (`None`: 1 Hz).
+    /// With the rates the sweep asks whether the defaults hold on sensor
+    /// rates the matrix never had.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub gnss_rate_hz: Option<f64>,
 }
 
 impl Default for GeneraliseOptions {
@@ -171,6 +178,8 @@ impl Default for GeneraliseOptions {
             seed0: 0,
             duration_s: 600.0,
             known_offset: false,
+            imu_rate_hz: 100.0,
+            gnss_rate_hz: None,
         }
     }
 }
@@ -295,8 +304,13 @@ pub fn cell_options(cell: &Cell, seed: u64, duration_s: f64) -> PlatformOptions 
 /// without `known_offset`).
 type SeedScores = [Result<RunScore, String>; 4];
 
-fn run_seed(cell: &Cell, seed: u64, duration_s: f64, known_offset: bool) -> SeedScores {
-    let pr = match platform_run(cell.platform, seed, &cell_options(cell, seed, duration_s)) {
+fn run_seed(cell: &Cell, seed: u64, opt: &GeneraliseOptions) -> SeedScores {
+    let popt = PlatformOptions {
+        imu_rate_hz: opt.imu_rate_hz,
+        gnss_rate_hz: opt.gnss_rate_hz,
+        ..cell_options(cell, seed, opt.duration_s)
+    };
+    let pr = match platform_run(cell.platform, seed, &popt) {
         Ok(pr) => pr,
         Err(e) => {
             let m = format!("simulation: {e}");
@@ -304,7 +318,7 @@ fn run_seed(cell: &Cell, seed: u64, duration_s: f64, known_offset: bool) -> Seed
         }
     };
     let [d, o, k] = Variant::ALL.map(|v| score_variant(v, &pr));
-    let known = if known_offset {
+    let known = if opt.known_offset {
         score_variant(Variant::DefaultKnownOffset, &pr)
     } else {
         Err("not run".into())
@@ -422,7 +436,7 @@ pub fn run_generalise(
         .collect();
     let results: Vec<SeedScores> = super::on_worker_pool(|| {
         jobs.par_iter()
-            .map(|&(c, s)| run_seed(&cells[c], s, opt.duration_s, opt.known_offset))
+            .map(|&(c, s)| run_seed(&cells[c], s, opt))
             .collect()
     });
     let per = opt.seeds as usize;
@@ -685,6 +699,7 @@ mod tests {
             seed0: 1,
             duration_s: 180.0,
             known_offset: false,
+            ..GeneraliseOptions::default()
         };
         let r = run_generalise(&cells, &opt).unwrap();
         assert_eq!(r.cells.len(), 4);
@@ -738,6 +753,7 @@ mod tests {
             seed0: 1,
             duration_s: 180.0,
             known_offset: true,
+            ..GeneraliseOptions::default()
         };
         let r = run_generalise(&cells, &opt).unwrap();
         let c = &r.cells[0];
@@ -788,6 +804,7 @@ mod tests {
             seed0: 1,
             duration_s: 300.0,
             known_offset: false,
+            ..GeneraliseOptions::default()
         };
         let r = run_generalise(&cells, &opt).unwrap();
         for p in &r.cells[0].per_seed {
