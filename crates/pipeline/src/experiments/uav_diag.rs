@@ -6,6 +6,7 @@
 //! `DIAG_CELL=uav:consumer:consumer:0 DIAG_SEEDS=1,3 DIAG_VARIANTS=default,truthinit
 //! cargo test --release -p navfuse-pipeline uav_diag -- --ignored --nocapture`
 //! (`DIAG_EVERY` s between rows, `DIAG_UNTIL` s after motion start,
+//! `DIAG_GNSS_RATE` Hz instead of the grade's 1 Hz,
 //! `DIAG_TRUTH` prints the first 25 s of true yaw and velocity,
 //! `DIAG_IDEAL` = `experiment rtk --ideal-imu`'s comma list,
 //! `gyro-misalignment`, `accel-misalignment`, `g-sensitivity`, removes
@@ -152,6 +153,9 @@ fn uav_diag() {
     let every: f64 = std::env::var("DIAG_EVERY").map_or(20.0, |s| s.parse().unwrap());
     for &seed in &seeds {
         let mut opt = cell_options(&cell, seed, 600.0);
+        opt.gnss_rate_hz = std::env::var("DIAG_GNSS_RATE")
+            .ok()
+            .map(|s| s.parse().unwrap());
         if let Ok(t) = std::env::var("DIAG_IDEAL") {
             let ideal_imu = t
                 .split(',')
@@ -235,10 +239,11 @@ fn uav_diag() {
             let tr = pr.run.traj.at(t);
             let out = pr.outages.iter().any(|o| t >= o[0] && t < o[1]);
             let mut line = format!(
-                "  {:7.1}{} v {:5.1}",
+                "  {:7.1}{} v {:5.1} ψ {:6.1}",
                 t - t_move,
                 if out { "o" } else { " " },
-                tr.v_n.norm()
+                tr.v_n.norm(),
+                tr.rpy.z.to_degrees()
             );
             for r in &runs {
                 let k = r
