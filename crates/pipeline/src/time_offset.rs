@@ -246,9 +246,7 @@ pub fn velocity_latency(gnss: &[GnssFix]) -> Option<(f64, f64)> {
     /// Largest gap between fixes inside a baseline [s].
     const MAX_GAP_S: f64 = 1.5;
     let fixes: Vec<&GnssFix> = gnss.iter().filter(|g| g.v_n.is_some()).collect();
-    // Per baseline: weight, regressor x = Δu, residual r, and whether it
-    // continues the previous baseline (they share the fix between them).
-    let mut rows: Vec<(f64, nalgebra::Vector2<f64>, nalgebra::Vector2<f64>, bool)> = Vec::new();
+    let mut rows: Vec<LatencyRow> = Vec::new();
     let mut i = 0;
     let mut joined = false;
     while i + 1 < fixes.len() {
@@ -279,33 +277,32 @@ pub fn velocity_latency(gnss: &[GnssFix]) -> Option<(f64, f64)> {
             (b.lon - a.lon) * (rn + a.h) * a.lat.cos(),
         );
         let w = 1.0 / (a.std_ned.xy().norm_squared() + b.std_ned.xy().norm_squared()).max(1e-6);
-        rows.push((w, (b.v_n? - a.v_n?).xy(), dp - int.xy(), joined));
+        rows.push(LatencyRow {
+            w,
+            x: (b.v_n? - a.v_n?).xy(),
+            r: dp - int.xy(),
+            joined,
+        });
         joined = true;
         i = j;
     }
     let n = 2 * rows.len();
-    let sxx: f64 = rows.iter().map(|(w, x, _, _)| w * x.norm_squared()).sum();
-    let sxr: f64 = rows.iter().map(|(w, x, r, _)| w * x.dot(r)).sum();
-    if n < 60 || sxx.is_nan() || sxx <= 0.0 {
-        return None;
-    }
-    let l = sxr / sxx;
+    let (l, sxx) = latency_slope(&rows)?;
     if !(l.is_finite() && l.abs() <= 0.5) {
         return None;
     }
-    // σ: the larger of the classical one (reduced χ², n − 1 dof, floored at
-    // 1) and a Newey–West sandwich over up to LATENCY_HAC_LAGS baselines of
-    // one unbroken run (Bartlett weights). Consecutive baselines share a fix,
-    // and dynamics the fixes do not resolve (a walker's gait at 1 Hz) leave
-    // residuals that beat slowly against the regressor; the classical σ
-    // takes them for independent and the slope for significant.
+    // σ: the largest of the classical one (reduced χ², n − 1 dof, floored
+    // at 1), a Newey–West sandwich over up to LATENCY_HAC_LAGS baselines of
+    // one unbroken run (Bartlett weights: consecutive baselines share a fix,
+    // and dynamics the fixes do not resolve leave correlated residuals) and
+    // the split-half σ below.
     let score: Vec<f64> = rows
         .iter()
-        .map(|(w, x, r, _)| w * x.dot(&(r - x * l)))
+        .map(|b| b.w * b.x.dot(&(b.r - b.x * l)))
         .collect();
     let chi2: f64 = rows
         .iter()
-        .map(|(w, x, r, _)| w * (r - x * l).norm_squared())
+        .map(|b| b.w * (b.r - b.x * l).norm_squared())
         .sum();
     let dof = (n - 1) as f64;
     let classical = (chi2 / dof).max(1.0) / sxx;
@@ -313,7 +310,7 @@ pub fn velocity_latency(gnss: &[GnssFix]) -> Option<(f64, f64)> {
     for k in 0..score.len() {
         meat += score[k] * score[k];
         for lag in 1..=LATENCY_HAC_LAGS {
-            if k + lag >= score.len() || !rows[k + 1..=k + lag].iter().all(|row| row.3) {
+            if k + lag >= score.len() || !rows[k + 1..=k + lag].iter().all(|b| b.joined) {
                 break;
             }
             let wl = 1.0 - lag as f64 / (LATENCY_HAC_LAGS as f64 + 1.0);
@@ -324,20 +321,35 @@ pub fn velocity_latency(gnss: &[GnssFix]) -> Option<(f64, f64)> {
     // The model check the IMU-offset fits use (split-half σ,
     // `navfuse_core::ins::time_offset_vel`): the slope of each half of the
     // baselines apart; if a constant latency holds, |L₁ − L₂|/2 estimates
-    // σ itself, and a misfit that changes along the record (the beat of an
-    // aliased gait) makes it larger. A half too short to fit is no check,
-    // and then no latency is claimed.
+    // σ itself, and a misfit that changes along the record makes it larger
+    // (a steady one, as the aliased gait of 1 Hz walkers, passes). A half
+    // too short to fit is no check, and then no latency is claimed.
     let mid = rows.len() / 2;
-    let half = |rs: &[(f64, nalgebra::Vector2<f64>, nalgebra::Vector2<f64>, bool)]| {
-        let xx: f64 = rs.iter().map(|(w, x, _, _)| w * x.norm_squared()).sum();
-        let xr: f64 = rs.iter().map(|(w, x, r, _)| w * x.dot(r)).sum();
-        (2 * rs.len() >= 60 && xx > 0.0).then(|| xr / xx)
-    };
-    let split = match (half(&rows[..mid]), half(&rows[mid..])) {
-        (Some(l1), Some(l2)) => 0.5 * (l1 - l2).abs(),
+    let split = match (latency_slope(&rows[..mid]), latency_slope(&rows[mid..])) {
+        (Some((l1, _)), Some((l2, _))) => 0.5 * (l1 - l2).abs(),
         _ => f64::INFINITY,
     };
     Some((l, classical.max(sandwich).sqrt().max(split)))
+}
+
+/// One baseline of [`velocity_latency`]'s regression `r = L · x`.
+struct LatencyRow {
+    /// Weight: 1 / the horizontal variance of the two end fixes [1/m²].
+    w: f64,
+    /// Regressor: the reported velocity change over the baseline, NE [m/s].
+    x: nalgebra::Vector2<f64>,
+    /// Displacement minus the trapezoid of the reported velocities, NE [m].
+    r: nalgebra::Vector2<f64>,
+    /// Continues the previous baseline (they share the fix between them).
+    joined: bool,
+}
+
+/// Weighted least-squares slope of `rows` and its information Σ w |x|²;
+/// `None` under 30 baselines (60 equations) or without information.
+fn latency_slope(rows: &[LatencyRow]) -> Option<(f64, f64)> {
+    let sxx: f64 = rows.iter().map(|b| b.w * b.x.norm_squared()).sum();
+    let sxr: f64 = rows.iter().map(|b| b.w * b.x.dot(&b.r)).sum();
+    (2 * rows.len() >= 60 && sxx > 0.0).then(|| (sxr / sxx, sxx))
 }
 
 /// Newey–West lags of [`velocity_latency`] [baselines]: as the IMU-offset
